@@ -1,0 +1,40 @@
+"""Error types shared by every package.
+
+`InputError` is a user's mistake (bad file, bad option value): the CLI prints it as
+one line ``file:line:col: error: message`` and exits 2, never with a traceback.
+`RunFailure` is a failure while running on valid input (a diverging simulation):
+exit 1 with one clear line.
+"""
+
+from __future__ import annotations
+
+
+class PlantlodError(Exception):
+    """Base class of every error plantlod reports to a user."""
+
+    exit_code = 1
+
+
+class InputError(PlantlodError):
+    """Bad input, located in a file where possible (exit code 2)."""
+
+    exit_code = 2
+
+    def __init__(self, message: str, file: str | None = None,
+                 line: int | None = None, col: int | None = None):
+        super().__init__(message)
+        self.message = message
+        self.file = file
+        self.line = line
+        self.col = col
+
+    def __str__(self) -> str:
+        where = [str(p) for p in (self.file, self.line, self.col) if p is not None]
+        prefix = ":".join(where)
+        return f"{prefix}: {self.message}" if prefix else self.message
+
+
+class RunFailure(PlantlodError):
+    """A failure at run time on valid input (exit code 1)."""
+
+    exit_code = 1

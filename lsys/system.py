@@ -1,0 +1,155 @@
+"""The in-memory form of an ``.lsys`` file: what the parser builds and the writer writes.
+
+Two systems compare equal when they mean the same thing; source positions are
+carried for error messages but never compared, so ``parse(write(parse(text)))
+== parse(text)``.
+
+Module names are single characters. Turtle symbols (``TURTLE_SYMBOLS``) have a
+fixed meaning; branch and leaf symbols are declared in the file; every other
+character is a plain module the turtle ignores.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .constants import DEFAULT_DRAG_COEFFICIENT, DEFAULT_LEAF_FORCE_SCALE, DEFAULT_SEED
+from .expr import Expr, Pos
+
+_NOPOS = Pos()
+
+# Turtle symbols of model.md section 2, plus two ABOP extensions:
+#   !(r)  set the radius of the branches drawn after it (no parameter: no-op)
+#   $     roll about the heading so that the local x axis is horizontal (ABOP's $)
+TURTLE_SYMBOLS = frozenset("f+-&^/\\|[]!$")
+BRACKETS = frozenset("[]")
+# Characters that are syntax, never module names.
+RESERVED_CHARS = frozenset("(),:;#<>=\"'{}") | frozenset(" \t\r\n")
+
+# Keyword parameters of a branch symbol declaration and of a branch override:
+# name -> (required in a declaration?)
+BRANCH_KEYS = {
+    "length": True,
+    "radius": True,
+    "bend_strength": True,
+    "rotation_strength": True,
+    "force_absorbed": False,
+    "force_propagated": False,
+    "drag_coefficient": False,
+}
+LEAF_KEYS = {"area": True}
+
+
+@dataclass(frozen=True)
+class Module:
+    """A module template in an axiom or successor: ``F``, ``A(l*r1,w)``."""
+
+    name: str
+    args: tuple[Expr, ...] = ()
+    pos: Pos = field(default=_NOPOS, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """A module pattern in a predecessor or context: ``A(l,w)`` binds l and w."""
+
+    name: str
+    params: tuple[str, ...] = ()
+    pos: Pos = field(default=_NOPOS, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Production:
+    """``left < pred > right : condition -> (probability) successor``.
+
+    ``left`` and ``right`` are empty for a context-free production;
+    ``condition`` is None for "always"; ``probability`` is None for a
+    deterministic production. Productions with the same predecessor, contexts
+    and condition, each with a probability, form one stochastic group whose
+    probabilities sum to 1.
+    """
+
+    pred: Pattern
+    successor: tuple[Module, ...]
+    left: tuple[Pattern, ...] = ()
+    right: tuple[Pattern, ...] = ()
+    condition: Expr | None = None
+    probability: Expr | None = None
+    pos: Pos = field(default=_NOPOS, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class BranchSymbol:
+    """A declared branch symbol: it draws a branch with these parameters (floats)."""
+
+    name: str
+    length: float
+    radius: float
+    bend_strength: float
+    rotation_strength: float
+    force_absorbed: float | None = None      # None: the file's force_absorbed
+    force_propagated: float | None = None    # None: the file's force_propagated
+    drag_coefficient: float | None = None    # None: the file's drag_coefficient
+    pos: Pos = field(default=_NOPOS, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class LeafSymbol:
+    """A declared leaf symbol: it attaches a leaf of this area (m^2)."""
+
+    name: str
+    area: float
+    pos: Pos = field(default=_NOPOS, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Override:
+    """Per-branch parameters for the module at one address (model.md section 5).
+
+    ``values`` maps keys of BRANCH_KEYS (for the branch drawn there) or LEAF_KEYS
+    (for the leaf attached there) to floats, sorted by key.
+    """
+
+    address: tuple[int, ...]
+    values: tuple[tuple[str, float], ...]
+    pos: Pos = field(default=_NOPOS, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class LSystem:
+    """A whole ``.lsys`` file. Angles are in degrees, as written in the file."""
+
+    derivation_length: int
+    branching_angle: float
+    rotation_angle: float
+    force_absorbed: float
+    force_propagated: float
+    axiom: tuple[Module, ...]
+    productions: tuple[Production, ...] = ()
+    interpretation: tuple[Production, ...] = ()
+    branches: tuple[BranchSymbol, ...] = ()
+    leaves: tuple[LeafSymbol, ...] = ()
+    defines: tuple[tuple[str, float], ...] = ()   # in file order, already evaluated
+    ignore: tuple[str, ...] = ()                  # symbols skipped when matching context
+    overrides: tuple[Override, ...] = ()
+    drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT
+    leaf_force_scale: float = DEFAULT_LEAF_FORCE_SCALE
+    seed: int = DEFAULT_SEED
+    name: str = ""
+    source: str = field(default="", compare=False)   # file name, for messages
+
+    def branch_symbol(self, name: str) -> BranchSymbol | None:
+        for b in self.branches:
+            if b.name == name:
+                return b
+        return None
+
+    def leaf_symbol(self, name: str) -> LeafSymbol | None:
+        for leaf in self.leaves:
+            if leaf.name == name:
+                return leaf
+        return None
+
+    def constants(self) -> dict[str, float]:
+        """The defines as an environment for expression evaluation."""
+        return dict(self.defines)

@@ -1,0 +1,108 @@
+"""The branch tree: what the turtle builds and what `simulate` moves (model.md section 2).
+
+All arrays are numpy, indexed by branch (B branches) or by leaf (F leaves).
+Branches are stored parent-before-child: ``parent[i] < i`` for every branch
+with a parent, so one forward pass computes positions and one backward pass
+accumulates forces. Lengths are metres, angles radians, areas m^2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+BRANCH_FLOAT_FIELDS = (
+    "length", "radius", "bend_strength", "rotation_strength",
+    "force_absorbed", "force_propagated", "drag_coefficient",
+)
+
+
+@dataclass
+class Tree:
+    """A branch tree at rest.
+
+    Branch arrays, shape (B,) unless stated:
+      address : list[str]   address "a0.a1...ak" of the module that drew it,
+                            with a suffix ":j" (j >= 1) for the j-th further
+                            branch drawn under the same address (interpretation)
+      symbol  : list[str]   the branch symbol that drew it
+      parent  : int64       index of the parent branch, -1 for a root
+      length, radius                      : float64, m
+      bend_strength, rotation_strength    : float64, k_bs and k_rs
+      force_absorbed, force_propagated    : float64, k_FA and k_fp (resolved per branch)
+      drag_coefficient                    : float64, C_d (resolved per branch)
+      euler   : (B, 3) float64  rest rotation relative to the parent frame,
+                                ZYZ angles (phi, alpha, psi), radians
+      offset  : (B, 3) float64  translation from the parent's tip to this base,
+                                in the parent's frame (from the origin for a root)
+    Leaf arrays, shape (F,) unless stated:
+      leaf_branch  : int64        the branch it sits on
+      leaf_area    : float64      m^2
+      leaf_normal  : (F, 3) float64  rest normal in its branch's frame (unit)
+      leaf_address : list[str]    address of the module that made it
+    Tree-level:
+      leaf_force_scale : s_L
+      source           : the file it came from (for headers and messages)
+    """
+
+    address: list[str]
+    symbol: list[str]
+    parent: np.ndarray
+    length: np.ndarray
+    radius: np.ndarray
+    bend_strength: np.ndarray
+    rotation_strength: np.ndarray
+    force_absorbed: np.ndarray
+    force_propagated: np.ndarray
+    drag_coefficient: np.ndarray
+    euler: np.ndarray
+    offset: np.ndarray
+    leaf_branch: np.ndarray
+    leaf_area: np.ndarray
+    leaf_normal: np.ndarray
+    leaf_address: list[str]
+    leaf_force_scale: float = 1.0
+    source: str = field(default="")
+
+    @property
+    def n_branches(self) -> int:
+        return len(self.parent)
+
+    @property
+    def n_leaves(self) -> int:
+        return len(self.leaf_branch)
+
+    def depth(self) -> int:
+        """Number of branches on the longest root-to-tip chain (0 for no branches)."""
+        d = np.zeros(self.n_branches, dtype=np.int64)
+        for i, p in enumerate(self.parent):
+            d[i] = 1 if p < 0 else d[p] + 1
+        return int(d.max()) if len(d) else 0
+
+    def children(self) -> list[list[int]]:
+        """Child branch indices of every branch, in index order."""
+        out: list[list[int]] = [[] for _ in range(self.n_branches)]
+        for i, p in enumerate(self.parent):
+            if p >= 0:
+                out[p].append(i)
+        return out
+
+    def check(self) -> None:
+        """Raise ValueError when the arrays break the invariants stated above."""
+        b = self.n_branches
+        if not (len(self.address) == len(self.symbol) == b):
+            raise ValueError("address/symbol length differs from branch count")
+        for name in BRANCH_FLOAT_FIELDS:
+            if getattr(self, name).shape != (b,):
+                raise ValueError(f"{name} must have shape ({b},)")
+        if self.euler.shape != (b, 3) or self.offset.shape != (b, 3):
+            raise ValueError("euler and offset must have shape (B, 3)")
+        idx = np.arange(b)
+        if np.any(self.parent >= idx) or np.any(self.parent < -1):
+            raise ValueError("branches must be stored parent-before-child")
+        f = self.n_leaves
+        if self.leaf_area.shape != (f,) or self.leaf_normal.shape != (f, 3) or len(self.leaf_address) != f:
+            raise ValueError("leaf arrays disagree in length")
+        if f and (self.leaf_branch.min() < 0 or self.leaf_branch.max() >= b):
+            raise ValueError("leaf on a branch that does not exist")
