@@ -142,6 +142,18 @@ def _scalarise(value):
     return value
 
 
+def _checked(fn, pos: Pos, op: str, a, b):
+    """Apply a binary operator whose result may leave the real numbers or overflow."""
+    try:
+        with np.errstate(all="ignore"):
+            out = fn(a, b)
+    except (ValueError, OverflowError, ZeroDivisionError):
+        out = float("nan")
+    if not np.all(np.isfinite(out)):
+        raise _err(pos, f"'{op}' gives a result that is not a finite real number")
+    return out
+
+
 def compile_expr(expr: Expr) -> Compiled:
     """Compile an expression tree into ``f(env) -> float | ndarray``.
 
@@ -172,8 +184,10 @@ def compile_expr(expr: Expr) -> Compiled:
                 a, b = left(env), right(env)
                 if np.any(np.asarray(b) == 0):
                     raise _err(pos, "division by zero")
-                return fn(a, b)
+                return _checked(fn, pos, op, a, b)
             return divide
+        if op in ("^", "*"):
+            return lambda env: _checked(fn, pos, op, left(env), right(env))
         return lambda env: fn(left(env), right(env))
     if isinstance(expr, Call):
         fn, arity = FUNCTIONS[expr.func]

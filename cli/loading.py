@@ -1,0 +1,43 @@
+"""Reading the inputs commands share: .lsys files and tree files (by content, not name)."""
+
+from __future__ import annotations
+
+import io
+
+from plantlod.lsys.errors import InputError
+
+from .io import display_name, read_text
+
+
+def load_system(path: str):
+    """Parse an .lsys file (``-``: stdin) into an `LSystem`."""
+    from plantlod.lsys.parse import parse_lsys
+
+    return parse_lsys(read_text(path), display_name(path))
+
+
+def looks_like_tree_file(text: str) -> bool:
+    """Tree files are JSON Lines: their first non-blank character is ``{``."""
+    stripped = text.lstrip()
+    return stripped.startswith("{")
+
+
+def load_tree(path: str, steps: int | None = None, max_modules: int | None = None):
+    """A `Tree` from an .lsys file (derived here) or a tree file; ``-`` reads stdin.
+
+    Returns (tree, system): system is None for a tree file.
+    """
+    text = read_text(path)
+    name = display_name(path)
+    if looks_like_tree_file(text):
+        if steps is not None:
+            raise InputError("-n applies to .lsys input, not to a tree file", name)
+        from plantlod.formats.treefile import read_tree
+        return read_tree(io.StringIO(text), name), None
+    from plantlod.lsys.build import build
+    from plantlod.lsys.constants import DEFAULT_MAX_MODULES
+    from plantlod.lsys.parse import parse_lsys
+
+    system = parse_lsys(text, name)
+    built = build(system, steps, max_modules=max_modules or DEFAULT_MAX_MODULES)
+    return built.tree, system

@@ -1,0 +1,94 @@
+"""The ``plantlod`` command: a click group whose subcommands live in their own modules.
+
+Exit codes: 0 success; 1 runtime failure (a diverging simulation, a bound exceeded
+in `compare`); 2 bad input or usage (one line naming file, line and column).
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+
+import click
+
+from plantlod.lsys.errors import PlantlodError
+
+from .derive_cmd import derive
+
+
+class PlantlodGroup(click.Group):
+    """Turns every `PlantlodError` into one line on stderr and its exit code."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except PlantlodError as exc:
+            click.echo(f"{format_error(exc, ctx)}", err=True)
+            ctx.exit(exc.exit_code)
+        except BrokenPipeError:
+            _quiet_broken_pipe()
+
+
+def format_error(exc: PlantlodError, ctx) -> str:
+    text = str(exc)
+    name = ctx.invoked_subcommand or ctx.info_name or "plantlod"
+    if getattr(exc, "file", None):
+        # compiler style, so editors can jump to it: file:line:col: error: message
+        loc, _, msg = text.partition(": ")
+        return f"{loc}: error: {msg}"
+    return f"plantlod {name}: error: {text}"
+
+
+def _quiet_broken_pipe() -> None:
+    """The reader went away (``| head``): stop quietly, as other Unix tools do."""
+    try:
+        sys.stdout.close()
+    except Exception:
+        pass
+    sys.exit(0)
+
+
+@click.group(cls=PlantlodGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="plantlod")
+def cli():
+    """Wind-blown L-system trees with levels of detail.
+
+    \b
+    A pipeline of four commands:
+      plantlod derive x.lsys            L-system -> branch tree (JSON Lines)
+      plantlod simulate x.lsys ...      wind model -> angle CSV
+      plantlod simplify x.lsys -n 1     level-n L-system
+      plantlod compare x.lsys y.lsys    amplitude/period/tip errors, OBJ, PNG
+    """
+
+
+cli.add_command(derive)
+
+
+def _register_optional_commands() -> None:
+    """Commands whose modules exist are added; each imports its heavy parts lazily."""
+    import importlib
+
+    for module, name in (("simulate_cmd", "simulate"), ("simplify_cmd", "simplify"),
+                         ("compare_cmd", "compare")):
+        try:
+            mod = importlib.import_module(f"plantlod.cli.{module}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"plantlod.cli.{module}":
+                continue
+            raise
+        cli.add_command(getattr(mod, name))
+
+
+_register_optional_commands()
+
+
+def main() -> None:
+    # Writing into a closed pipe ends the process quietly instead of raising.
+    if hasattr(signal, "SIGPIPE"):
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    cli(prog_name="plantlod")
+
+
+if __name__ == "__main__":
+    main()

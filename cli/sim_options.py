@@ -1,0 +1,115 @@
+"""Simulation options shared by `simulate`, `simplify` and `compare`.
+
+`simulation_options` is a decorator bundle (as sqlite-utils does it), and
+`SimulationSettings.from_options` turns the parsed values into a wind object,
+Δt and a step count, with one set of checks for every command.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import click
+
+from .io import read_text
+
+
+def _vector(text: str) -> tuple[float, float, float]:
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise click.BadParameter("expected three numbers VX,VY,VZ")
+    try:
+        out = tuple(float(p) for p in parts)
+    except ValueError:
+        raise click.BadParameter("expected three numbers VX,VY,VZ") from None
+    if not all(math.isfinite(v) for v in out):
+        raise click.BadParameter("components must be finite")
+    return out  # type: ignore[return-value]
+
+
+def _finite(ctx, param, value):
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter("must be a finite number")
+    return value
+
+
+def simulation_options(func):
+    """Add --dt, --duration/--steps, wind, gust and damping options to a command."""
+    options = [
+        click.option("--dt", type=click.FloatRange(min=0, min_open=True), required=True,
+                     callback=_finite, help="Time step Δt in seconds."),
+        click.option("--duration", type=click.FloatRange(min=0), default=None, callback=_finite,
+                     help="Simulated time in seconds (steps = round(T / Δt))."),
+        click.option("--steps", type=click.IntRange(min=0), default=None,
+                     help="Number of time steps (instead of --duration)."),
+        click.option("--wind", "wind_vector", metavar="VX,VY,VZ", default=None,
+                     help="Constant wind vector in m/s (world frame, z up)."),
+        click.option("--wind-speed", type=click.FloatRange(min=0), default=None,
+                     callback=_finite, help="Constant wind speed in m/s ..."),
+        click.option("--wind-direction", type=float, default=0.0, show_default=True,
+                     callback=_finite,
+                     help="... blowing toward this azimuth in degrees (0 = +x, 90 = +y)."),
+        click.option("--wind-file", type=str, default=None, metavar="KEYS.csv",
+                     help="Wind over time: rows t,vx,vy,vz, linearly interpolated, "
+                          "held beyond the ends."),
+        click.option("--gust-strength", type=click.FloatRange(min=0), default=0.0,
+                     show_default=True, callback=_finite,
+                     help="Add seeded gusts of this relative strength (0: none; see docs/model.md)."),
+        click.option("--gust-seed", type=click.IntRange(min=0), default=0, show_default=True,
+                     help="Seed of the gust model."),
+        click.option("--damping", type=click.FloatRange(min=0, max=2, max_open=True),
+                     default=0.0, show_default=True, callback=_finite,
+                     help="Velocity damping c (0 = the thesis' undamped model)."),
+    ]
+    for option in reversed(options):
+        func = option(func)
+    return func
+
+
+@dataclass
+class SimulationSettings:
+    """Parsed simulation options: Δt (s), number of steps, the wind, damping c."""
+
+    dt: float
+    steps: int
+    wind: object
+    damping: float
+    description: str
+
+    @classmethod
+    def from_options(cls, dt, duration, steps, wind_vector, wind_speed, wind_direction,
+                     wind_file, gust_strength, gust_seed, damping) -> "SimulationSettings":
+        if (duration is None) == (steps is None):
+            raise click.UsageError("give exactly one of --duration and --steps")
+        if steps is None:
+            steps = int(round(duration / dt))
+        from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, wind_from_speed
+
+        given = [w for w in (wind_vector, wind_speed, wind_file) if w is not None]
+        if len(given) > 1:
+            raise click.UsageError("give at most one of --wind, --wind-speed and --wind-file")
+        if wind_file is not None:
+            import io
+
+            text = read_text(wind_file)
+            wind = KeyframeWind.from_csv(io.StringIO(text), "<stdin>" if wind_file == "-" else wind_file)
+            description = f"wind file {wind_file}"
+        elif wind_speed is not None:
+            wind = wind_from_speed(wind_speed, wind_direction)
+            description = f"wind {wind_speed:g} m/s toward {wind_direction:g} deg"
+        else:
+            vector = _vector(wind_vector) if wind_vector is not None else (0.0, 0.0, 0.0)
+            wind = ConstantWind(vector)
+            description = "wind ({:g}, {:g}, {:g}) m/s".format(*vector)
+        if gust_strength > 0:
+            wind = GustyWind(wind, seed=gust_seed, strength=gust_strength)
+            description += f", gusts {gust_strength:g} (seed {gust_seed})"
+        return cls(dt=dt, steps=steps, wind=wind, damping=damping, description=description)
+
+
+def settings_from_kwargs(kwargs: dict) -> SimulationSettings:
+    """Pop the simulation options out of a command's keyword arguments."""
+    names = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
+             "wind_file", "gust_strength", "gust_seed", "damping")
+    return SimulationSettings.from_options(**{n: kwargs.pop(n) for n in names})

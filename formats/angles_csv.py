@@ -1,0 +1,157 @@
+"""The angle CSV written by `plantlod simulate` (docs/angles-csv.md).
+
+Header ``t,b:ADDR0,r:ADDR0,b:ADDR1,r:ADDR1,...``: the time in seconds, then for
+every branch, in branch order, its bend angle and its rotation angle. One row
+per sample; every number is formatted with `CSV_FLOAT_FORMAT` ("%.10g"), -0 is
+written as 0, lines end with "\\n". Angles are radians, or degrees when the
+writer was asked for them (the file does not record which; the caller knows).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TextIO
+
+import numpy as np
+
+from plantlod.lsys.constants import CSV_FLOAT_FORMAT
+from plantlod.lsys.errors import InputError
+
+BEND_PREFIX = "b:"
+ROT_PREFIX = "r:"
+
+
+def header_fields(addresses: list[str]) -> list[str]:
+    """``["t", "b:A0", "r:A0", "b:A1", ...]`` for branch addresses A0, A1, ..."""
+    out = ["t"]
+    for a in addresses:
+        out += [BEND_PREFIX + a, ROT_PREFIX + a]
+    return out
+
+
+class AnglesCsvWriter:
+    """Write the angle CSV to a text stream, one chunk of samples at a time.
+
+    The header is written when the writer is made. ``degrees=True`` converts
+    the angles (not the times) from radians to degrees.
+    """
+
+    def __init__(self, stream: TextIO, addresses: list[str], degrees: bool = False):
+        self.stream = stream
+        self.n_branches = len(addresses)
+        self.degrees = degrees
+        self._row = ",".join([CSV_FLOAT_FORMAT] * (2 * self.n_branches + 1)) + "\n"
+        stream.write(",".join(header_fields(list(addresses))) + "\n")
+
+    def write(self, times: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> None:
+        """Write rows: times (m,) s; bend and rot (m, B) radians."""
+        times = np.asarray(times, dtype=np.float64).reshape(-1)
+        m, b = len(times), self.n_branches
+        bend = np.asarray(bend, dtype=np.float64).reshape(m, b)
+        rot = np.asarray(rot, dtype=np.float64).reshape(m, b)
+        table = np.empty((m, 2 * b + 1))
+        table[:, 0] = times
+        table[:, 1::2] = np.degrees(bend) if self.degrees else bend
+        table[:, 2::2] = np.degrees(rot) if self.degrees else rot
+        table += 0.0                      # -0.0 + 0.0 is +0.0: no "-0" in the file
+        row = self._row
+        self.stream.write("".join([row % tuple(r) for r in table.tolist()]))
+
+
+def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = False
+                    ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """Read an angle CSV: (times (m,), addresses [B], bend (m, B), rot (m, B)).
+
+    ``degrees=True`` says the file holds degrees; they are returned in radians.
+    Checks, each an `InputError` at (source, line, column): the header is
+    ``t`` followed by ``b:ADDR,r:ADDR`` pairs (distinct, non-empty ADDR); every
+    row has as many fields as the header, each a finite number; times strictly
+    increase; there is at least one row. Blank lines are skipped.
+    """
+    lines = iter(enumerate(stream, start=1))
+    header_line, header = _first_nonblank(lines)
+    if header is None:
+        raise InputError("expected a header line t,b:ADDR,r:ADDR,...; the file is empty",
+                         source, max(header_line, 1), 1)
+    fields = header.split(",")
+    cols = _field_starts(fields)
+    if fields[0] != "t":
+        raise InputError(f"expected the header to start with 't', got {fields[0]!r}",
+                         source, header_line, 1)
+    if len(fields) % 2 != 1:
+        raise InputError("expected a b:ADDR and an r:ADDR column for every branch "
+                         f"after 't', got {len(fields) - 1} angle column(s)", source, header_line, 1)
+    addresses: list[str] = []
+    seen: set[str] = set()
+    for j in range(1, len(fields), 2):
+        bend_f, rot_f = fields[j], fields[j + 1]
+        if not bend_f.startswith(BEND_PREFIX) or len(bend_f) == len(BEND_PREFIX):
+            raise InputError(f"expected a column b:ADDR, got {bend_f!r}", source, header_line, cols[j])
+        address = bend_f[len(BEND_PREFIX):]
+        if rot_f != ROT_PREFIX + address:
+            raise InputError(f"expected the column r:{address} after b:{address}, got {rot_f!r}",
+                             source, header_line, cols[j + 1])
+        if address in seen:
+            raise InputError(f"branch address {address} appears twice in the header",
+                             source, header_line, cols[j])
+        seen.add(address)
+        addresses.append(address)
+
+    width = len(fields)
+    rows: list[list[float]] = []
+    last_t = -math.inf
+    for line_no, raw in lines:
+        line = raw.rstrip("\r\n")
+        if not line.strip():
+            continue
+        parts = line.split(",")
+        if len(parts) != width:
+            raise InputError(f"expected {width} fields like the header, got {len(parts)}",
+                             source, line_no, 1)
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            values = None
+        if values is None or not all(map(math.isfinite, values)):
+            _raise_bad_field(parts, source, line_no)
+        if values[0] <= last_t:
+            raise InputError(f"expected times to increase, got t={parts[0].strip()} after {last_t:.10g}",
+                             source, line_no, 1)
+        last_t = values[0]
+        rows.append(values)
+    if not rows:
+        raise InputError("expected at least one row of angles after the header",
+                         source, header_line + 1, 1)
+    table = np.array(rows, dtype=np.float64)
+    bend, rot = table[:, 1::2].copy(), table[:, 2::2].copy()
+    if degrees:
+        bend, rot = np.radians(bend), np.radians(rot)
+    return table[:, 0].copy(), addresses, bend, rot
+
+
+def _first_nonblank(lines) -> tuple[int, str | None]:
+    line_no = 0
+    for line_no, raw in lines:
+        line = raw.rstrip("\r\n")
+        if line.strip():
+            return line_no, line
+    return line_no, None
+
+
+def _field_starts(fields: list[str]) -> list[int]:
+    """1-based column where each comma-separated field starts."""
+    cols, pos = [], 1
+    for f in fields:
+        cols.append(pos)
+        pos += len(f) + 1
+    return cols
+
+
+def _raise_bad_field(parts: list[str], source: str | None, line_no: int) -> None:
+    for text, col in zip(parts, _field_starts(parts)):
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            raise InputError(f"expected a finite number, got {text.strip()!r}", source, line_no, col)

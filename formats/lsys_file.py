@@ -1,0 +1,148 @@
+"""Read and write ``.lsys`` files (docs/lsys-format.md).
+
+`write_lsys` gives one canonical text for a system: header keys in a fixed order
+(`HEADER_KEYS`), then defines, branch and leaf declarations, the axiom, the
+productions, the interpretation rules and the overrides, with numbers written by
+`format_number` (shortest text that reads back exactly) and expressions by
+`format_expr`. ``parse_lsys(write_lsys(s)) == s`` for every system the parser
+builds, and writing is deterministic.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.expr import format_expr, format_number
+from plantlod.lsys.parse import HEADER_KEYS, parse_lsys
+from plantlod.lsys.system import (
+    BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
+)
+
+_INDENT = "  "
+
+
+def format_modules(modules: tuple[Module, ...]) -> str:
+    """``F(l)[&(a0)B(l*r2,w)]A(l*r1,w)``: modules written side by side."""
+    return "".join(
+        m.name + (f"({','.join(format_expr(a) for a in m.args)})" if m.args else "")
+        for m in modules
+    )
+
+
+def format_pattern(pattern: Pattern) -> str:
+    """``A(l,w)``."""
+    return pattern.name + (f"({','.join(pattern.params)})" if pattern.params else "")
+
+
+def format_production(rule: Production) -> str:
+    """One production or interpretation rule on one line (without indentation).
+
+    Context patterns are separated by spaces, so that a left context never reads
+    as a statement keyword (``leaf < A`` would).
+    """
+    parts = []
+    if rule.left:
+        parts += [format_pattern(p) for p in rule.left] + ["<"]
+    parts.append(format_pattern(rule.pred))
+    if rule.right:
+        parts += [">"] + [format_pattern(p) for p in rule.right]
+    if rule.condition is not None:
+        parts += [":", format_expr(rule.condition)]
+    parts.append("->")
+    if rule.probability is not None:
+        parts.append(f"({format_expr(rule.probability)})")
+    if rule.successor:
+        parts.append(format_modules(rule.successor))
+    return " ".join(parts)
+
+
+def _format_key_values(pairs) -> str:
+    return " ".join(f"{key}={format_number(value)}" for key, value in pairs)
+
+
+def _format_branch(b: BranchSymbol) -> str:
+    pairs = [(key, getattr(b, key)) for key in BRANCH_KEYS if getattr(b, key) is not None]
+    return f"branch {b.name}: {_format_key_values(pairs)}"
+
+
+def _format_leaf(leaf: LeafSymbol) -> str:
+    return f"leaf {leaf.name}: area={format_number(leaf.area)}"
+
+
+def _format_override(o: Override) -> str:
+    return f"{'.'.join(str(a) for a in o.address)}: {_format_key_values(o.values)}"
+
+
+def _header_lines(system: LSystem) -> list[str]:
+    lines = []
+    for key in HEADER_KEYS:
+        value = getattr(system, key)
+        if key == "name":
+            if value != value.strip() or any(c in value for c in "#\n\r"):
+                raise ValueError(f"name {value!r} cannot be written: it would not read back "
+                                 "(no '#', line breaks or surrounding spaces)")
+            if value:
+                lines.append(f"name: {value}")
+        elif key == "ignore":
+            if value:
+                lines.append(f"ignore: {' '.join(value)}")
+        elif key in ("derivation_length", "seed"):
+            lines.append(f"{key}: {int(value)}")
+        else:
+            lines.append(f"{key}: {format_number(value)}")
+    return lines
+
+
+def write_lsys(system: LSystem, header_comment: str | None = None) -> str:
+    """The canonical text of ``system``, ending in a newline.
+
+    ``header_comment`` (may span lines) is written first as ``# `` comment lines.
+    Raises ValueError for a name that cannot be read back (it holds '#' or a line
+    break, or starts or ends with white space).
+    """
+    blocks: list[list[str]] = []
+    if header_comment is not None:
+        blocks.append([f"# {line}".rstrip() for line in header_comment.split("\n")])
+    blocks.append(_header_lines(system))
+    blocks.append([f"define {name} = {format_number(value)}" for name, value in system.defines])
+    blocks.append([_format_branch(b) for b in system.branches]
+                  + [_format_leaf(leaf) for leaf in system.leaves])
+    blocks.append([f"axiom: {format_modules(system.axiom)}"])
+    for title, rules in (("productions", system.productions),
+                         ("interpretation", system.interpretation)):
+        if rules:
+            blocks.append([f"{title}:"] + [_INDENT + format_production(r) for r in rules])
+    if system.overrides:
+        blocks.append(["overrides:"] + [_INDENT + _format_override(o) for o in system.overrides])
+    return "\n\n".join("\n".join(block) for block in blocks if block) + "\n"
+
+
+def read_lsys(path: str) -> LSystem:
+    """Read and parse an ``.lsys`` file; ``-`` reads stdin.
+
+    A missing or unreadable file, or one that is not UTF-8, is an `InputError`
+    naming the file (at the line and column of the first bad byte for UTF-8).
+    """
+    name = "<stdin>" if path == "-" else path
+    try:
+        if path == "-":
+            data = sys.stdin.buffer.read()
+        else:
+            with open(path, "rb") as handle:
+                data = handle.read()
+    except FileNotFoundError:
+        raise InputError(f"cannot read '{path}': no such file", name) from None
+    except OSError as exc:
+        raise InputError(f"cannot read '{path}': {exc.strerror or exc}", name) from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        bom = 3 if data.startswith(b"\xef\xbb\xbf") else 0
+        offset = exc.start + bom
+        line = data.count(b"\n", 0, offset) + 1
+        line_start = max(data.rfind(b"\n", 0, offset) + 1, bom)
+        col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
+        raise InputError(f"not UTF-8 text: byte 0x{data[offset]:02x} cannot be decoded; "
+                         "expected a UTF-8 file", name, line, col) from None
+    return parse_lsys(text, name)

@@ -1,0 +1,489 @@
+"""The tree file: a `Tree` as JSON Lines (docs/tree-format.md).
+
+Line 1 is a header record, then one record per branch (in index order, parent
+before child), then one record per leaf. Every line is one JSON object whose
+keys come in a fixed order, written exactly as ``json.dumps(record,
+ensure_ascii=False)`` would write it (separators ``", "`` and ``": "``); floats
+are written in their shortest round-trip form, so reading a file back gives
+the same float64 values bit for bit (except -0.0, always written as 0.0).
+
+`write_tree` / `iter_tree_lines` write; `read_tree` reads and validates,
+raising `InputError(message, source, line, col)` at the first problem.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from itertools import chain, islice
+from json.encoder import encode_basestring   # json's own string encoder (C), no ASCII escaping
+from typing import Iterator, TextIO
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
+from plantlod.lsys.turtle import chain_depths
+
+FORMAT_NAME = "plantlod-tree"
+FORMAT_VERSION = 1
+
+# A leaf normal is accepted when its length is within this of 1.
+NORMAL_UNIT_TOL = 1e-6  # TODO(lead): move to constants
+
+HEADER_KEYS = ("format", "version", "source", "branches", "leaves", "leaf_force_scale", "depth")
+BRANCH_KEYS = ("type", "index", "address", "symbol", "parent", *BRANCH_FLOAT_FIELDS,
+               "phi", "alpha", "psi", "offset")
+LEAF_KEYS = ("type", "index", "address", "branch", "area", "normal")
+
+# An address: a0.a1...ak, optionally ":j" for a repeated branch (lsys/tree.py).
+_ADDRESS = re.compile(r"[0-9]+(\.[0-9]+)*(:[0-9]+)?\Z")
+_LINES_PER_WRITE = 4096
+
+
+# --- writing ------------------------------------------------------------------------
+
+def _columns(tree: Tree, names: list[str], rows: int) -> list[list[float]]:
+    """Float arrays of ``tree`` as Python float lists, -0.0 made 0.0; finite checked."""
+    out = []
+    for name in names:
+        arr = np.asarray(getattr(tree, name), dtype=np.float64)
+        if not np.all(np.isfinite(arr)):
+            where = int(np.flatnonzero((~np.isfinite(arr.reshape(rows, -1))).any(axis=1))[0])
+            raise RunFailure(f"cannot write the tree: {name} of record {where} is not finite")
+        out.append((arr + 0.0).tolist())      # x + 0.0 turns -0.0 into 0.0
+    return out
+
+
+def iter_tree_lines(tree: Tree) -> Iterator[str]:
+    """Yield the lines of the tree file, each ending in ``"\\n"``."""
+    b, f = tree.n_branches, tree.n_leaves
+    header = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "source": str(tree.source),
+        "branches": b,
+        "leaves": f,
+        "leaf_force_scale": float(tree.leaf_force_scale) + 0.0,
+        "depth": int(chain_depths(tree.parent).max(initial=0)),
+    }
+    if not math.isfinite(header["leaf_force_scale"]):
+        raise RunFailure("cannot write the tree: leaf_force_scale is not finite")
+    # Everything is converted (and checked) before the first line goes out.
+    (length, radius, k_bs, k_rs, k_fa, k_fp, c_d, euler, offset) = _columns(
+        tree, [*BRANCH_FLOAT_FIELDS, "euler", "offset"], b)
+    area, normal = _columns(tree, ["leaf_area", "leaf_normal"], f)
+    parents = np.asarray(tree.parent).tolist()
+    branch_of = np.asarray(tree.leaf_branch).tolist()
+    yield json.dumps(header, ensure_ascii=False) + "\n"
+
+    for i in range(b):
+        phi, alpha, psi = euler[i]
+        ox, oy, oz = offset[i]
+        yield (f'{{"type": "branch", "index": {i}, "address": {encode_basestring(tree.address[i])}, '
+               f'"symbol": {encode_basestring(tree.symbol[i])}, "parent": {parents[i]}, '
+               f'"length": {length[i]!r}, "radius": {radius[i]!r}, '
+               f'"bend_strength": {k_bs[i]!r}, "rotation_strength": {k_rs[i]!r}, '
+               f'"force_absorbed": {k_fa[i]!r}, "force_propagated": {k_fp[i]!r}, '
+               f'"drag_coefficient": {c_d[i]!r}, '
+               f'"phi": {phi!r}, "alpha": {alpha!r}, "psi": {psi!r}, '
+               f'"offset": [{ox!r}, {oy!r}, {oz!r}]}}\n')
+
+    for j in range(f):
+        nx, ny, nz = normal[j]
+        yield (f'{{"type": "leaf", "index": {j}, "address": {encode_basestring(tree.leaf_address[j])}, '
+               f'"branch": {branch_of[j]}, "area": {area[j]!r}, "normal": [{nx!r}, {ny!r}, {nz!r}]}}\n')
+
+
+def write_tree(tree: Tree, out: TextIO) -> None:
+    """Write ``tree`` to the text stream ``out`` as a tree file."""
+    lines = iter_tree_lines(tree)
+    while chunk := "".join(islice(lines, _LINES_PER_WRITE)):
+        out.write(chunk)
+
+
+# --- reading ------------------------------------------------------------------------
+
+class _Line:
+    """One record being validated: its parsed object, text and line number."""
+
+    def __init__(self, source: str, number: int, text: str, record: dict, kind: str):
+        self.source, self.lineno, self.text, self.record, self.kind = (
+            source, number, text, record, kind)
+
+    def error(self, message: str, key: str | None = None) -> InputError:
+        """InputError at this line; the column is that of ``"key"`` when given."""
+        col = 1
+        if key is not None:
+            found = self.text.find(f'"{key}"')
+            col = found + 1 if found >= 0 else 1
+        return InputError(message, self.source, self.lineno, col)
+
+    def keys(self, expected: tuple[str, ...]) -> None:
+        """Require exactly the keys ``expected`` (any order)."""
+        if len(self.record) == len(expected) and all(k in self.record for k in expected):
+            return
+        for key in self.record:
+            if key not in expected:
+                raise self.error(f'unknown key "{key}" in a {self.kind} record; expected the keys '
+                                 f"{', '.join(expected)}", key)
+        missing = next(k for k in expected if k not in self.record)
+        raise self.error(f'missing key "{missing}" in a {self.kind} record')
+
+    def integer(self, key: str, low: int | None = None, high: int | None = None,
+                what: str = "") -> int:
+        """An integer in [low, high] (bounds optional)."""
+        v = self.record[key]
+        if type(v) is not int:
+            raise self.error(f'"{key}" must be an integer, got {_json_type(v)}', key)
+        if (low is not None and v < low) or (high is not None and v > high):
+            raise self.error(what or f'"{key}" must be between {low} and {high}, got {v}', key)
+        return v
+
+    def number(self, key: str) -> float:
+        """A finite number (JSON integer or float), as a float."""
+        return _finite(self, key, self.record[key])
+
+    def vector(self, key: str) -> tuple[float, float, float]:
+        """A list of three finite numbers."""
+        v = self.record[key]
+        if type(v) is not list or len(v) != 3:
+            raise self.error(f'"{key}" must be a list of 3 numbers, got {_json_type(v)}'
+                             + (f" of length {len(v)}" if type(v) is list else ""), key)
+        return (_finite(self, key, v[0]), _finite(self, key, v[1]), _finite(self, key, v[2]))
+
+    def string(self, key: str) -> str:
+        v = self.record[key]
+        if type(v) is not str:
+            raise self.error(f'"{key}" must be a string, got {_json_type(v)}', key)
+        return v
+
+    def address(self, key: str = "address") -> str:
+        v = self.string(key)
+        if not _ADDRESS.match(v):
+            raise self.error(f'"{key}" must be an address like "0.2.1" (optionally with ":1"), '
+                             f"got {json.dumps(v, ensure_ascii=False)}", key)
+        return v
+
+
+def _finite(line: _Line, key: str, v) -> float:
+    if type(v) is float:
+        if math.isfinite(v):
+            return v
+        raise line.error(f'"{key}" must be a finite number, got {v!r}', key)
+    if type(v) is int:
+        return float(v)
+    raise line.error(f'"{key}" must be a number, got {_json_type(v)}', key)
+
+
+def _json_type(v) -> str:
+    """The JSON name of a parsed value's type, for messages."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "true/false"
+    return {int: "an integer", float: "a float", str: "a string", list: "a list",
+            dict: "an object"}.get(type(v), type(v).__name__)
+
+
+def _reject_constant(name: str):
+    raise ValueError(f"{name} is not a number in a tree file")
+
+
+def _object(pairs):
+    """json object hook: refuse duplicate keys."""
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        seen = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise ValueError(f'duplicate key "{key}"')
+            seen.add(key)
+    return out
+
+
+_DECODER = json.JSONDecoder(object_pairs_hook=_object, parse_constant=_reject_constant)
+
+
+def _parse(source: str, number: int, text: str, kind: str) -> _Line:
+    """Parse one line as a JSON object (``kind`` names the record for messages)."""
+    stripped = text.rstrip("\r\n")
+    if not stripped.strip():
+        raise InputError(f"blank line; expected a {kind} record", source, number, 1)
+    try:
+        record = _DECODER.decode(stripped)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON: {exc.msg}", source, number, exc.colno) from None
+    except ValueError as exc:      # duplicate key or NaN/Infinity
+        raise InputError(f"not valid here: {exc}", source, number, 1) from None
+    if type(record) is not dict:
+        raise InputError(f"expected a JSON object {{...}} ({kind} record), got "
+                         f"{_json_type(record)}", source, number, 1)
+    return _Line(source, number, stripped, record, kind)
+
+
+def _expect_type(line: _Line, kind: str, index: int, counts: str) -> None:
+    """Require "type": kind for the record numbered ``index``; counts: the header's."""
+    if line.record.get("type") == kind:
+        return
+    what = f"{kind} record {index} ({counts})"
+    if "type" not in line.record:
+        raise line.error(f'missing key "type"; expected {what}')
+    raise line.error(f'expected {what}, found "type": '
+                     f'{json.dumps(line.record["type"], ensure_ascii=False)}', "type")
+
+
+class _Lines:
+    """The numbered lines of a stream; remembers the last line number read."""
+
+    def __init__(self, stream: TextIO, source: str):
+        self._items = enumerate(stream, start=1)
+        self.source = source
+        self.last = 0
+
+    def next(self) -> tuple[int, str] | None:
+        item = next(self._items, None)
+        if item is not None:
+            self.last = item[0]
+        return item
+
+    def end_error(self, message: str) -> InputError:
+        """InputError at the line after the last one (where a record was expected)."""
+        return InputError(message, self.source, self.last + 1, 1)
+
+
+def read_tree(stream: TextIO, source: str) -> Tree:
+    """Read and validate a tree file from ``stream``; ``source`` names it in errors.
+
+    Raises InputError(message, source, line, col) at the first problem in
+    file order (the header's depth, which needs every record, is checked
+    last): a line that is not a JSON object; a missing, unknown or duplicate
+    key; a value of the wrong type or not finite; a wrong format name or
+    version; records out of order or misnumbered; a parent that is not an
+    earlier branch; a leaf on a branch that does not exist; a non-unit leaf
+    normal; a repeated branch address; counts or depth that differ from the
+    header.
+
+    Records are checked a block at a time with vectorised checks; if any
+    fails, the block is checked record by record, which finds and reports the
+    problem (the record-by-record checks are the definition; the fast ones
+    accept only what those accept).
+    """
+    lines = _Lines(stream, source)
+    first = lines.next()
+    if first is None:
+        raise InputError("empty file; expected a tree file header "
+                         f'{{"format": "{FORMAT_NAME}", ...}}', source, 1, 1)
+    head = _parse(source, 1, first[1], "header")
+    if head.record.get("format") != FORMAT_NAME:
+        raise head.error(f'not a plantlod tree file: expected "format": "{FORMAT_NAME}" '
+                         "in the first record", "format" if "format" in head.record else None)
+    head.keys(HEADER_KEYS)
+    if head.integer("version") != FORMAT_VERSION:
+        raise head.error(f"tree file version {head.record['version']} is not supported; "
+                         f"expected {FORMAT_VERSION}", "version")
+    n_branches = head.integer("branches", 0, None, '"branches" must be a non-negative integer')
+    n_leaves = head.integer("leaves", 0, None, '"leaves" must be a non-negative integer')
+    depth = head.integer("depth", 0, None, '"depth" must be a non-negative integer')
+    origin = head.string("source")
+    leaf_force_scale = head.number("leaf_force_scale")
+
+    counts = f"the header says {n_branches} branches, then {n_leaves} leaves"
+    branch_lines = _read_block(lines, n_branches, "branch", counts, _checked_branches)
+    try:
+        branches = _fast_branches(branch_lines)
+    except _Reject:
+        branches = _checked_branches(branch_lines)
+
+    def check_leaves(block):
+        return _checked_leaves(block, n_branches)
+
+    leaf_lines = _read_block(lines, n_leaves, "leaf", counts, check_leaves)
+    try:
+        leaves = _fast_leaves(leaf_lines, n_branches)
+    except _Reject:
+        leaves = check_leaves(leaf_lines)
+    extra = lines.next()
+    if extra is not None:
+        raise InputError(f"unexpected line after the last record ({counts})",
+                         source, extra[0], 1)
+
+    real_depth = int(chain_depths(branches["parent"]).max(initial=0))
+    if real_depth != depth:
+        raise head.error(f'"depth" is {depth}, but the branches form chains of at most '
+                         f"{real_depth}", "depth")
+    tree = Tree(**branches, **leaves, leaf_force_scale=leaf_force_scale, source=origin)
+    tree.check()
+    return tree
+
+
+def _read_block(lines: _Lines, count: int, kind: str, counts: str, check) -> list[_Line]:
+    """The next ``count`` lines, parsed as JSON objects with "type": ``kind``.
+
+    On a problem here, ``check`` (record-by-record validation) first runs on
+    the lines before it, so that the error reported is the first in the file.
+    """
+    out = []
+    for i in range(count):
+        item = lines.next()
+        try:
+            if item is None:
+                raise lines.end_error(f"the file ends after {i} {kind} records; {counts}")
+            line = _parse(lines.source, item[0], item[1], kind)
+            _expect_type(line, kind, i, counts)
+        except InputError:
+            check(out)
+            raise
+        out.append(line)
+    return out
+
+
+# Fast, vectorised checks of a block of records. Each raises _Reject when a
+# record might be invalid; the record-by-record checks then find and report it.
+
+class _Reject(Exception):
+    """A fast check failed: check the block record by record instead."""
+
+
+_ADDRESSES = re.compile(r"(?:[0-9]+(?:\.[0-9]+)*(?::[0-9]+)?\n)*\Z")
+
+
+def _transpose(block: list[_Line], keys: tuple[str, ...]) -> dict[str, list]:
+    """The columns of records whose keys are exactly ``keys``, in that order."""
+    records = [line.record for line in block]
+    if not set(map(tuple, records)) <= {keys}:
+        raise _Reject
+    if not records:
+        return {key: [] for key in keys}
+    return dict(zip(keys, map(list, zip(*map(dict.values, records)))))
+
+
+def _typed(values: list, types: set) -> list:
+    """``values`` if every one has a type in ``types``."""
+    if not set(map(type, values)) <= types:
+        raise _Reject
+    return values
+
+
+def _array(values: list, dtype) -> np.ndarray:
+    try:
+        arr = np.array(values, dtype=dtype)
+    except (OverflowError, ValueError):
+        raise _Reject from None
+    if dtype is np.float64 and not np.isfinite(arr).all():
+        raise _Reject
+    return arr
+
+
+def _floats(values: list) -> np.ndarray:
+    """(n,) float64 from JSON numbers, all finite."""
+    return _array(_typed(values, {float, int}), np.float64)
+
+
+def _integers(values: list) -> np.ndarray:
+    """(n,) int64 from JSON integers (not true/false)."""
+    return _array(_typed(values, {int}), np.int64)
+
+
+def _vectors(values: list) -> np.ndarray:
+    """(n, 3) float64 from lists of 3 finite JSON numbers."""
+    if not set(map(len, _typed(values, {list}))) <= {3}:
+        raise _Reject
+    return _floats(list(chain.from_iterable(values))).reshape(len(values), 3)
+
+
+def _common(cols: dict[str, list]) -> list[str]:
+    """Checks shared by branches and leaves: index, address ("type": `_read_block`)."""
+    if not np.array_equal(_integers(cols["index"]), np.arange(len(cols["index"]))):
+        raise _Reject
+    address = _typed(cols["address"], {str})
+    if not _ADDRESSES.match("".join(a + "\n" for a in address)):
+        raise _Reject
+    return address
+
+
+def _fast_branches(block: list[_Line]) -> dict:
+    cols = _transpose(block, BRANCH_KEYS)
+    address = _common(cols)
+    if len(set(address)) != len(address):
+        raise _Reject
+    symbol = _typed(cols["symbol"], {str})
+    if not set(map(len, symbol)) <= {1}:
+        raise _Reject
+    parent = _integers(cols["parent"])
+    if np.any((parent < -1) | (parent >= np.arange(len(parent)))):
+        raise _Reject
+    out = {name: _floats(cols[name]) for name in BRANCH_FLOAT_FIELDS}
+    angles = [_floats(cols[name]) for name in ("phi", "alpha", "psi")]
+    out.update(address=address, symbol=symbol, parent=parent,
+               euler=np.stack(angles, axis=1).reshape(len(parent), 3),
+               offset=_vectors(cols["offset"]))
+    return out
+
+
+def _fast_leaves(block: list[_Line], n_branches: int) -> dict:
+    cols = _transpose(block, LEAF_KEYS)
+    address = _common(cols)
+    branch = _integers(cols["branch"])
+    if np.any((branch < 0) | (branch >= n_branches)):
+        raise _Reject
+    normal = _vectors(cols["normal"])
+    if np.any(np.abs(np.sqrt((normal * normal).sum(axis=1)) - 1.0) > NORMAL_UNIT_TOL):
+        raise _Reject
+    return dict(leaf_address=address, leaf_branch=branch, leaf_area=_floats(cols["area"]),
+                leaf_normal=normal)
+
+
+# Record-by-record checks: the definition of a valid record, with messages.
+
+def _checked_branches(block: list[_Line]) -> dict:
+    rows = []
+    seen: dict[str, int] = {}
+    for i, line in enumerate(block):
+        line.keys(BRANCH_KEYS)
+        line.integer("index", i, i, f'"index" is {line.record["index"]}, expected {i} '
+                                    "(branches are numbered in order from 0)")
+        earlier = f"or an earlier branch (0..{i - 1})" if i else "(the first branch is a root)"
+        parent = line.integer("parent", -1, i - 1,
+                              f'"parent" is {line.record["parent"]}; expected -1 {earlier}: '
+                              "parents come before children")
+        address = line.address()
+        if address in seen:
+            raise line.error(f'branch address "{address}" repeats branch {seen[address]}; '
+                             "branch addresses are unique", "address")
+        seen[address] = i
+        symbol = line.string("symbol")
+        if len(symbol) != 1:
+            raise line.error(f'"symbol" must be one character, got '
+                             f"{json.dumps(symbol, ensure_ascii=False)}", "symbol")
+        values = [line.number(name) for name in (*BRANCH_FLOAT_FIELDS, "phi", "alpha", "psi")]
+        rows.append((address, symbol, parent, [*values, *line.vector("offset")]))
+    floats = np.array([r[3] for r in rows], dtype=np.float64).reshape(len(rows), 13)
+    out = {name: floats[:, k].copy() for k, name in enumerate(BRANCH_FLOAT_FIELDS)}
+    out.update(address=[r[0] for r in rows], symbol=[r[1] for r in rows],
+               parent=np.array([r[2] for r in rows], dtype=np.int64),
+               euler=floats[:, 7:10].copy(), offset=floats[:, 10:13].copy())
+    return out
+
+
+def _checked_leaves(block: list[_Line], n_branches: int) -> dict:
+    rows = []
+    for j, line in enumerate(block):
+        line.keys(LEAF_KEYS)
+        line.integer("index", j, j, f'"index" is {line.record["index"]}, expected {j} '
+                                    "(leaves are numbered in order from 0)")
+        branch = line.integer("branch", 0, n_branches - 1,
+                              f'"branch" is {line.record["branch"]}, which is not a branch of '
+                              f"this file (0..{n_branches - 1})")
+        address = line.address()
+        area = line.number("area")
+        normal = line.vector("normal")
+        if abs(math.sqrt(sum(c * c for c in normal)) - 1.0) > NORMAL_UNIT_TOL:
+            raise line.error(f'"normal" must be a unit vector (length within {NORMAL_UNIT_TOL:g} '
+                             "of 1)", "normal")
+        rows.append((address, branch, area, normal))
+    return dict(leaf_address=[r[0] for r in rows],
+                leaf_branch=np.array([r[1] for r in rows], dtype=np.int64),
+                leaf_area=np.array([r[2] for r in rows], dtype=np.float64),
+                leaf_normal=np.array([r[3] for r in rows], dtype=np.float64).reshape(len(rows), 3))

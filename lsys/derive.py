@@ -1,0 +1,134 @@
+"""Derivation and interpretation of an L-system (model.md section 1).
+
+`derive` rewrites the axiom ``steps`` times in parallel and records, per step,
+where each module came from, so that every module's address ``a0.a1.….ak`` can
+be recovered (`DerivedString.address_array`). `interpret` applies the
+interpretation rules once; the modules they produce keep the address of the
+module they replace.
+
+Two engines do the rewriting, with identical results where both apply:
+`rewrite_fast.FastRewriter` (table lookup) for OL-systems without parameters,
+context, conditions or probabilities, and `rewrite_param.GeneralRewriter`
+(vectorised per rule) for everything else.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .constants import DEFAULT_MAX_MODULES
+from .derived import DerivedString
+from .errors import InputError
+from .expr import evaluate
+from .rewrite_fast import FastRewriter, fast_path_applies
+from .rewrite_param import GeneralRewriter, compile_rules
+from .system import LSystem, Production
+
+__all__ = ["DerivedString", "derive", "interpret", "system_alphabet"]
+
+
+def system_alphabet(system: LSystem) -> list[str]:
+    """Every module character of the system, in order of first appearance.
+
+    Axiom first, then productions (predecessor, contexts, successor), then
+    interpretation rules.
+    """
+    seen: dict[str, None] = {}
+    for m in system.axiom:
+        seen.setdefault(m.name)
+    for prod in system.productions + system.interpretation:
+        for p in (*prod.left, prod.pred, *prod.right):
+            seen.setdefault(p.name)
+        for m in prod.successor:
+            seen.setdefault(m.name)
+    return list(seen)
+
+
+def _check_brackets(modules, what: str) -> None:
+    """Raise `InputError` unless the brackets of ``modules`` balance."""
+    depth = 0
+    for m in modules:
+        if m.name == "[":
+            depth += 1
+        elif m.name == "]":
+            depth -= 1
+            if depth < 0:
+                raise InputError(f"']' without a matching '[' in {what}",
+                                 m.pos.file, m.pos.line, m.pos.col)
+    if depth > 0:
+        pos = modules[0].pos
+        raise InputError(f"{depth} '[' not closed by ']' in {what}", pos.file, pos.line, pos.col)
+
+
+def _check_system(system: LSystem) -> None:
+    _check_brackets(system.axiom, "the axiom")
+    for prod in system.productions + system.interpretation:
+        _check_brackets(prod.successor, "a successor")
+
+
+def axiom_string(system: LSystem, alphabet: list[str]) -> DerivedString:
+    """The axiom as a `DerivedString` (step 0); arguments are evaluated with the defines."""
+    code_of = {ch: i for i, ch in enumerate(alphabet)}
+    env = system.constants()
+    codes = np.array([code_of[m.name] for m in system.axiom], dtype=np.int32)
+    counts = np.array([len(m.args) for m in system.axiom], dtype=np.int64)
+    starts = np.zeros(len(codes) + 1, dtype=np.int64)
+    np.cumsum(counts, out=starts[1:])
+    params = np.array([float(evaluate(a, env)) for m in system.axiom for a in m.args],
+                      dtype=np.float64)
+    return DerivedString(list(alphabet), codes, starts, params)
+
+
+def _rewriter(system: LSystem, rules: tuple[Production, ...], alphabet: list[str],
+              string_has_params: bool, fast: bool):
+    if fast and fast_path_applies(rules, string_has_params):
+        return FastRewriter(rules, alphabet)
+    code_of = {ch: i for i, ch in enumerate(alphabet)}
+    return GeneralRewriter(system, compile_rules(rules, code_of), alphabet)
+
+
+def derive(system: LSystem, steps: int | None = None,
+           max_modules: int = DEFAULT_MAX_MODULES, *, fast: bool = True) -> DerivedString:
+    """Apply the productions ``steps`` times (default: ``system.derivation_length``).
+
+    Raises `InputError` when a step would produce more than ``max_modules``
+    modules (checked before the step's string is built). ``fast=False`` forces
+    the general engine even where the table lookup applies (for tests and
+    benchmarks; the result is the same).
+    """
+    k = system.derivation_length if steps is None else steps
+    if k < 0:
+        raise InputError(f"the number of derivation steps must be >= 0, got {k}")
+    _check_system(system)
+    alphabet = system_alphabet(system)
+    ds = axiom_string(system, alphabet)
+    if len(ds) > max_modules:
+        raise InputError(f"the axiom has {len(ds):,} modules, more than --max-modules {max_modules:,}")
+    rewriter = _rewriter(system, system.productions, alphabet, ds.params.size > 0, fast)
+    for j in range(1, k + 1):
+        codes, starts, params, parent, local = rewriter.apply(ds, j, max_modules)
+        ds = DerivedString(ds.alphabet, codes, starts, params, ds.history + [(parent, local)])
+    return ds
+
+
+def interpret(system: LSystem, derived: DerivedString, *, fast: bool = True) -> DerivedString:
+    """Apply the interpretation rules once (a homomorphism for the turtle).
+
+    The modules a rule produces keep, through ``origin``, the address of the
+    module they replace; rules are not applied to their own output. Without
+    interpretation rules the result has the same arrays and ``origin = arange(n)``.
+    """
+    prior = derived.origin if derived.origin is not None else np.arange(len(derived), dtype=np.int64)
+    if not system.interpretation:
+        return DerivedString(derived.alphabet, derived.codes, derived.param_start,
+                             derived.params, derived.history, prior)
+    _check_system(system)
+    alphabet = list(derived.alphabet)
+    for ch in system_alphabet(system):
+        if derived.code_of(ch) is None:
+            alphabet.append(ch)
+    ds = derived if len(alphabet) == len(derived.alphabet) else DerivedString(
+        alphabet, derived.codes, derived.param_start, derived.params, derived.history, derived.origin)
+    rewriter = _rewriter(system, system.interpretation, alphabet, ds.params.size > 0, fast)
+    codes, starts, params, parent, _local = rewriter.apply(ds, None, None)
+    return DerivedString(alphabet, codes, starts, params, derived.history, prior[parent])

@@ -1,0 +1,877 @@
+"""Read the ``.lsys`` language (docs/lsys-format.md) into the dataclasses of lsys.system.
+
+Hand-written throughout: each line is read by a character cursor (`_Cursor`); a small
+tokenizer (`_token`) and a precedence-climbing parser (`_expression`) build the nodes
+of lsys.expr. Nothing from a file ever reaches Python's ``eval`` or ``compile``;
+constant expressions are evaluated with `lsys.expr.evaluate`.
+
+Positions: every node carries ``Pos(file, line, col)``, 1-based, columns counted in
+characters (a tab is one column). Num, Name, Unary and Call nodes, modules, patterns
+and productions point at their first character; a Binary node points at its
+operator, so that an error about the operation itself (division by zero, at run time
+too) points at the ``/``.
+
+Public API:
+  parse_lsys(text, source) -> LSystem      a whole file
+  parse_expr(text, source, line, col)      one expression, syntax only
+  parse_modules(text, source, line, col)   a module sequence, syntax and brackets only
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from typing import Iterable, Iterator, NamedTuple
+
+from .constants import PROBABILITY_SUM_TOL
+from .errors import InputError
+from .expr import (
+    FUNCTIONS, PRECEDENCE, RIGHT_ASSOCIATIVE, UNARY_OPS, UNARY_PRECEDENCE,
+    Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, format_number, free_names,
+)
+from .system import (
+    BRACKETS, BRANCH_KEYS, LEAF_KEYS, RESERVED_CHARS, TURTLE_SYMBOLS,
+    BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
+)
+
+# Parameter counts the turtle accepts (docs/lsys-format.md, "Symbols").
+# TODO(lead): move to system.py, beside TURTLE_SYMBOLS
+TURTLE_OPTIONAL_ARG = frozenset("+-&^/\\f!")   # 0 or 1 parameter
+TURTLE_NO_ARG = frozenset("|[]$")              # no parameter
+
+# Header keys in the order the writer uses; name and ignore are not numbers.
+HEADER_KEYS = (
+    "name", "derivation_length", "branching_angle", "rotation_angle", "seed",
+    "force_absorbed", "force_propagated", "drag_coefficient", "leaf_force_scale", "ignore",
+)
+REQUIRED_HEADER_KEYS = ("derivation_length", "branching_angle", "force_absorbed", "force_propagated")
+_INTEGER_KEYS = frozenset({"derivation_length", "seed"})
+SECTIONS = ("productions", "interpretation", "overrides")
+_DECLARATIONS = ("define", "branch", "leaf")
+OVERRIDE_KEYS = {**BRANCH_KEYS, **LEAF_KEYS}
+
+_STATEMENT_WORDS = _DECLARATIONS + SECTIONS + HEADER_KEYS + ("axiom",)
+_STATEMENTS_HELP = ("a header key, define, branch, leaf, axiom:, productions:, "
+                    "interpretation: or overrides:")
+
+# One expression token after optional white space; no group matches at the end of the
+# line or at a character that starts no token. Operators longest first.
+_TOKEN = re.compile(r"""(\s*)(?:
+      (?P<num>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)
+    | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
+    | (?P<op>\|\||&&|==|!=|<=|>=|->|[<>+\-*/%^!])
+    | (?P<punct>[(),])
+    )?""", re.VERBOSE)
+_NUMBER_TAIL = re.compile(r"[A-Za-z0-9_.]+")       # glued to a number: a bad number
+_HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
+_DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
+_FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
+_ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
+
+
+# --- the cursor and the tokenizer ------------------------------------------------------
+
+class _Cursor:
+    """A read position in one line of text (no newline); columns start at ``col0``."""
+
+    __slots__ = ("text", "i", "source", "line", "col0", "tok_at", "tok")
+
+    def __init__(self, text: str, source: str, line: int, col0: int = 1, start: int = 0):
+        self.text, self.i, self.source, self.line, self.col0 = text, start, source, line, col0
+        self.tok_at, self.tok = -1, None    # the last token read by _token, and where
+
+    def pos(self, i: int | None = None) -> Pos:
+        return Pos(self.source, self.line, self.col0 + (self.i if i is None else i))
+
+    def error(self, message: str, i: int | None = None) -> InputError:
+        return _error(self.pos(i), message)
+
+    def skip_ws(self) -> None:
+        text, i, n = self.text, self.i, len(self.text)
+        while i < n and text[i].isspace():
+            i += 1
+        self.i = i
+
+    def char(self) -> str:
+        """The character at the cursor after white space ('' at the end of the line)."""
+        self.skip_ws()
+        return self.text[self.i] if self.i < len(self.text) else ""
+
+    def at(self, s: str) -> bool:
+        self.skip_ws()
+        return self.text.startswith(s, self.i)
+
+    def describe(self) -> str:
+        c = self.char()
+        return f"'{c}'" if c else "end of line"
+
+
+class _Tok(NamedTuple):
+    kind: str     # num, name, op, ( ) , char (anything else), badnum, end
+    text: str
+    start: int    # index in the line
+    end: int
+
+
+def _token(cur: _Cursor) -> _Tok:
+    """The expression token at the cursor (after white space), without consuming it."""
+    if cur.i == cur.tok_at:
+        return cur.tok
+    m = _TOKEN.match(cur.text, cur.i)
+    cur.i = i = m.end(1)
+    kind = m.lastgroup
+    text = cur.text
+    if kind is None:
+        if i >= len(text):
+            tok = _Tok("end", "", i, i)
+        elif text[i] in "0123456789.":
+            tail = _NUMBER_TAIL.match(text, i)
+            tok = _Tok("badnum", tail.group(), i, tail.end())
+        else:
+            tok = _Tok("char", text[i], i, i + 1)
+    else:
+        stop = m.end()
+        tok = _Tok(m.group(kind) if kind == "punct" else kind, m.group(kind), i, stop)
+        if kind == "num":
+            tail = _NUMBER_TAIL.match(text, stop)
+            if tail:
+                tok = _Tok("badnum", text[i:tail.end()], i, tail.end())
+    cur.tok_at, cur.tok = i, tok
+    return tok
+
+
+def _describe(tok: _Tok) -> str:
+    if tok.kind == "end":
+        return "end of line"
+    if tok.kind == "char":
+        return f"character '{tok.text}'"
+    return f"'{tok.text}'"
+
+
+def _error(pos: Pos, message: str) -> InputError:
+    return InputError(message, pos.file, pos.line, pos.col)
+
+
+def _where(pos: Pos) -> str:
+    return f"{pos.line}:{pos.col}"
+
+
+def _suggest(word: str, choices: Iterable[str]) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def _plural(n: int, noun: str) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
+# --- expressions ---------------------------------------------------------------------
+
+def _expression(cur: _Cursor, min_prec: int = 0) -> Expr:
+    """Precedence climbing: an operand, then binary operators binding at least min_prec."""
+    left = _unary(cur)
+    while True:
+        tok = _token(cur)
+        prec = PRECEDENCE.get(tok.text) if tok.kind == "op" else None
+        if prec is None or prec < min_prec:
+            return left
+        cur.i = tok.end
+        right = _expression(cur, prec if tok.text in RIGHT_ASSOCIATIVE else prec + 1)
+        left = Binary(tok.text, left, right, cur.pos(tok.start))
+
+
+def _unary(cur: _Cursor) -> Expr:
+    tok = _token(cur)
+    if tok.kind == "op" and tok.text in UNARY_OPS:
+        cur.i = tok.end
+        return Unary(tok.text, _expression(cur, UNARY_PRECEDENCE), cur.pos(tok.start))
+    return _primary(cur)
+
+
+def _primary(cur: _Cursor) -> Expr:
+    tok = _token(cur)
+    pos = cur.pos(tok.start)
+    if tok.kind == "num":
+        cur.i = tok.end
+        value = float(tok.text)
+        if not math.isfinite(value):
+            raise _error(pos, f"number '{tok.text}' is too large; expected a finite number")
+        return Num(value, pos)
+    if tok.kind == "badnum":
+        raise _error(pos, f"bad number '{tok.text}'; expected digits with an optional "
+                          "decimal point and exponent, like 2, 0.5, .5 or 2e-3")
+    if tok.kind == "name":
+        cur.i = tok.end
+        if _token(cur).kind != "(":
+            return Name(tok.text, pos)
+        if tok.text not in FUNCTIONS:
+            raise _error(pos, f"unknown function '{tok.text}'{_suggest(tok.text, FUNCTIONS)}; "
+                              f"expected one of {', '.join(FUNCTIONS)}")
+        opener = _token(cur)
+        cur.i = opener.end
+        args = _arguments(cur, opener.start)
+        arity = FUNCTIONS[tok.text][1]
+        if len(args) != arity:
+            raise _error(pos, f"{tok.text}() takes {_plural(arity, 'argument')}, got {len(args)}")
+        return Call(tok.text, args, pos)
+    if tok.kind == "(":
+        cur.i = tok.end
+        inner = _expression(cur)
+        close = _token(cur)
+        if close.kind != ")":
+            raise cur.error(f"expected ')' to close the parenthesis opened at "
+                            f"{_where(cur.pos(tok.start))}, found {_describe(close)}", close.start)
+        cur.i = close.end
+        return inner
+    raise _error(pos, f"unexpected {_describe(tok)}; expected a number, a name or '('")
+
+
+def _arguments(cur: _Cursor, open_index: int) -> tuple[Expr, ...]:
+    """Comma-separated expressions after an opening '(' (consumed), up to its ')'."""
+    args = [_expression(cur)]
+    while True:
+        tok = _token(cur)
+        if tok.kind == ",":
+            cur.i = tok.end
+            args.append(_expression(cur))
+        elif tok.kind == ")":
+            cur.i = tok.end
+            return tuple(args)
+        else:
+            opened = _where(cur.pos(open_index))
+            if tok.kind == "end":
+                raise cur.error(f"expected ')' to close the argument list opened at {opened}", tok.start)
+            raise cur.error(f"expected ',' or ')' to close the argument list opened at {opened}, "
+                            f"found {_describe(tok)}", tok.start)
+
+
+def _name_nodes(expr: Expr) -> Iterator[Name]:
+    """Every Name node of an expression, left to right."""
+    if isinstance(expr, Name):
+        yield expr
+    for child in _children(expr):
+        yield from _name_nodes(child)
+
+
+def _children(expr: Expr) -> tuple[Expr, ...]:
+    if isinstance(expr, Unary):
+        return (expr.operand,)
+    if isinstance(expr, Binary):
+        return (expr.left, expr.right)
+    if isinstance(expr, Call):
+        return expr.args
+    return ()
+
+
+def _evaluate_constant(expr: Expr, defines: dict[str, float]) -> float:
+    """Evaluate an expression whose names are all defines.
+
+    The expression layer reports division by zero and results outside the real
+    numbers (0^-1, (-8)^0.5, 10^400) as InputError at the failing operator.
+    """
+    value = float(evaluate(expr, defines))
+    if not math.isfinite(value):
+        raise _error(expr.pos, "this expression is not finite; expected a finite value")
+    return value
+
+
+def _check_constant_parts(expr: Expr, params: frozenset[str], defines: dict[str, float]) -> None:
+    """Evaluate every part of a production expression that does not read a parameter,
+    so that a division by a constant zero (at its '/') or a domain error is found now."""
+    if isinstance(expr, (Num, Name)):
+        return                       # a number or a name cannot fail
+    if not (free_names(expr) & params):
+        _evaluate_constant(expr, defines)
+        return
+    for child in _children(expr):
+        _check_constant_parts(child, params, defines)
+    if isinstance(expr, Binary) and expr.op in ("/", "%") and not (free_names(expr.right) & params) \
+            and _evaluate_constant(expr.right, defines) == 0:
+        raise _error(expr.pos, "division by zero")
+
+
+def _check_names(expr: Expr, params: frozenset[str], defines: dict[str, float], where: str) -> None:
+    """Every name must be a parameter in ``params`` or a define; ``where`` says what is allowed."""
+    for node in _name_nodes(expr):
+        if node.name not in params and node.name not in defines:
+            raise _error(node.pos, f"unknown name '{node.name}'; expected {where}")
+
+
+def _constant(cur: _Cursor, defines: dict[str, float]) -> tuple[Expr, float]:
+    """Parse an expression of numbers and earlier defines and evaluate it."""
+    expr = _expression(cur)
+    _check_names(expr, frozenset(), defines, "a number or a define given on an earlier line")
+    return expr, _evaluate_constant(expr, defines)
+
+
+# --- modules and patterns ----------------------------------------------------------
+
+def _modules(cur: _Cursor) -> tuple[Module, ...]:
+    """Modules up to the end of the line: ``F(l)[&(a0)B(l*r2,w)]A(l*r1,w)``."""
+    out = []
+    text, n = cur.text, len(cur.text)
+    while True:
+        c = cur.char()
+        if not c:
+            return tuple(out)
+        start = cur.i
+        if c == "(":
+            raise cur.error("unexpected '('; a module's arguments follow its character "
+                            "directly, as in F(1)")
+        if c in RESERVED_CHARS:
+            raise cur.error(f"unexpected character '{c}'; expected a module")
+        cur.i += 1
+        args: tuple[Expr, ...] = ()
+        if cur.i < n and text[cur.i] == "(":
+            cur.i += 1
+            args = _arguments(cur, start + 1)
+        out.append(Module(c, args, cur.pos(start)))
+
+
+def _check_brackets(modules: tuple[Module, ...]) -> None:
+    """Brackets must balance; points at an unmatched ']' or the last unclosed '['."""
+    open_stack: list[Module] = []
+    for m in modules:
+        if m.name == "[":
+            open_stack.append(m)
+        elif m.name == "]":
+            if not open_stack:
+                raise _error(m.pos, "unmatched ']'; expected a '[' before it")
+            open_stack.pop()
+    if open_stack:
+        raise _error(open_stack[-1].pos, "'[' is never closed; expected a matching ']' on this line")
+
+
+def _patterns(cur: _Cursor) -> list[tuple[Pattern, list[tuple[str, Pos]]]]:
+    """Module patterns up to '<', '>', ':', '->' or the end of the line.
+
+    Returns each pattern with its parameter names and their positions.
+    """
+    out = []
+    text, n = cur.text, len(cur.text)
+    while True:
+        c = cur.char()
+        if not c or c in "<>:" or cur.at("->"):
+            return out
+        start = cur.i
+        if c in RESERVED_CHARS:
+            raise cur.error(f"unexpected character '{c}'; expected a module pattern, "
+                            "'<', '>', ':' or '->'")
+        if c in BRACKETS:
+            raise cur.error(f"'{c}' cannot be a predecessor or a context pattern; "
+                            "expected a module such as A or A(x)")
+        cur.i += 1
+        params: list[tuple[str, Pos]] = []
+        if cur.i < n and text[cur.i] == "(":
+            opened = cur.pos()
+            cur.i += 1
+            while True:
+                tok = _token(cur)
+                if tok.kind != "name":
+                    raise cur.error(f"expected a parameter name, found {_describe(tok)} "
+                                    "(a pattern binds names, it does not match values)", tok.start)
+                cur.i = tok.end
+                for seen, _ in params:
+                    if seen == tok.text:
+                        raise cur.error(f"duplicate parameter '{tok.text}' in the pattern "
+                                        f"'{c}'; expected distinct names", tok.start)
+                params.append((tok.text, cur.pos(tok.start)))
+                tok = _token(cur)
+                cur.i = tok.end
+                if tok.kind == ")":
+                    break
+                if tok.kind != ",":
+                    what = "found end of line" if tok.kind == "end" else f"found {_describe(tok)}"
+                    raise cur.error(f"expected ',' or ')' to close the parameter list opened at "
+                                    f"{_where(opened)}, {what}", tok.start)
+        out.append((Pattern(c, tuple(p for p, _ in params), cur.pos(start)), params))
+
+
+def _production(cur: _Cursor, defines: dict[str, float]) -> Production:
+    """``[LEFT <] PRED [> RIGHT] [: CONDITION] -> [(PROBABILITY)] SUCCESSOR``."""
+    cur.skip_ws()
+    start = cur.pos()
+    first = _patterns(cur)
+    left: list = []
+    if cur.char() == "<":
+        if not first:
+            raise cur.error("expected a left context before '<'")
+        left = first
+        cur.i += 1
+        preds = _patterns(cur)
+    else:
+        preds = first
+    if not preds:
+        raise cur.error(f"expected a predecessor module, found {cur.describe()}")
+    if len(preds) > 1:
+        raise _error(preds[1][0].pos, f"expected '<', '>', ':' or '->' after the predecessor "
+                                      f"'{preds[0][0].name}'; a production rewrites one module")
+    right: list = []
+    if cur.char() == ">":
+        cur.i += 1
+        right = _patterns(cur)
+        if not right:
+            raise cur.error(f"expected a right context after '>', found {cur.describe()}")
+    bound: dict[str, Pos] = {}
+    for _, params in left + preds + right:
+        for name, pos in params:
+            if name in bound:
+                raise _error(pos, f"parameter '{name}' is already bound at {_where(bound[name])}; "
+                                  "expected distinct names in one production")
+            bound[name] = pos
+    params_set = frozenset(bound)
+    where = (f"a parameter of this production ({', '.join(bound)}) or a define"
+             if bound else "a define (this production has no parameters)")
+
+    condition = None
+    if cur.char() == ":":
+        cur.i += 1
+        if cur.char() == "*":
+            cur.i += 1
+            if not (cur.at("->") or not cur.char()):
+                raise cur.error(f"expected '->' after the condition '*', found {cur.describe()}")
+        else:
+            if cur.at("->") or not cur.char():
+                raise cur.error("expected a condition or '*' after ':'")
+            condition = _expression(cur)
+            _check_names(condition, params_set, defines, where)
+            _check_constant_parts(condition, params_set, defines)
+    if not cur.at("->"):
+        expected = "'>', ':' or '->'" if not right and condition is None else "'->'"
+        raise cur.error(f"expected {expected}, found {cur.describe()}")
+    cur.i += 2
+
+    probability = None
+    if cur.char() == "(":
+        opened = cur.i
+        cur.i += 1
+        probability = _expression(cur)
+        close = _token(cur)
+        if close.kind != ")":
+            raise cur.error(f"expected ')' to close the probability opened at "
+                            f"{_where(cur.pos(opened))}, found {_describe(close)}", close.start)
+        cur.i = close.end
+        for node in _name_nodes(probability):
+            if node.name in params_set:
+                raise _error(node.pos, f"a probability must be constant; '{node.name}' is a "
+                                       "parameter, expected numbers and defines")
+        _check_names(probability, frozenset(), defines, "a number or a define")
+        if _evaluate_constant(probability, defines) < 0:
+            raise _error(probability.pos, "a probability must not be negative")
+    successor = _modules(cur)
+    _check_brackets(successor)
+    for module in successor:
+        for arg in module.args:
+            _check_names(arg, params_set, defines, where)
+            _check_constant_parts(arg, params_set, defines)
+    return Production(
+        pred=preds[0][0], successor=successor,
+        left=tuple(p for p, _ in left), right=tuple(p for p, _ in right),
+        condition=condition, probability=probability, pos=start,
+    )
+
+
+# --- whole files ---------------------------------------------------------------------
+
+class _FileParser:
+    """Reads one file statement by statement, then runs the whole-file checks."""
+
+    def __init__(self, text: str, source: str):
+        self.text, self.source = text, source
+        self.header: dict[str, tuple[object, Pos]] = {}
+        self.defines: dict[str, float] = {}
+        self.define_pos: dict[str, Pos] = {}
+        self.branches: list[BranchSymbol] = []
+        self.leaves: list[LeafSymbol] = []
+        self.declared: dict[str, Pos] = {}
+        self.axiom: tuple[Module, ...] | None = None
+        self.axiom_pos: Pos | None = None
+        self.rules: dict[str, list[Production]] = {"productions": [], "interpretation": []}
+        self.overrides: list[Override] = []
+        self.override_pos: dict[tuple[int, ...], Pos] = {}
+        self.section: str | None = None
+
+    def run(self) -> LSystem:
+        for number, raw in enumerate(self.text.split("\n"), start=1):
+            line = raw.split("#", 1)[0].rstrip()
+            if not line:
+                continue
+            cur = _Cursor(line, self.source, number)
+            try:
+                self._statement(cur)
+            except RecursionError:
+                raise cur.error("expression nested too deeply") from None
+        return self._finish()
+
+    # statements
+
+    def _statement(self, cur: _Cursor) -> None:
+        line = cur.text
+        m = _HEADER_LINE.match(line)
+        if m and len(m.group(1)) > 1:
+            word = m.group(1)
+            cur.i = m.start(1)
+            after = m.end()
+            if word == "axiom":
+                self.section = None
+                return self._axiom(cur, after)
+            if word in SECTIONS:
+                return self._section_start(cur, word, after)
+            if word in HEADER_KEYS:
+                self.section = None
+                return self._header(cur, word, after)
+            if word in _DECLARATIONS:
+                raise cur.error(f"'{word}' is not a header key; expected '{word} ' followed by "
+                                f"{'a name' if word == 'define' else 'a symbol'}")
+            raise cur.error(f"unknown header key '{word}'"
+                            f"{_suggest(word, HEADER_KEYS + ('axiom',) + SECTIONS)}; "
+                            f"expected one of {', '.join(HEADER_KEYS)}")
+        m = _DECLARATION_LINE.match(line)
+        if m:
+            self.section = None
+            cur.i = m.end()
+            if m.group(1) == "define":
+                return self._define(cur)
+            return self._declaration(cur, m.group(1))
+        m = _FIRST_WORD.match(line)
+        word = m.group(1) if m else ""
+        hint = _suggest(word, _STATEMENT_WORDS) if len(word) > 2 and "->" not in line else ""
+        if self.section is not None and not hint:
+            if self.section == "overrides":
+                return self._override(cur)
+            self.rules[self.section].append(_production(cur, self.defines))
+            return None
+        cur.skip_ws()
+        if len(word) > 1 and "->" not in line:     # a misspelled statement keyword
+            raise cur.error(f"unknown statement '{word}'{hint}; expected {_STATEMENTS_HELP}")
+        if "->" in line:
+            raise cur.error("production outside a section; expected a 'productions:' or "
+                            "'interpretation:' line before it")
+        raise cur.error(f"unexpected {cur.describe()} outside a section; expected {_STATEMENTS_HELP}")
+
+    def _expect_end(self, cur: _Cursor, what: str) -> None:
+        if cur.char():
+            raise cur.error(f"unexpected {cur.describe()} after {what}; expected end of line")
+
+    def _header(self, cur: _Cursor, key: str, after: int) -> None:
+        key_pos = cur.pos()
+        if key in self.header:
+            raise cur.error(f"duplicate header key '{key}' (first given at "
+                            f"{_where(self.header[key][1])}); expected each key at most once")
+        cur.i = after
+        if key == "name":
+            value: object = cur.text[after:].strip()
+        elif key == "ignore":
+            value = self._ignore_list(cur)
+        else:
+            cur.skip_ws()
+            value_start = cur.i
+            if not cur.char():
+                raise cur.error(f"expected a value after '{key}:'")
+            literal = re.fullmatch(r"[0-9]+", cur.text[value_start:].strip())
+            if key in _INTEGER_KEYS and literal:
+                value = int(literal.group())       # exact, however large
+                cur.i = len(cur.text)
+            else:
+                _, value = _constant(cur, self.defines)
+                self._expect_end(cur, f"the value of '{key}'")
+                if key in _INTEGER_KEYS:
+                    if not float(value).is_integer() or value < 0:
+                        raise cur.error(f"{key} must be a non-negative integer, got "
+                                        f"{format_number(value)}", value_start)
+                    value = int(value)
+        self.header[key] = (value, key_pos)
+
+    def _ignore_list(self, cur: _Cursor) -> tuple[str, ...]:
+        symbols: list[str] = []
+        while c := cur.char():
+            if c in RESERVED_CHARS:
+                raise cur.error(f"unexpected character '{c}'; expected symbols separated by spaces")
+            if c in BRACKETS:
+                raise cur.error(f"'{c}' cannot be ignored: brackets give context its structure; "
+                                "expected other symbols")
+            if c in symbols:
+                raise cur.error(f"'{c}' is listed twice; expected each symbol once")
+            symbols.append(c)
+            cur.i += 1
+        return tuple(symbols)
+
+    def _define(self, cur: _Cursor) -> None:
+        tok = _token(cur)
+        if tok.kind != "name":
+            raise cur.error(f"expected a name after 'define', found {_describe(tok)}", tok.start)
+        name = tok.text
+        if name in self.defines:
+            raise cur.error(f"'{name}' is already defined at {_where(self.define_pos[name])}; "
+                            "expected a new name", tok.start)
+        cur.i = tok.end
+        eq = _token(cur)
+        if eq.text != "=" or eq.kind != "char":
+            raise cur.error(f"expected '=' after 'define {name}', found {_describe(eq)}", eq.start)
+        cur.i = eq.end
+        if not cur.char():
+            raise cur.error(f"expected a value after 'define {name} ='")
+        _, value = _constant(cur, self.defines)
+        self._expect_end(cur, f"the value of '{name}'")
+        self.defines[name] = value
+        self.define_pos[name] = cur.pos(tok.start)
+
+    def _declaration(self, cur: _Cursor, kind: str) -> None:
+        """``branch S: key=EXPR ...`` or ``leaf S: area=EXPR``."""
+        c = cur.char()
+        example = "branch F: length=1 ..." if kind == "branch" else "leaf L: area=0.01"
+        if not c:
+            raise cur.error(f"expected a symbol after '{kind}', as in '{example}'")
+        sym_i = cur.i
+        if c in RESERVED_CHARS:
+            raise cur.error(f"unknown symbol in a declaration: '{c}' is reserved; expected one "
+                            f"character such as F, as in '{example}'")
+        if c in TURTLE_SYMBOLS:
+            raise cur.error(f"unknown symbol in a declaration: '{c}' is a turtle symbol; "
+                            f"expected a symbol of your own, as in '{example}'")
+        cur.i += 1
+        nxt = cur.char()
+        if nxt != ":":
+            if nxt and nxt not in RESERVED_CHARS:
+                raise cur.error(f"unknown symbol in a declaration: a symbol is one character; "
+                                f"expected ':' after '{c}'")
+            raise cur.error(f"expected ':' after '{kind} {c}', found {cur.describe()}")
+        if c in self.declared:
+            raise cur.error(f"unknown symbol in a declaration: '{c}' is already declared at "
+                            f"{_where(self.declared[c])}; expected each symbol declared once", sym_i)
+        cur.i += 1
+        keys = BRANCH_KEYS if kind == "branch" else LEAF_KEYS
+        values = self._key_values(cur, keys, f"a {kind} declaration")
+        for key, required in keys.items():
+            if required and key not in values:
+                raise cur.error(f"{kind} '{c}' lacks the required key '{key}'; expected "
+                                f"{' '.join(k + '=...' for k, r in keys.items() if r)}", sym_i)
+        pos = cur.pos(sym_i)
+        if kind == "branch":
+            self.branches.append(BranchSymbol(c, **values, pos=pos))
+        else:
+            self.leaves.append(LeafSymbol(c, **values, pos=pos))
+        self.declared[c] = pos
+
+    def _key_values(self, cur: _Cursor, keys: dict[str, bool], what: str) -> dict[str, float]:
+        """``key=EXPR key=EXPR ...`` to the end of the line; keys from ``keys``."""
+        out: dict[str, float] = {}
+        while True:
+            tok = _token(cur)
+            if tok.kind == "end":
+                return out
+            if tok.kind != "name":
+                raise cur.error(f"expected key=value, found {_describe(tok)}", tok.start)
+            if tok.text not in keys:
+                raise cur.error(f"unknown key '{tok.text}' in {what}{_suggest(tok.text, keys)}; "
+                                f"expected one of {', '.join(keys)}", tok.start)
+            if tok.text in out:
+                raise cur.error(f"duplicate key '{tok.text}' in {what}; expected each key once",
+                                tok.start)
+            cur.i = tok.end
+            eq = _token(cur)
+            if eq.text != "=" or eq.kind != "char":
+                raise cur.error(f"expected '=' after '{tok.text}', found {_describe(eq)}", eq.start)
+            cur.i = eq.end
+            if _token(cur).kind == "end":
+                raise cur.error(f"expected a value after '{tok.text}='")
+            out[tok.text] = _constant(cur, self.defines)[1]
+
+    def _axiom(self, cur: _Cursor, after: int) -> None:
+        if self.axiom is not None:
+            raise cur.error(f"duplicate 'axiom:' (first given at {_where(self.axiom_pos)}); "
+                            "expected one axiom")
+        self.axiom_pos = cur.pos()
+        cur.i = after
+        modules = _modules(cur)
+        if not modules:
+            raise cur.error("the axiom is empty; expected at least one module")
+        _check_brackets(modules)
+        for module in modules:
+            for arg in module.args:
+                _check_names(arg, frozenset(), self.defines,
+                             "a number or a define given on an earlier line (the axiom has no parameters)")
+                _evaluate_constant(arg, self.defines)
+        self.axiom = modules
+
+    def _section_start(self, cur: _Cursor, word: str, after: int) -> None:
+        cur.i = after
+        if cur.char():
+            raise cur.error(f"unexpected {cur.describe()} after '{word}:'; expected end of line "
+                            f"(the {word} go on the following lines)")
+        self.section = word
+
+    def _override(self, cur: _Cursor) -> None:
+        """``ADDRESS: key=EXPR ...``."""
+        cur.skip_ws()
+        start = cur.i
+        colon = cur.text.find(":", start)
+        if colon < 0:
+            raise cur.error("expected 'ADDRESS: key=value ...' in the overrides section, "
+                            "as in '0.1.0: length=2'")
+        text = cur.text[start:colon].rstrip()
+        if not _ADDRESS.fullmatch(text):
+            raise cur.error(f"override address '{text}' is not valid; expected dotted "
+                            "non-negative integers such as 0.1.0")
+        address = tuple(int(part) for part in text.split("."))
+        pos = cur.pos()
+        if address in self.override_pos:
+            raise cur.error(f"address {text} is overridden twice (first at "
+                            f"{_where(self.override_pos[address])}); expected one line per address")
+        cur.i = colon + 1
+        values = self._key_values(cur, OVERRIDE_KEYS, "an override (branch keys and area)")
+        if not values:
+            raise cur.error(f"expected key=value after '{text}:'")
+        self.overrides.append(Override(address, tuple(sorted(values.items())), pos))
+        self.override_pos[address] = pos
+
+    # whole-file checks
+
+    def _finish(self) -> LSystem:
+        start = Pos(self.source, 1, 1)
+        for key in REQUIRED_HEADER_KEYS:
+            if key not in self.header:
+                raise _error(start, f"missing required header key '{key}'; expected a line "
+                                    f"'{key}: VALUE'")
+        if self.axiom is None:
+            raise _error(start, "missing 'axiom:'; expected a line 'axiom: MODULES'")
+        values = {key: value for key, (value, _) in self.header.items()}
+        values.setdefault("rotation_angle", values["branching_angle"])
+        system = LSystem(
+            axiom=self.axiom,
+            productions=tuple(self.rules["productions"]),
+            interpretation=tuple(self.rules["interpretation"]),
+            branches=tuple(self.branches), leaves=tuple(self.leaves),
+            defines=tuple(self.defines.items()), overrides=tuple(self.overrides),
+            source=self.source, **values,
+        )
+        errors = list(_whole_file_errors(system))
+        if errors:
+            raise min(errors, key=lambda e: (e.line, e.col))
+        return system
+
+
+def _stochastic_errors(rules: tuple[Production, ...], defines: dict[str, float]) -> Iterator[InputError]:
+    """Groups that do not sum to 1, and left sides with and without probabilities."""
+    first: dict[tuple, Production] = {}
+    groups: dict[tuple, list[Production]] = {}
+    for rule in rules:
+        key = (rule.pred, rule.left, rule.right, rule.condition)
+        earlier = first.setdefault(key, rule)
+        if (earlier.probability is None) != (rule.probability is None):
+            has, other = (("has no probability", "has one") if rule.probability is None
+                          else ("has a probability", "has none"))
+            yield _error(rule.pos, f"this production {has} but the one with the same left side at "
+                                   f"{_where(earlier.pos)} {other}; expected every alternative "
+                                   "of a stochastic group to have a probability")
+        elif rule.probability is not None:
+            groups.setdefault(key, []).append(rule)
+    for members in groups.values():
+        total = math.fsum(_evaluate_constant(m.probability, defines) for m in members)
+        if abs(total - 1.0) > PROBABILITY_SUM_TOL:
+            yield _error(members[0].pos, f"the probabilities of this stochastic group "
+                                         f"({len(members)} alternatives) sum to {total!r}; "
+                                         f"expected 1 (within {PROBABILITY_SUM_TOL:g})")
+
+
+def _turtle_count_error(item: Module | Pattern, count: int, branches: set[str],
+                        leaves: set[str]) -> InputError | None:
+    """The parameter counts the turtle accepts for fixed and declared symbols."""
+    name = item.name
+    if name in TURTLE_NO_ARG and count:
+        return _error(item.pos, f"'{name}' takes no parameters, got {count}")
+    if count > 1:
+        if name in TURTLE_OPTIONAL_ARG:
+            return _error(item.pos, f"'{name}' takes 0 or 1 parameters, got {count}")
+        if name in branches:
+            return _error(item.pos, f"'{name}' is a branch symbol and takes 0 or 1 parameters "
+                                    f"(its length), got {count}")
+        if name in leaves:
+            return _error(item.pos, f"'{name}' is a leaf symbol and takes 0 or 1 parameters "
+                                    f"(its area), got {count}")
+    return None
+
+
+def _rule_counts(rules: tuple[Production, ...]) -> dict[str, tuple[set[int], Production]]:
+    """Character -> (parameter counts its rules accept, its first rule)."""
+    out: dict[str, tuple[set[int], Production]] = {}
+    for rule in rules:
+        out.setdefault(rule.pred.name, (set(), rule))[0].add(len(rule.pred.params))
+    return out
+
+
+def _count_error(module: Module, counts: dict[str, tuple[set[int], Production]],
+                 what: str) -> InputError | None:
+    entry = counts.get(module.name)
+    if entry is None or len(module.args) in entry[0]:
+        return None
+    accepted = " or ".join(str(n) for n in sorted(entry[0]))
+    return _error(module.pos, f"'{module.name}' has {_plural(len(module.args), 'parameter')} here, "
+                              f"but the {what} for '{module.name}' (first at "
+                              f"{_where(entry[1].pos)}) take {accepted}; expected {accepted}")
+
+
+def _whole_file_errors(system: LSystem) -> Iterator[InputError]:
+    """Checks that need the whole file: parameter counts and stochastic groups.
+
+    Parameter counts: every module and pattern obeys the turtle's counts; every
+    module of the axiom and of a production's successor matches some production
+    for its character (if it has any) and some interpretation rule for its
+    character (if it has any: these modules make up the final string).
+    """
+    defines = system.constants()
+    branches = {b.name for b in system.branches}
+    leaves = {leaf.name for leaf in system.leaves}
+    yield from _stochastic_errors(system.productions, defines)
+    yield from _stochastic_errors(system.interpretation, defines)
+    production_counts = _rule_counts(system.productions)
+    interpretation_counts = _rule_counts(system.interpretation)
+    final_string_sources = [system.axiom] + [p.successor for p in system.productions]
+    for modules in final_string_sources:
+        for module in modules:
+            yield from filter(None, (
+                _count_error(module, production_counts, "productions"),
+                _count_error(module, interpretation_counts, "interpretation rules"),
+            ))
+    everything: list[Module | Pattern] = list(system.axiom)
+    for rule in system.productions + system.interpretation:
+        everything += [*rule.left, rule.pred, *rule.right, *rule.successor]
+    for item in everything:
+        count = len(item.args) if isinstance(item, Module) else len(item.params)
+        error = _turtle_count_error(item, count, branches, leaves)
+        if error is not None:
+            yield error
+
+
+# --- public API -------------------------------------------------------------------
+
+def parse_lsys(text: str, source: str = "<string>") -> LSystem:
+    """Parse a whole ``.lsys`` file; every error is an `InputError` at file:line:col."""
+    return _FileParser(text, source).run()
+
+
+def parse_expr(text: str, source: str = "<string>", line: int = 1, col: int = 1) -> Expr:
+    """Parse one expression (syntax, function names and argument counts only; names are
+    not checked). ``line`` and ``col`` are the position of ``text[0]`` in its file."""
+    cur = _Cursor(text, source, line, col)
+    try:
+        expr = _expression(cur)
+    except RecursionError:
+        raise cur.error("expression nested too deeply", 0) from None
+    tok = _token(cur)
+    if tok.kind != "end":
+        raise cur.error(f"unexpected {_describe(tok)} after the expression; expected an "
+                        "operator or the end", tok.start)
+    return expr
+
+
+def parse_modules(text: str, source: str = "<string>", line: int = 1, col: int = 1) -> tuple[Module, ...]:
+    """Parse a module sequence such as ``F(l)[+A(l/2)]`` (syntax and brackets only)."""
+    cur = _Cursor(text, source, line, col)
+    try:
+        modules = _modules(cur)
+    except RecursionError:
+        raise cur.error("expression nested too deeply", 0) from None
+    _check_brackets(modules)
+    return modules

@@ -1,0 +1,120 @@
+"""Run a simulation: chunks of sampled angles from a tree, a wind and a time step.
+
+`simulate` yields `Samples` chunks whose rows are the steps k = 0, every,
+2*every, ... up to and including ``steps`` (the last row is the last multiple of
+``every`` not above ``steps``; the final step itself is written only when
+``every`` divides ``steps``). Row k holds the angles at t_k = k * dt; row 0 is
+t0 = 0 with every angle 0. Memory stays bounded: each chunk holds at most
+``chunk`` rows, and the wind is sampled a bounded number of steps at a time.
+
+The kernel (numba) is imported on first use, so importing this module is cheap.
+"""
+
+from __future__ import annotations
+
+from typing import Iterator, NamedTuple
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.tree import Tree
+
+from .stability import check_stability
+from .wind import Wind
+
+# Rows per yielded chunk when the caller does not say: about this many angle
+# values per array (8 MB of float64).
+CHUNK_VALUES = 1 << 20          # TODO(lead): move to constants
+# Steps per kernel call at most, bounding the wind samples held at once.
+STEPS_PER_CALL = 1 << 16        # TODO(lead): move to constants
+
+
+class Samples(NamedTuple):
+    """One chunk of output rows: times (m,) s; bend and rot (m, B) radians."""
+
+    times: np.ndarray
+    bend: np.ndarray
+    rot: np.ndarray
+
+
+def default_chunk(n_branches: int) -> int:
+    """Rows per chunk for a tree of ``n_branches``: about CHUNK_VALUES values per array."""
+    return max(1, CHUNK_VALUES // max(n_branches, 1))
+
+
+def _check_counts(steps: int, every: int, chunk: int) -> None:
+    for name, value, low in (("steps", steps, 0), ("every", every, 1), ("chunk", chunk, 1)):
+        if not isinstance(value, (int, np.integer)) or value < low:
+            raise InputError(f"{name} must be an integer >= {low}, got {value!r}")
+
+
+def simulate(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
+             damping: float = 0.0, chunk: int | None = None) -> Iterator[Samples]:
+    """Simulate ``steps`` time steps of ``dt`` seconds; yield chunks of sampled angles.
+
+    wind    : any object with ``sample(times (K,)) -> (K, 3)`` (`plantlod.sim.wind`)
+    every   : keep the rows of steps k with k % every == 0 (k = 0 included)
+    damping : the velocity damping c of model.md section 4, 0 <= c < 2
+    chunk   : rows per yielded chunk at most (default `default_chunk`)
+    Raises `InputError` before the first chunk for an unstable dt or bad
+    parameters, and `RunFailure` when an angle stops being finite (the chunks
+    before it have been yielded by then).
+    """
+    chunk = default_chunk(tree.n_branches) if chunk is None else chunk
+    _check_counts(steps, every, chunk)
+    check_stability(tree, dt, damping)
+    return _chunks(tree, float(dt), int(steps), wind, int(every), float(damping), int(chunk))
+
+
+def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: float,
+            chunk: int) -> Iterator[Samples]:
+    from . import kernel   # numba: only when a simulation actually runs
+
+    b = tree.n_branches
+    model = kernel.prepare(tree, damping)
+    state = kernel.KernelState(b)
+    total_rows = steps // every + 1
+    emitted = 0
+    step = 0                      # steps done so far
+    while emitted < total_rows:
+        rows = min(chunk, total_rows - emitted)
+        out_bend = np.empty((rows, b))
+        out_rot = np.empty((rows, b))
+        filled = 0
+        if emitted == 0:           # t0: at rest
+            out_bend[0] = 0.0
+            out_rot[0] = 0.0
+            filled = 1
+        while filled < rows:
+            # steps to the row after the next `rows - filled` multiples of every
+            n = min((rows - filled) * every - step % every, STEPS_PER_CALL)
+            ks = np.arange(step, step + n, dtype=np.float64)   # step k uses V(t_{k-1})
+            wind_samples = np.asarray(wind.sample(ks * dt), dtype=np.float64)
+            if wind_samples.shape != (n, 3):
+                raise RunFailure(f"the wind gave an array of shape {wind_samples.shape}, expected ({n}, 3)")
+            written, bad, bad_step = kernel.advance(model, state, wind_samples, dt, step + 1,
+                                                    every, out_bend, out_rot, filled)
+            filled += written
+            if bad >= 0:
+                if filled:
+                    yield Samples(_times(emitted, filled, every, dt), out_bend[:filled], out_rot[:filled])
+                raise RunFailure(f"simulation diverged at t={bad_step * dt:.10g} s (step {bad_step}) "
+                                 f"in branch {tree.address[bad]}: an angle is no longer finite; "
+                                 f"lower force_absorbed, the wind or dt")
+            step += n
+        yield Samples(_times(emitted, rows, every, dt), out_bend, out_rot)
+        emitted += rows
+
+
+def _times(first_row: int, rows: int, every: int, dt: float) -> np.ndarray:
+    """t = k * dt for the rows first_row .. first_row + rows - 1 (k = row * every)."""
+    return np.arange(first_row, first_row + rows, dtype=np.float64) * every * dt
+
+
+def simulate_arrays(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
+                    damping: float = 0.0) -> Samples:
+    """The whole run as one `Samples`: times (m,), bend and rot (m, B), m = steps // every + 1."""
+    parts = list(simulate(tree, dt, steps, wind, every=every, damping=damping))
+    return Samples(np.concatenate([p.times for p in parts]),
+                   np.concatenate([p.bend for p in parts]),
+                   np.concatenate([p.rot for p in parts]))

@@ -1,0 +1,308 @@
+"""Which original branches a simplified branch stands for (model.md section 5).
+
+A level-n simplification derives N - n steps where the original derives N, and
+addresses are stable across derivation lengths, so the simplified branch with
+address a stands for the *group* of original branches whose addresses begin
+with a. This module finds the groups, the main path through each group, the
+group's combined bend and rotation angles, and its tip.
+
+Addresses are strings ``"a0.a1.….ak"``, optionally followed by ``":j"`` for
+the j-th further branch that interpretation draws under one address. The
+suffix is part of a branch's identity (two branches of one tree never share a
+full address) but not of the prefix test: ``"0.1:1"`` and ``"0.1"`` both have
+the base address (0, 1). Addresses order as (base tuple of integers, suffix),
+so 1.9 comes before 1.10 and 0.1 before 0.1:1.
+
+Group indices are simplified-branch indices: group g is the group of the
+simplified tree's branch g, and arrays over groups have G = B_simplified
+columns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plantlod.lsys.constants import ALPHA_TIE_TOL
+from plantlod.lsys.derived import ragged_arange
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.rotation import rot_y, rot_z
+from plantlod.lsys.tree import Tree
+
+# How many offending addresses an error message lists before "…".
+_MESSAGE_EXAMPLES = 3
+# combined_angles works on blocks of about this many (sample, member) pairs:
+# four buffers of 8 bytes per pair that stay in cache (measured fastest near 1 MB).
+_CHUNK_ELEMENTS = 1 << 17
+
+AddressKey = tuple[tuple[int, ...], int]
+
+
+# --- addresses --------------------------------------------------------------------
+
+def parse_address(text: str) -> AddressKey:
+    """``"a0.a1.….ak[:j]"`` -> ((a0, …, ak), j), with j = 0 when there is no suffix.
+
+    The result is also the sort key of the address. Raises InputError on
+    anything else.
+    """
+    base, colon, suffix = text.partition(":")
+    try:
+        parts = tuple(int(p) for p in base.split("."))
+        j = int(suffix) if colon else 0
+    except ValueError:
+        raise InputError(f"bad branch address {text!r}: expected integers separated by '.', "
+                         f"optionally followed by ':j'") from None
+    if any(p < 0 for p in parts) or j < 0 or (colon and j == 0):
+        raise InputError(f"bad branch address {text!r}: expected non-negative integers "
+                         f"and a suffix ':j' with j >= 1")
+    return parts, j
+
+
+def _parse_tree_addresses(tree: Tree, which: str) -> list[AddressKey]:
+    """Parsed addresses of every branch of ``tree``; all of one length and unique."""
+    keys = [parse_address(a) for a in tree.address]
+    lengths = {len(base) for base, _ in keys}
+    if len(lengths) > 1:
+        raise InputError(f"the {which} tree's branch addresses have {sorted(lengths)} components; "
+                         f"expected one length (every module of one derivation step has k+1)")
+    seen: dict[AddressKey, int] = {}
+    for i, key in enumerate(keys):
+        if key in seen:
+            raise InputError(f"the {which} tree has two branches with address {tree.address[i]}; "
+                             f"expected unique addresses (use ':j' suffixes for extra branches)")
+        seen[key] = i
+    return keys
+
+
+def _examples(items: list[str]) -> str:
+    shown = ", ".join(items[:_MESSAGE_EXAMPLES])
+    return shown + (", …" if len(items) > _MESSAGE_EXAMPLES else "")
+
+
+# --- groups -----------------------------------------------------------------------
+
+def assign_groups(original: Tree, simplified: Tree) -> np.ndarray:
+    """The group of every original branch: (B_orig,) int64 simplified-branch indices.
+
+    Original branch i belongs to:
+      1. the simplified branch with exactly its full address, if there is one
+         (a level-0 simplification keeps every ``":j"`` branch apart);
+      2. else the simplified branch whose base address is a prefix of i's base
+         address; when interpretation drew several simplified branches under
+         that address (``a``, ``a:1``, …) the first one, ``a``, or the one
+         with the lowest suffix;
+      3. else (i lies under an apex that draws nothing at step N - n) the group
+         of its parent branch, which is decided first since parents come before
+         children;
+      4. else -1: a root branch drawn under an apex, or a branch hanging only
+         from such branches. It belongs to no group; `main_paths` and the
+         error measures leave it out, and callers can count them with
+         ``(groups < 0).sum()``.
+
+    Raises InputError when the trees do not correspond: unparsable or duplicate
+    addresses, the simplified addresses longer than the original's, or a
+    simplified branch whose group is empty (which is also what different
+    axioms or unrelated files produce).
+    """
+    if simplified.n_branches == 0:
+        raise InputError("the simplified tree has no branches; expected at least one to compare")
+    orig_keys = _parse_tree_addresses(original, "original")
+    simp_keys = _parse_tree_addresses(simplified, "simplified")
+    depth_o = len(orig_keys[0][0]) if orig_keys else 0
+    depth_s = len(simp_keys[0][0])
+    if orig_keys and depth_s > depth_o:
+        raise InputError(
+            f"the simplified tree's addresses have {depth_s} components, more than the original's "
+            f"{depth_o}; expected the simplified tree to be derived in fewer steps")
+
+    exact = {key: s for s, key in enumerate(simp_keys)}
+    by_base: dict[tuple[int, ...], int] = {}
+    for s, (base, suffix) in enumerate(simp_keys):
+        if base not in by_base or suffix < simp_keys[by_base[base]][1]:
+            by_base[base] = s
+
+    parent = np.asarray(original.parent, dtype=np.int64).tolist()
+    found: list[int] = []
+    for i, key in enumerate(orig_keys):
+        s = exact.get(key)
+        if s is None:
+            s = by_base.get(key[0][:depth_s])
+        if s is None:
+            s = found[parent[i]] if parent[i] >= 0 else -1
+        found.append(s)
+    groups = np.asarray(found, dtype=np.int64).reshape(-1)
+
+    sizes = np.bincount(groups[groups >= 0], minlength=simplified.n_branches)
+    empty = [simplified.address[s] for s in np.flatnonzero(sizes == 0)]
+    if len(empty) == simplified.n_branches:
+        raise InputError(
+            f"the trees share no addresses: no original branch address (e.g. "
+            f"{_examples(original.address)}) begins with a simplified one (e.g. "
+            f"{_examples(simplified.address)}); expected a simplification of the same L-system")
+    if empty:
+        raise InputError(
+            f"simplified branch(es) {_examples(empty)} stand for no branch of the original; "
+            f"expected every simplified address to begin some original branch's address")
+    return groups
+
+
+def _pick(candidates: list[int], alpha: np.ndarray, keys: list[AddressKey]) -> int:
+    """The candidate with the smallest alpha; those within ALPHA_TIE_TOL of it tie; then lowest address."""
+    smallest = min(alpha[c] for c in candidates)
+    tied = [c for c in candidates if alpha[c] <= smallest + ALPHA_TIE_TOL]
+    return min(tied, key=lambda c: keys[c])
+
+
+def main_paths(original: Tree, groups: np.ndarray, n_groups: int | None = None) -> list[np.ndarray]:
+    """The main path of every group: a list of G (m_g,) int64 arrays of original branch indices.
+
+    A path starts at the group's root branch (the member whose parent is
+    outside the group; of several, the smallest rest alpha, then the lowest
+    address) and steps, at each member, to its child in the group with the
+    smallest rest alpha (ties within ALPHA_TIE_TOL: the lowest address) until
+    the member has no child in the group. Every member's parent is the member
+    before it. ``n_groups`` defaults to ``groups.max() + 1``; an empty group
+    gets an empty path; branches with group -1 are ignored.
+    """
+    groups = np.asarray(groups, dtype=np.int64)
+    if groups.shape != (original.n_branches,):
+        raise ValueError(f"groups must have shape ({original.n_branches},), got {groups.shape}")
+    if n_groups is None:
+        n_groups = int(groups.max()) + 1 if len(groups) else 0
+    g_count = n_groups
+    keys = [parse_address(a) for a in original.address]
+    alpha = np.asarray(original.euler, dtype=np.float64).reshape(-1, 3)[:, 1]
+    parent = np.asarray(original.parent, dtype=np.int64)
+    gl = groups.tolist()
+
+    roots: list[list[int]] = [[] for _ in range(g_count)]
+    kids_in_group: list[list[int]] = [[] for _ in range(original.n_branches)]
+    for i, (p, g) in enumerate(zip(parent.tolist(), gl)):
+        if g < 0:
+            continue
+        if p >= 0 and gl[p] == g:
+            kids_in_group[p].append(i)
+        else:
+            roots[g].append(i)
+
+    paths = []
+    for g in range(g_count):
+        path: list[int] = []
+        if roots[g]:
+            cur = _pick(roots[g], alpha, keys)
+            path.append(cur)
+            while kids_in_group[cur]:
+                cur = _pick(kids_in_group[cur], alpha, keys)
+                path.append(cur)
+        paths.append(np.asarray(path, dtype=np.int64))
+    return paths
+
+
+# --- combined angles --------------------------------------------------------------
+
+def path_rotations(original: Tree, paths: list[np.ndarray]) -> np.ndarray:
+    """W_0^T W_j for every member j of every path, concatenated in path order: (M, 3, 3).
+
+    M is the total number of path members. W_j = R_parent,rest Rz(phi_j) Ry(alpha_j)
+    is member j's rest swing frame and W_0 that of its path's first member.
+    Along a path each member's parent is the previous member, so with
+    Q_i = Rz(phi_i) Ry(alpha_i) Rz(psi_i)::
+
+        W_0^T W_0 = I
+        W_0^T W_j = Rz(psi_0) Q_1 … Q_(j-1) Rz(phi_j) Ry(alpha_j)
+
+    which needs only the paths' own rest angles, never world frames. Computed
+    for all paths at once, one path position at a time.
+    """
+    members = _concatenate(paths)
+    euler = np.asarray(original.euler, dtype=np.float64).reshape(-1, 3)[members]   # (M, 3)
+    swing = rot_z(euler[:, 0]) @ rot_y(euler[:, 1])      # (M, 3, 3) Rz(phi) Ry(alpha)
+    twist = rot_z(euler[:, 2])                            # (M, 3, 3) Rz(psi)
+    lengths = np.array([len(p) for p in paths], dtype=np.int64)
+    position = ragged_arange(lengths)                        # (M,) index within its path
+    out = np.empty((len(members), 3, 3))
+    frame = np.empty((len(members), 3, 3))                # W_0^T R_j, member j's branch frame
+    first = position == 0
+    out[first] = np.eye(3)
+    frame[first] = twist[first]
+    for j in range(1, int(lengths.max(initial=0))):
+        at = np.flatnonzero(position == j)                # members j of the paths that long
+        out[at] = frame[at - 1] @ swing[at]               # at - 1: the same path's member j-1
+        frame[at] = out[at] @ twist[at]
+    return out
+
+
+def combined_angles(original: Tree, paths: list[np.ndarray],
+                    bend: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The combined angles (Θb, Θr) of every group, radians.
+
+    bend, rot : (K, B) or (B,) the original's bend and rotation angles, radians
+    returns   : two arrays (K, G) (or (G,) for (B,) input); 0 for an empty path
+
+    Θb = Ω_y and Θr = -Ω_x with Ω = Σ_j M_j ω_j over the group's main-path
+    members j, M_j = W_0^T W_j (`path_rotations`, computed once per member) and
+    ω_j = (-θr_j, θb_j, 0) the member's rotation vector in its rest swing frame
+    W_j, carried into the root's W_0. Written out:
+
+        Θb = Σ_j M_j[1,1] θb_j - M_j[1,0] θr_j
+        Θr = Σ_j M_j[0,0] θr_j - M_j[0,1] θb_j
+
+    For a straight stalk every M_j is I and these are the plain sums. Members
+    are added in path order, so results do not depend on chunking.
+    """
+    bend = np.asarray(bend, dtype=np.float64)
+    rot = np.asarray(rot, dtype=np.float64)
+    b = original.n_branches
+    if bend.shape != rot.shape or bend.ndim not in (1, 2) or bend.shape[-1] != b:
+        raise ValueError(f"bend and rot must both have shape (K, {b}) or ({b},); "
+                         f"got {bend.shape} and {rot.shape}")
+    bend2, rot2 = np.atleast_2d(bend), np.atleast_2d(rot)
+    k = bend2.shape[0]
+    members = _concatenate(paths)
+    m = path_rotations(original, paths)
+    coef = {name: np.ascontiguousarray(c) for name, c in   # (M,) each, contiguous for speed
+            (("bb", m[:, 1, 1]), ("br", -m[:, 1, 0]), ("rb", -m[:, 0, 1]), ("rr", m[:, 0, 0]))}
+    lengths = np.array([len(p) for p in paths], dtype=np.int64)
+    filled = np.flatnonzero(lengths > 0)                  # groups with a path
+    starts = (np.cumsum(lengths) - lengths)[filled]       # their first member in `members`
+
+    theta_b = np.zeros((k, len(paths)))
+    theta_r = np.zeros((k, len(paths)))
+    if len(members) == 0:
+        return (theta_b[0], theta_r[0]) if bend.ndim == 1 else (theta_b, theta_r)
+    # Small blocks of samples stay in cache; the buffers are reused block to block.
+    rows = min(k, max(1, _CHUNK_ELEMENTS // len(members)))
+    bj, rj, acc, tmp = (np.empty((rows, len(members))) for _ in range(4))
+    for lo in range(0, k, rows):
+        n = min(rows, k - lo)
+        np.take(bend2[lo:lo + n], members, axis=1, out=bj[:n])  # (n, M) member angles
+        np.take(rot2[lo:lo + n], members, axis=1, out=rj[:n])
+        for out, cb, cr in ((theta_b, coef["bb"], coef["br"]), (theta_r, coef["rb"], coef["rr"])):
+            np.multiply(bj[:n], cb, out=acc[:n])
+            np.multiply(rj[:n], cr, out=tmp[:n])
+            acc[:n] += tmp[:n]
+            out[lo:lo + n, filled] = np.add.reduceat(acc[:n], starts, axis=1)
+    if bend.ndim == 1:
+        return theta_b[0], theta_r[0]
+    return theta_b, theta_r
+
+
+def _concatenate(paths: list[np.ndarray]) -> np.ndarray:
+    """All path members in path order, (M,) int64."""
+    if not paths:
+        return np.zeros(0, dtype=np.int64)
+    return np.concatenate([np.asarray(p, dtype=np.int64) for p in paths])
+
+
+def group_tips(paths: list[np.ndarray], tips: np.ndarray) -> np.ndarray:
+    """Each group's tip: the tip of its main path's last branch.
+
+    tips    : (..., B, 3) posed branch tips of the original (e.g. `Pose.tip`), m
+    returns : (..., G, 3)
+
+    Raises ValueError for an empty path (a group with no members has no tip).
+    """
+    if any(len(p) == 0 for p in paths):
+        raise ValueError("a group with an empty main path has no tip")
+    last = np.asarray([int(p[-1]) for p in paths], dtype=np.int64)
+    return np.asarray(tips)[..., last, :]

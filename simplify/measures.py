@@ -1,0 +1,344 @@
+"""How far a simplified tree's motion is from the original's (model.md section 6).
+
+Signals are sampled at times ``t`` of shape (K,) (seconds, increasing). An
+angle signal is (K,) or (K, G), one column per group, in radians; every
+measure works down the time axis and returns one figure per column. Tips are
+(K, G, 3) world positions in metres.
+
+Undefined figures are NaN: the period of a signal with fewer than two upward
+crossings of its mean, and a relative error whose reference is undefined or 0.
+`Report.to_dict` turns them into ``None`` for JSON.
+
+A NaN inside a signal propagates: its amplitude is NaN, and since no sample
+compares with a NaN mean, it has no crossings and no period. `compare_groups`
+refuses non-finite input outright (an `InputError`), so a report never mixes
+real figures with ones computed from a diverged run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from plantlod.lsys.constants import COUNTED_AMPLITUDE_FRACTION
+from plantlod.lsys.errors import InputError
+
+COMPONENTS = ("bend", "rotation")
+
+
+# --- measures of one signal ---------------------------------------------------------
+
+def amplitude(x: np.ndarray) -> np.ndarray | float:
+    """Half the peak-to-peak range, (max - min) / 2, of x (K,) or (K, G): a float or (G,).
+
+    Same unit as x. NaN for a column that holds a NaN.
+    """
+    x = _as_signal(x)
+    a = (np.max(x, axis=0) - np.min(x, axis=0)) / 2.0
+    return float(a) if np.ndim(a) == 0 else a
+
+
+def upward_crossings(t: np.ndarray, x: np.ndarray) -> list[np.ndarray]:
+    """Times (s) at which x (K,) or (K, G) crosses its mean upward: one (c_g,) array per column.
+
+    A crossing lies between samples k-1 and k where x[k-1] < mean <= x[k]; its
+    time is found by linear interpolation between t[k-1] and t[k]. The slow,
+    explicit form of what `period` computes in one pass; for reports and tests.
+    """
+    t, x2 = _check_time(t, x)
+    out = []
+    for col in x2.T:
+        m = np.mean(col)
+        k = np.flatnonzero((col[:-1] < m) & (m <= col[1:])) + 1
+        frac = (m - col[k - 1]) / (col[k] - col[k - 1])
+        out.append(t[k - 1] + frac * (t[k] - t[k - 1]))
+    return out
+
+
+def period(t: np.ndarray, x: np.ndarray) -> np.ndarray | float:
+    """Mean spacing (s) of the upward crossings of x's mean: a float for x (K,), (G,) for (K, G).
+
+    Crossings as in `upward_crossings`. With c >= 2 crossings at times
+    c_1 < … < c_n the mean spacing is (c_n - c_1) / (n - 1); fewer than two
+    crossings (a constant signal, a NaN, a single swing) give NaN.
+    """
+    t, x2 = _check_time(t, x)
+    m = np.mean(x2, axis=0)                              # (G,)
+    lo, hi = x2[:-1], x2[1:]                             # (K-1, G)
+    up = (lo < m) & (m <= hi)                            # crossing between k-1 and k
+    count = up.sum(axis=0)                               # (G,)
+    first = np.argmax(up, axis=0)                        # index k-1 of the first crossing
+    last = up.shape[0] - 1 - np.argmax(up[::-1], axis=0)  # and of the last one
+    cols = np.arange(x2.shape[1])
+
+    def crossing_time(k0: np.ndarray) -> np.ndarray:
+        x0, x1 = x2[k0, cols], x2[k0 + 1, cols]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = (m - x0) / (x1 - x0)
+        return t[k0] + frac * (t[k0 + 1] - t[k0])
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = (crossing_time(last) - crossing_time(first)) / (count - 1)
+    p = np.where(count >= 2, p, np.nan)
+    return float(p[0]) if np.ndim(x) == 1 else p
+
+
+def window(t: np.ndarray, t0: float | None = None, t1: float | None = None) -> slice:
+    """The samples of t (K,) with t0 <= t <= t1 (either bound None: open), as a slice.
+
+    Use it on the time axis of every signal of one run: ``x[window(t, 2, 10)]``.
+    Raises InputError when t0 > t1 or when fewer than two samples fall inside.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    if t0 is not None and t1 is not None and t0 > t1:
+        raise InputError(f"window start {t0:g} s is after its end {t1:g} s; expected start <= end")
+    start = 0 if t0 is None else int(np.searchsorted(t, t0, side="left"))
+    stop = len(t) if t1 is None else int(np.searchsorted(t, t1, side="right"))
+    if stop - start < 2:
+        raise InputError(
+            f"window [{_fmt_bound(t0)}, {_fmt_bound(t1)}] s holds {max(stop - start, 0)} sample(s) "
+            f"of a run from {t[0]:g} to {t[-1]:g} s; expected at least 2")
+    return slice(start, stop)
+
+
+def relative_error(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """|value - reference| / reference, elementwise; NaN where the reference is 0 or NaN."""
+    value = np.asarray(value, dtype=np.float64)
+    reference = np.asarray(reference, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        err = np.abs(value - reference) / reference
+    return np.where(reference != 0, err, np.nan)
+
+
+def tip_error(tips_orig: np.ndarray, tips_simp: np.ndarray, rest_height: float) -> np.ndarray:
+    """RMS over time of |tip_y - tip_x|, divided by rest_height: (G,) from (K, G, 3) tips (m)."""
+    d2 = np.sum((np.asarray(tips_simp, np.float64) - np.asarray(tips_orig, np.float64)) ** 2, axis=-1)
+    return np.sqrt(np.mean(d2, axis=0)) / rest_height
+
+
+# --- the report -------------------------------------------------------------------
+
+@dataclass
+class ComponentFigures:
+    """Figures of one component (combined bend or rotation angle) of one group.
+
+    Amplitudes in radians, periods in seconds, errors relative (NaN: undefined).
+    counted : whether the component enters the worst-group amplitude and
+              period errors (its original amplitude is at least
+              COUNTED_AMPLITUDE_FRACTION of the largest one in the run).
+    """
+
+    amplitude_original: float
+    amplitude_simplified: float
+    amplitude_error: float
+    period_original: float
+    period_simplified: float
+    period_error: float
+    counted: bool
+
+    def to_dict(self) -> dict:
+        return {
+            "amplitude_original": _json_float(self.amplitude_original),
+            "amplitude_simplified": _json_float(self.amplitude_simplified),
+            "amplitude_error": _json_float(self.amplitude_error),
+            "period_original": _json_float(self.period_original),
+            "period_simplified": _json_float(self.period_simplified),
+            "period_error": _json_float(self.period_error),
+            "counted": self.counted,
+        }
+
+
+@dataclass
+class GroupFigures:
+    """Figures of one group: its simplified branch's address, both components, its tip error."""
+
+    address: str
+    bend: ComponentFigures
+    rotation: ComponentFigures
+    tip_error: float
+
+    def component(self, name: str) -> ComponentFigures:
+        return self.bend if name == "bend" else self.rotation
+
+    def to_dict(self) -> dict:
+        return {
+            "address": self.address,
+            "bend": self.bend.to_dict(),
+            "rotation": self.rotation.to_dict(),
+            "tip_error": _json_float(self.tip_error),
+        }
+
+
+@dataclass
+class Worst:
+    """Where a worst-group figure was found: a group's address and, for angles, the component."""
+
+    address: str
+    component: str | None = None
+
+    def to_dict(self) -> dict:
+        out = {"address": self.address}
+        if self.component is not None:
+            out["component"] = self.component
+        return out
+
+
+@dataclass
+class Report:
+    """The comparison of one simplified run with the original (model.md section 6).
+
+    amplitude_error   : largest amplitude error over counted components (NaN: none counts)
+    period_error      : largest period error over counted components with a defined period
+    tip_error         : largest tip error over all groups
+    *_at              : the group (and component) where each maximum was found
+    undefined_periods : counted components left out of the period maximum because
+                        the original's or the simplified run's period is undefined
+    largest_amplitude : the largest original combined-angle amplitude (rad), the
+                        reference of the counting rule
+    groups            : one entry per group, in simplified-branch order
+    t0, t1            : the time window (s) the figures cover
+    """
+
+    amplitude_error: float
+    period_error: float
+    tip_error: float
+    amplitude_error_at: Worst | None
+    period_error_at: Worst | None
+    tip_error_at: Worst | None
+    undefined_periods: list[Worst]
+    largest_amplitude: float
+    rest_height: float
+    t0: float
+    t1: float
+    groups: list[GroupFigures] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """JSON-ready values: plain floats, None for NaN, addresses as strings."""
+        return {
+            "amplitude_error": _json_float(self.amplitude_error),
+            "period_error": _json_float(self.period_error),
+            "tip_error": _json_float(self.tip_error),
+            "amplitude_error_at": None if self.amplitude_error_at is None else self.amplitude_error_at.to_dict(),
+            "period_error_at": None if self.period_error_at is None else self.period_error_at.to_dict(),
+            "tip_error_at": None if self.tip_error_at is None else self.tip_error_at.to_dict(),
+            "undefined_periods": [w.to_dict() for w in self.undefined_periods],
+            "largest_amplitude": _json_float(self.largest_amplitude),
+            "counted_fraction": COUNTED_AMPLITUDE_FRACTION,
+            "rest_height": _json_float(self.rest_height),
+            "window": [_json_float(self.t0), _json_float(self.t1)],
+            "groups": [g.to_dict() for g in self.groups],
+        }
+
+
+def compare_groups(t: np.ndarray,
+                   orig_combined_b: np.ndarray, orig_combined_r: np.ndarray,
+                   simp_b: np.ndarray, simp_r: np.ndarray,
+                   tips_orig: np.ndarray, tips_simp: np.ndarray,
+                   rest_height: float,
+                   addresses: list[str]) -> Report:
+    """Compare every group of the original with its simplified branch over one window.
+
+    t                  : (K,) sample times, s (already cut to the window; see `window`)
+    orig_combined_b, _r: (K, G) the original's combined angles Θb, Θr per group, rad
+    simp_b, simp_r     : (K, G) bend and rotation angle of each group's simplified branch, rad
+    tips_orig          : (K, G, 3) group tips of the original, m
+    tips_simp          : (K, G, 3) tips of the simplified branches, m
+    rest_height        : the original tree's rest height (largest tip z at rest), m
+    addresses          : (G,) the simplified branches' addresses, for the report
+
+    Raises InputError on shapes that disagree, non-finite samples, or a rest
+    height that is not positive.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    k = t.shape[0] if t.ndim == 1 else -1
+    angles = [np.asarray(a, dtype=np.float64) for a in (orig_combined_b, orig_combined_r, simp_b, simp_r)]
+    g = angles[0].shape[1] if angles[0].ndim == 2 else -1
+    tips_orig = np.asarray(tips_orig, dtype=np.float64)
+    tips_simp = np.asarray(tips_simp, dtype=np.float64)
+    if k < 2 or g < 0 or any(a.shape != (k, g) for a in angles) \
+            or tips_orig.shape != (k, g, 3) or tips_simp.shape != (k, g, 3) or len(addresses) != g:
+        raise InputError(
+            f"compare: expected t (K,) with K >= 2, four angle arrays (K, G), two tip arrays (K, G, 3) "
+            f"and G addresses; got t {t.shape}, angles {[a.shape for a in angles]}, "
+            f"tips {tips_orig.shape} and {tips_simp.shape}, {len(addresses)} addresses")
+    for name, arr in (("time", t), ("original bend", angles[0]), ("original rotation", angles[1]),
+                      ("simplified bend", angles[2]), ("simplified rotation", angles[3]),
+                      ("original tips", tips_orig), ("simplified tips", tips_simp)):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            where = np.argwhere(bad)[0]
+            raise InputError(f"compare: {name} is not finite at sample {int(where[0])} "
+                             f"(t = {t[int(where[0])]:g} s); expected finite values (did the run diverge?)")
+    if not rest_height > 0:
+        raise InputError(f"compare: the original tree's rest height is {rest_height:g} m; "
+                         f"expected a tree whose highest tip is above z = 0")
+
+    # (2, G) per component: row 0 bend, row 1 rotation
+    amp_x = np.stack([amplitude(angles[0]), amplitude(angles[1])])
+    amp_y = np.stack([amplitude(angles[2]), amplitude(angles[3])])
+    per_x = np.stack([period(t, angles[0]), period(t, angles[1])])
+    per_y = np.stack([period(t, angles[2]), period(t, angles[3])])
+    amp_err = relative_error(amp_y, amp_x)
+    per_err = relative_error(per_y, per_x)
+    largest = float(amp_x.max()) if g else 0.0
+    counted = (amp_x >= COUNTED_AMPLITUDE_FRACTION * largest) if largest > 0 else np.zeros_like(amp_x, bool)
+    tips = tip_error(tips_orig, tips_simp, rest_height)          # (G,)
+
+    groups = []
+    for j in range(g):
+        comps = [ComponentFigures(float(amp_x[c, j]), float(amp_y[c, j]), float(amp_err[c, j]),
+                                  float(per_x[c, j]), float(per_y[c, j]), float(per_err[c, j]),
+                                  bool(counted[c, j])) for c in range(2)]
+        groups.append(GroupFigures(addresses[j], comps[0], comps[1], float(tips[j])))
+
+    amp_worst, amp_at = _worst(np.where(counted, amp_err, np.nan), addresses)
+    per_defined = counted & np.isfinite(per_err)
+    per_worst, per_at = _worst(np.where(per_defined, per_err, np.nan), addresses)
+    undefined = [Worst(addresses[j], COMPONENTS[c])
+                 for j in range(g) for c in range(2) if counted[c, j] and not per_defined[c, j]]
+    tip_worst, tip_at = _worst(tips[None, :], addresses, components=(None,))
+    return Report(amp_worst, per_worst, tip_worst, amp_at, per_at, tip_at, undefined,
+                  largest, float(rest_height), float(t[0]), float(t[-1]), groups)
+
+
+# --- helpers ----------------------------------------------------------------------
+
+def _worst(values: np.ndarray, addresses: list[str],
+           components: tuple[str | None, ...] = COMPONENTS) -> tuple[float, Worst | None]:
+    """The largest non-NaN entry of values (C, G) and where it is; NaN and None if there is none.
+
+    Ties go to the first group in order, then to the first component.
+    """
+    by_group = values.T.reshape(-1)                      # group-major: (G * C,)
+    if by_group.size == 0 or np.all(np.isnan(by_group)):
+        return math.nan, None
+    pos = int(np.argmax(np.where(np.isnan(by_group), -np.inf, by_group)))
+    j, c = divmod(pos, values.shape[0])
+    return float(by_group[pos]), Worst(addresses[j], components[c])
+
+
+def _as_signal(x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim not in (1, 2) or x.shape[0] < 1:
+        raise InputError(f"expected a signal of shape (K,) or (K, G) with K >= 1, got {x.shape}")
+    return x
+
+
+def _check_time(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """t as (K,) float64 and x as (K, G) float64, with K >= 2."""
+    t = np.asarray(t, dtype=np.float64)
+    x = _as_signal(x)
+    if t.ndim != 1 or t.shape[0] != x.shape[0] or t.shape[0] < 2:
+        raise InputError(f"expected times (K,) matching a signal (K,) or (K, G) with K >= 2; "
+                         f"got t {t.shape} and x {x.shape}")
+    return t, x.reshape(x.shape[0], -1)
+
+
+def _json_float(v: float) -> float | None:
+    return None if v is None or not math.isfinite(v) else float(v)
+
+
+def _fmt_bound(v: float | None) -> str:
+    return "-" if v is None else f"{v:g}"

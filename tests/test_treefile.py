@@ -1,0 +1,361 @@
+"""The tree file (formats/treefile.py, docs/tree-format.md).
+
+Round trips are checked bit for bit over random trees (hypothesis); every line
+is compared with ``json.dumps`` of a record built here from the Tree's arrays
+(an independent encoder); every validation error is checked for its line,
+column and message on a hand-written file.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from plantlod.formats.treefile import iter_tree_lines, read_tree, write_tree
+from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+# The example of docs/tree-format.md: 3 branches (0 <- 1, 0 <- 2), 2 leaves.
+VALID = """\
+{"format": "plantlod-tree", "version": 1, "source": "examples/demo.lsys", "branches": 3, "leaves": 2, "leaf_force_scale": 1.0, "depth": 2}
+{"type": "branch", "index": 0, "address": "0", "symbol": "F", "parent": -1, "length": 1.0, "radius": 0.1, "bend_strength": 20.0, "rotation_strength": 30.0, "force_absorbed": 0.01, "force_propagated": 0.7, "drag_coefficient": 0.002, "phi": 0.0, "alpha": 0.0, "psi": 0.0, "offset": [0.0, 0.0, 0.0]}
+{"type": "branch", "index": 1, "address": "3", "symbol": "G", "parent": 0, "length": 0.5, "radius": 0.05, "bend_strength": 40.0, "rotation_strength": 50.0, "force_absorbed": 0.03, "force_propagated": 0.7, "drag_coefficient": 0.004, "phi": 0.0, "alpha": 0.5235987755982988, "psi": 0.0, "offset": [0.0, 0.0, 0.0]}
+{"type": "branch", "index": 2, "address": "7", "symbol": "F", "parent": 0, "length": 1.0, "radius": 0.1, "bend_strength": 20.0, "rotation_strength": 30.0, "force_absorbed": 0.01, "force_propagated": 0.7, "drag_coefficient": 0.002, "phi": 0.0, "alpha": 0.0, "psi": 0.0, "offset": [0.0, 0.0, 0.5]}
+{"type": "leaf", "index": 0, "address": "4", "branch": 1, "area": 0.01, "normal": [1.0, 0.0, 0.0]}
+{"type": "leaf", "index": 1, "address": "8", "branch": 2, "area": 0.01, "normal": [1.0, 0.0, 0.0]}
+"""
+
+
+def read(text: str, source: str = "t.jsonl") -> Tree:
+    return read_tree(io.StringIO(text), source)
+
+
+def write(tree: Tree) -> str:
+    out = io.StringIO()
+    write_tree(tree, out)
+    return out.getvalue()
+
+
+def bits(a) -> bytes:
+    return np.ascontiguousarray(a, dtype=np.float64).tobytes()
+
+
+# --- the hand-written file ----------------------------------------------------------------
+
+def test_read_valid_file_values():
+    tree = read(VALID)
+    assert tree.source == "examples/demo.lsys"
+    assert tree.parent.tolist() == [-1, 0, 0]
+    assert tree.address == ["0", "3", "7"] and tree.symbol == ["F", "G", "F"]
+    assert tree.length.tolist() == [1.0, 0.5, 1.0]
+    assert tree.force_absorbed.tolist() == [0.01, 0.03, 0.01]
+    assert tree.euler[1].tolist() == [0.0, math.pi / 6, 0.0]
+    assert tree.offset[2].tolist() == [0.0, 0.0, 0.5]
+    assert tree.leaf_branch.tolist() == [1, 2]
+    assert tree.leaf_address == ["4", "8"]
+    assert tree.leaf_normal.tolist() == [[1.0, 0.0, 0.0]] * 2
+    assert tree.leaf_force_scale == 1.0
+
+
+def test_write_reproduces_the_file_byte_for_byte():
+    assert write(read(VALID)) == VALID
+    assert "".join(iter_tree_lines(read(VALID))) == VALID
+
+
+def test_doc_example_is_this_file():
+    doc = (ROOT / "docs" / "tree-format.md").read_text(encoding="utf-8")
+    assert VALID in doc
+
+
+def test_keys_in_another_order_and_integers_for_floats_are_accepted():
+    lines = VALID.splitlines(keepends=True)
+    record = json.loads(lines[2])
+    record["length"] = 1                       # an integer where a float is expected
+    lines[2] = json.dumps(dict(reversed(list(record.items())))) + "\n"
+    tree = read("".join(lines))
+    expected = read(VALID)
+    expected.length[1] = 1.0
+    for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_normal", "leaf_area"):
+        assert bits(getattr(tree, name)) == bits(getattr(expected, name))
+    assert tree.address == expected.address
+
+
+def test_empty_tree_round_trip():
+    tree = read('{"format": "plantlod-tree", "version": 1, "source": "", "branches": 0, '
+                '"leaves": 0, "leaf_force_scale": 1.0, "depth": 0}\n')
+    assert tree.n_branches == 0 and tree.n_leaves == 0
+    assert read(write(tree)).n_branches == 0
+
+
+# --- validation errors ---------------------------------------------------------------------
+
+def edit(line_no: int, old: str, new: str) -> str:
+    """VALID with ``old`` replaced by ``new`` on line ``line_no`` (1-based)."""
+    lines = VALID.splitlines(keepends=True)
+    assert old in lines[line_no - 1], old
+    lines[line_no - 1] = lines[line_no - 1].replace(old, new, 1)
+    return "".join(lines)
+
+
+def drop_line(line_no: int) -> str:
+    lines = VALID.splitlines(keepends=True)
+    del lines[line_no - 1]
+    return "".join(lines)
+
+
+def insert_line(line_no: int, text: str) -> str:
+    lines = VALID.splitlines(keepends=True)
+    lines.insert(line_no - 1, text)
+    return "".join(lines)
+
+
+# (id, text, line, column key or None (column 1) or an int column, message pattern)
+ERRORS = [
+    ("empty", "", 1, None, r"empty file"),
+    ("bad json", edit(3, '"symbol": "G"', '"symbol": G'), 3, "G,", r"not valid JSON: Expecting value"),
+    ("not an object", edit(4, VALID.splitlines()[3], "[1, 2]"), 4, None,
+     r"expected a JSON object .*got a list"),
+    ("wrong format", edit(1, '"plantlod-tree"', '"other"'), 1, '"format"',
+     r'not a plantlod tree file'),
+    ("no header", drop_line(1), 1, None, r"not a plantlod tree file"),
+    ("version", edit(1, '"version": 1', '"version": 2'), 1, '"version"',
+     r"version 2 is not supported; expected 1"),
+    ("missing key", edit(3, '"radius": 0.05, ', ""), 3, None,
+     r'missing key "radius" in a branch record'),
+    ("unknown key", edit(3, '"radius": 0.05, ', '"radius": 0.05, "colour": 1, '), 3, '"colour"',
+     r'unknown key "colour" in a branch record'),
+    ("duplicate key", edit(3, '"radius": 0.05, ', '"radius": 0.05, "length": 2.0, '), 3, None,
+     r'duplicate key "length"'),
+    ("string for number", edit(3, '"length": 0.5', '"length": "0.5"'), 3, '"length"',
+     r'"length" must be a number, got a string'),
+    ("bool for integer", edit(3, '"parent": 0', '"parent": true'), 3, '"parent"',
+     r'"parent" must be an integer, got true/false'),
+    ("float for integer", edit(3, '"index": 1', '"index": 1.0'), 3, '"index"',
+     r'"index" must be an integer, got a float'),
+    ("NaN", edit(3, '"psi": 0.0', '"psi": NaN'), 3, None, r"NaN is not a number"),
+    ("overflow", edit(3, '"length": 0.5', '"length": 1e400'), 3, '"length"',
+     r'"length" must be a finite number'),
+    ("null vector entry", edit(4, '"offset": [0.0, 0.0, 0.5]', '"offset": [0.0, null, 0.5]'),
+     4, '"offset"', r'"offset" must be a number, got null'),
+    ("short vector", edit(4, '"offset": [0.0, 0.0, 0.5]', '"offset": [0.0, 0.5]'),
+     4, '"offset"', r'"offset" must be a list of 3 numbers, got a list of length 2'),
+    ("parent after child", edit(3, '"parent": 0', '"parent": 2'), 3, '"parent"',
+     r'"parent" is 2; expected -1 or an earlier branch \(0\.\.0\): parents come before'),
+    ("own parent", edit(4, '"parent": 0', '"parent": 2'), 4, '"parent"',
+     r'"parent" is 2; expected -1 or an earlier branch \(0\.\.1\)'),
+    ("first branch not a root", edit(2, '"parent": -1', '"parent": 0'), 2, '"parent"',
+     r"the first branch is a root"),
+    ("parent below -1", edit(3, '"parent": 0', '"parent": -2'), 3, '"parent"', r'"parent" is -2'),
+    ("leaf on missing branch", edit(6, '"branch": 2', '"branch": 3'), 6, '"branch"',
+     r'"branch" is 3, which is not a branch of this file \(0\.\.2\)'),
+    ("leaf on branch -1", edit(5, '"branch": 1', '"branch": -1'), 5, '"branch"',
+     r'"branch" is -1'),
+    ("non-unit normal", edit(5, '"normal": [1.0, 0.0, 0.0]', '"normal": [1.0, 0.01, 0.0]'), 5,
+     '"normal"', r'"normal" must be a unit vector'),
+    ("duplicate address", edit(4, '"address": "7"', '"address": "3"'), 4, '"address"',
+     r'branch address "3" repeats branch 1'),
+    ("bad address", edit(4, '"address": "7"', '"address": "7.x"'), 4, '"address"',
+     r'"address" must be an address like'),
+    ("bad leaf address", edit(6, '"address": "8"', '"address": ""'), 6, '"address"',
+     r'"address" must be an address like'),
+    ("long symbol", edit(3, '"symbol": "G"', '"symbol": "GG"'), 3, '"symbol"',
+     r'"symbol" must be one character'),
+    ("misnumbered branch", edit(4, '"index": 2', '"index": 5'), 4, '"index"',
+     r'"index" is 5, expected 2'),
+    ("misnumbered leaf", edit(6, '"index": 1', '"index": 0'), 6, '"index"',
+     r'"index" is 0, expected 1'),
+    ("wrong type name", edit(3, '"type": "branch"', '"type": "brunch"'), 3, '"type"',
+     r'expected branch record 1 \(the header says 3 branches, then 2 leaves\), found "type": "brunch"'),
+    ("header counts too many branches", edit(1, '"branches": 3', '"branches": 4'), 5, '"type"',
+     r'expected branch record 3 .* found "type": "leaf"'),
+    ("header counts too few branches", edit(1, '"branches": 3', '"branches": 2'), 4, '"type"',
+     r'expected leaf record 0 .* found "type": "branch"'),
+    ("file ends early", edit(1, '"leaves": 2', '"leaves": 3'), 7, None,
+     r"the file ends after 2 leaf records; the header says 3 branches, then 3 leaves"),
+    ("extra record", edit(1, '"leaves": 2', '"leaves": 1'), 6, None,
+     r"unexpected line after the last record"),
+    ("blank line", insert_line(3, "\n"), 3, None, r"blank line; expected a branch record"),
+    ("wrong depth", edit(1, '"depth": 2', '"depth": 3'), 1, '"depth"',
+     r'"depth" is 3, but the branches form chains of at most 2'),
+    ("negative count", edit(1, '"leaves": 2', '"leaves": -1'), 1, '"leaves"',
+     r'"leaves" must be a non-negative integer'),
+    ("scale not a number", edit(1, '"leaf_force_scale": 1.0', '"leaf_force_scale": "1"'), 1,
+     '"leaf_force_scale"', r'"leaf_force_scale" must be a number, got a string'),
+    ("source not a string", edit(1, '"source": "examples/demo.lsys"', '"source": 5'), 1,
+     '"source"', r'"source" must be a string, got an integer'),
+    ("header key missing", edit(1, ', "depth": 2', ""), 1, None, r'missing key "depth" in a header'),
+]
+
+
+@pytest.mark.parametrize("text,line,col_key,pattern", [e[1:] for e in ERRORS],
+                         ids=[e[0] for e in ERRORS])
+def test_validation_errors(text, line, col_key, pattern):
+    with pytest.raises(InputError, match=pattern) as info:
+        read(text, "bad.jsonl")
+    err = info.value
+    assert err.file == "bad.jsonl"
+    assert err.line == line
+    lines = text.splitlines()
+    if col_key is None:
+        assert err.col == 1
+    else:
+        assert err.col == lines[line - 1].index(col_key) + 1
+    assert "\n" not in str(err)
+
+
+def test_error_reports_first_bad_record():
+    text = edit(4, '"length": 1.0', '"length": "x"')
+    text = text.replace('"radius": 0.05', '"radius": "y"')      # line 3: earlier
+    with pytest.raises(InputError, match='"radius"') as info:
+        read(text)
+    assert info.value.line == 3
+
+
+def test_error_before_a_later_syntax_error_is_reported_first():
+    text = edit(3, '"parent": 0', '"parent": 9')                 # line 3
+    text = text.replace('"index": 1, "address": "8"', '"index": 1, "address": 8,')  # line 6: JSON
+    with pytest.raises(InputError, match='"parent" is 9') as info:
+        read(text)
+    assert info.value.line == 3
+    # the same within one block: line 4's syntax error comes after line 3's parent
+    text = edit(3, '"parent": 0', '"parent": 9').replace('"index": 2,', '"index": 2,,')
+    with pytest.raises(InputError, match='"parent" is 9') as info:
+        read(text)
+    assert info.value.line == 3
+
+
+# --- writing ----------------------------------------------------------------------------------
+
+def unit_vectors(n, draw):
+    out = []
+    for _ in range(n):
+        theta = draw(st.floats(0, math.pi))
+        phi = draw(st.floats(-math.pi, math.pi))
+        out.append([math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi),
+                    math.cos(theta)])
+    return np.array(out, dtype=np.float64).reshape(n, 3)
+
+
+FLOATS = st.floats(allow_nan=False, allow_infinity=False)   # with -0.0, subnormals, 1e308
+SYMBOLS = st.characters(blacklist_categories=("Cs",))       # any character, quotes included
+ADDRESSES = st.builds(lambda parts, rep: ".".join(map(str, parts)) + (f":{rep}" if rep else ""),
+                      st.lists(st.integers(0, 10**6), min_size=1, max_size=6),
+                      st.integers(0, 3))
+
+
+@st.composite
+def trees(draw):
+    b = draw(st.integers(0, 10))
+    f = draw(st.integers(0, 6)) if b else 0
+    parent = np.array([draw(st.integers(-1, i - 1)) for i in range(b)], dtype=np.int64)
+
+    def floats(*shape):
+        n = int(np.prod(shape))
+        return np.array(draw(st.lists(FLOATS, min_size=n, max_size=n)),
+                        dtype=np.float64).reshape(shape)
+
+    return Tree(
+        address=draw(st.lists(ADDRESSES, min_size=b, max_size=b, unique=True)),
+        symbol=draw(st.lists(SYMBOLS, min_size=b, max_size=b)),
+        parent=parent,
+        **{name: floats(b) for name in BRANCH_FLOAT_FIELDS},
+        euler=floats(b, 3), offset=floats(b, 3),
+        leaf_branch=np.array([draw(st.integers(0, b - 1)) for _ in range(f)], dtype=np.int64),
+        leaf_area=floats(f),
+        leaf_normal=unit_vectors(f, draw),
+        leaf_address=[a.split(":")[0] for a in draw(st.lists(ADDRESSES, min_size=f, max_size=f))],
+        leaf_force_scale=draw(FLOATS),
+        source=draw(st.text()),
+    )
+
+
+def expected_records(tree: Tree) -> list[dict]:
+    """The records the format document prescribes, built from the Tree's arrays."""
+    def num(x):
+        return float(x) + 0.0
+
+    def depth(i):
+        return 0 if i < 0 else 1 + depth(int(tree.parent[i]))
+
+    records = [{"format": "plantlod-tree", "version": 1, "source": tree.source,
+                "branches": tree.n_branches, "leaves": tree.n_leaves,
+                "leaf_force_scale": num(tree.leaf_force_scale),
+                "depth": max([depth(i) for i in range(tree.n_branches)], default=0)}]
+    for i in range(tree.n_branches):
+        rec = {"type": "branch", "index": i, "address": tree.address[i],
+               "symbol": tree.symbol[i], "parent": int(tree.parent[i])}
+        rec.update({name: num(getattr(tree, name)[i]) for name in BRANCH_FLOAT_FIELDS})
+        rec.update(phi=num(tree.euler[i, 0]), alpha=num(tree.euler[i, 1]),
+                   psi=num(tree.euler[i, 2]), offset=[num(x) for x in tree.offset[i]])
+        records.append(rec)
+    for j in range(tree.n_leaves):
+        records.append({"type": "leaf", "index": j, "address": tree.leaf_address[j],
+                        "branch": int(tree.leaf_branch[j]), "area": num(tree.leaf_area[j]),
+                        "normal": [num(x) for x in tree.leaf_normal[j]]})
+    return records
+
+
+@settings(max_examples=150, deadline=None)
+@given(trees())
+def test_round_trip_is_bit_exact(tree):
+    text = write(tree)
+    back = read(text)
+    for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal"):
+        assert bits(getattr(back, name)) == bits(getattr(tree, name) + 0.0), name
+    assert np.array_equal(back.parent, tree.parent)
+    assert np.array_equal(back.leaf_branch, tree.leaf_branch)
+    assert back.address == tree.address and back.symbol == tree.symbol
+    assert back.leaf_address == tree.leaf_address
+    assert bits(back.leaf_force_scale) == bits(tree.leaf_force_scale + 0.0)
+    assert back.source == tree.source
+    assert write(back) == text                       # deterministic bytes
+
+
+@settings(max_examples=60, deadline=None)
+@given(trees())
+def test_lines_are_json_dumps_of_the_documented_records(tree):
+    lines = write(tree).split("\n")
+    assert lines[-1] == ""                           # every line ends in \n
+    expected = [json.dumps(r, ensure_ascii=False) for r in expected_records(tree)]
+    assert lines[:-1] == expected
+
+
+def test_negative_zero_is_written_as_zero():
+    tree = read(VALID)
+    tree.euler[1, 2] = -0.0
+    tree.offset[0, :] = -0.0
+    tree.leaf_normal[0] = [-1.0, -0.0, -0.0]
+    text = write(tree)
+    assert "-0.0" not in text
+    assert '"normal": [-1.0, 0.0, 0.0]' in text
+
+
+def test_non_finite_values_are_not_written():
+    tree = read(VALID)
+    tree.offset[2, 1] = math.inf
+    with pytest.raises(RunFailure, match="offset of record 2 is not finite"):
+        write(tree)
+
+
+def test_turtle_tree_round_trip():
+    from plantlod.lsys.derive import derive, interpret
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.lsys.turtle import build_tree
+
+    path = ROOT / "examples" / "abop_2_6.lsys"
+    system = parse_lsys(path.read_text(encoding="utf-8"), str(path))
+    tree = build_tree(system, interpret(system, derive(system, 6)))
+    text = write(tree)
+    back = read(text)
+    for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal"):
+        assert bits(getattr(back, name)) == bits(getattr(tree, name)), name
+    assert json.loads(text.split("\n", 1)[0])["depth"] == tree.depth()

@@ -1,0 +1,97 @@
+"""Wind objects: constant, keyframed (interpolation by hand, CSV errors), speed+azimuth, gusts."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+import pytest
+
+from plantlod.lsys.errors import InputError
+from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, wind_from_speed
+
+
+def test_constant_wind_repeats_its_vector():
+    out = ConstantWind((1.0, -2.0, 0.5)).sample(np.array([0.0, 3.0, -1.0]))
+    assert out.shape == (3, 3) and out.tolist() == [[1.0, -2.0, 0.5]] * 3
+    with pytest.raises(InputError):
+        ConstantWind((1.0, math.inf, 0.0))
+
+
+def test_keyframes_interpolate_linearly_and_hold_beyond_the_ends():
+    wind = KeyframeWind([0.0, 2.0, 4.0], [[0, 0, 0], [2, 4, 0], [2, 0, -2]])
+    got = wind.sample(np.array([-1.0, 0.0, 1.0, 2.0, 3.0, 3.5, 4.0, 10.0]))
+    want = [[0, 0, 0], [0, 0, 0], [1, 2, 0], [2, 4, 0], [2, 2, -1], [2, 1, -1.5],
+            [2, 0, -2], [2, 0, -2]]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_keyframe_csv_with_and_without_header():
+    text = "t,vx,vy,vz\n0,0,0,0\n\n# a comment\n1, 3, 0, 0\n2,3,1,0.5\r\n"
+    wind = KeyframeWind.from_csv(io.StringIO(text), "w.csv")
+    assert wind.times.tolist() == [0.0, 1.0, 2.0]
+    assert wind.sample(np.array([0.5, 1.5])).tolist() == [[1.5, 0, 0], [3, 0.5, 0.25]]
+    bare = KeyframeWind.from_csv(io.StringIO("5,1,2,3\n"), "w.csv")
+    assert bare.sample(np.array([0.0, 9.0])).tolist() == [[1, 2, 3], [1, 2, 3]]
+
+
+@pytest.mark.parametrize("text,line,col,pattern", [
+    ("t,vx,vy,vz\n0,1,2\n", 2, 1, "expected 4 numbers t,vx,vy,vz, got 3"),
+    ("0,1,2,3\n1,1,x,3\n", 2, 5, "expected a finite number for vy, got 'x'"),
+    ("0,1,2,3\n1, 1, nan,3\n", 2, 7, "for vy"),
+    ("0,1,2,3\n2,1,2,3\n2,0,0,0\n", 3, 1, "strictly increasing: 2 after 2"),
+    ("t,vx,vy,vz\nt,vx,vy,vz\n", 2, 1, "expected a finite number for t"),
+    ("t,vx,vy,vz\n", 1, 1, "at least one keyframe"),
+    ("", 1, 1, "at least one keyframe"),
+])
+def test_keyframe_csv_errors_are_located(text, line, col, pattern):
+    with pytest.raises(InputError, match=pattern) as err:
+        KeyframeWind.from_csv(io.StringIO(text), "w.csv")
+    assert (err.value.file, err.value.line, err.value.col) == ("w.csv", line, col)
+
+
+def test_wind_from_speed_azimuth_from_x_toward_y():
+    assert wind_from_speed(5.0, 0.0).vector.tolist() == [5.0, 0.0, 0.0]
+    assert wind_from_speed(5.0, 90.0).vector.tolist() == [0.0, 5.0, 0.0]     # exact zeros
+    assert wind_from_speed(5.0, -90.0).vector.tolist() == [0.0, -5.0, 0.0]
+    assert wind_from_speed(5.0, 540.0).vector.tolist() == [-5.0, 0.0, 0.0]
+    np.testing.assert_allclose(wind_from_speed(2.0, 30.0).vector, [math.sqrt(3), 1.0, 0.0], atol=1e-15)
+    with pytest.raises(InputError, match="wind speed"):
+        wind_from_speed(-1.0, 0.0)
+
+
+def test_gusts_are_repeatable_and_seed_dependent():
+    base = ConstantWind((4.0, 3.0, 0.0))
+    t = np.arange(0.0, 60.0, 0.05)
+    a = GustyWind(base, seed=1, strength=0.3).sample(t)
+    assert a.tobytes() == GustyWind(base, seed=1, strength=0.3).sample(t).tobytes()
+    assert np.abs(a - GustyWind(base, seed=2, strength=0.3).sample(t)).max() > 0.1
+    # the direction is the base wind's; the speed varies
+    np.testing.assert_allclose(a[:, 0] * 3.0, a[:, 1] * 4.0, rtol=1e-14, atol=1e-14)
+    speed = np.linalg.norm(a, axis=1)
+    assert speed.min() < 4.5 < 5.5 < speed.max()
+    # sampling a subset of times gives the same values (no hidden state)
+    np.testing.assert_array_equal(GustyWind(base, seed=1, strength=0.3).sample(t[::7]), a[::7])
+
+
+def test_gust_strength_is_the_rms_relative_fluctuation():
+    gust = GustyWind(ConstantWind((1.0, 0.0, 0.0)), seed=3, strength=0.2)
+    t = np.arange(0.0, 20000.0, 0.25)
+    factor = gust.factor(t)
+    assert factor.min() >= 0.0
+    assert np.sqrt(np.mean((factor - 1.0) ** 2)) == pytest.approx(0.2, rel=0.1)
+    assert np.mean(factor) == pytest.approx(1.0, abs=0.02)
+    # zero strength: exactly the base wind; a strong gust is clipped at zero, never reversed
+    calm = GustyWind(ConstantWind((2.0, 0, 0)), seed=3, strength=0.0).sample(t[:50])
+    assert calm.tolist() == [[2.0, 0, 0]] * 50
+    strong = GustyWind(ConstantWind((2.0, 0, 0)), seed=3, strength=3.0).sample(t)
+    assert strong[:, 0].min() == 0.0
+
+
+def test_gust_rejects_bad_parameters():
+    base = ConstantWind((1.0, 0.0, 0.0))
+    with pytest.raises(InputError, match="seed"):
+        GustyWind(base, seed=-1)
+    with pytest.raises(InputError, match="strength"):
+        GustyWind(base, seed=0, strength=-0.5)
