@@ -8,7 +8,7 @@ import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-from .io import display_name, open_output, say, warn
+from .io import count, display_name, open_output, say, warn
 from .loading import load_system
 
 
@@ -53,5 +53,5 @@ def derive(file, output, fmt, steps, max_modules):
             write_tree(built.tree, out)
     tree = built.tree
     seconds = time.perf_counter() - start
-    say(f"derive: {len(built.derived):,} modules, {tree.n_branches:,} branches, "
-        f"{tree.n_leaves:,} leaves, depth {tree.depth()}, {seconds:.3f} s")
+    say(f"derive: {count(len(built.derived), 'module')}, {count(tree.n_branches, 'branch')}, "
+        f"{count(tree.n_leaves, 'leaf')}, depth {tree.depth()}, {seconds:.3f} s")

@@ -11,9 +11,10 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import stat
 import sys
 import tempfile
-from typing import Iterator, TextIO
+from typing import IO, Iterator
 
 from plantlod.lsys.errors import InputError
 
@@ -39,7 +40,11 @@ def warn(message: str) -> None:
 
 
 def read_text(path: str) -> str:
-    """The whole text of ``path`` (``-`` reads stdin), as UTF-8."""
+    """The whole text of ``path`` (``-`` reads stdin), as UTF-8.
+
+    Errors name the file as the user wrote it (stdin as ``<stdin>``).
+    """
+    name = display_name(path)
     try:
         if path == "-":
             data = sys.stdin.buffer.read()
@@ -47,42 +52,88 @@ def read_text(path: str) -> str:
             with open(path, "rb") as fh:
                 data = fh.read()
     except FileNotFoundError:
-        raise InputError("no such file", path) from None
+        raise InputError("no such file", name) from None
     except IsADirectoryError:
-        raise InputError("is a directory, not a file", path) from None
+        raise InputError("is a directory, not a file", name) from None
     except PermissionError:
-        raise InputError("permission denied", path) from None
+        raise InputError("permission denied", name) from None
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise InputError(f"not UTF-8 text (byte {exc.start})", path) from None
+        raise InputError(f"not UTF-8 text (byte {exc.start}); expected a UTF-8 text file",
+                         name) from None
+
+
+_PLURALS = {"branch": "branches", "leaf": "leaves"}
+
+
+def count(n: int, noun: str) -> str:
+    """``n`` and ``noun`` for a summary line: "1 leaf", "1,563 leaves", "8 branches"."""
+    return f"{n:,} {noun if n == 1 else _PLURALS.get(noun, noun + 's')}"
 
 
 def display_name(path: str) -> str:
     return "<stdin>" if path == "-" else path
 
 
-@contextlib.contextmanager
-def open_output(path: str | None) -> Iterator[TextIO]:
-    """A text stream for ``path``: stdout for None or ``-``, else an atomic file.
+def _special_target(path: str) -> bool:
+    """True when ``path`` exists and is not a regular file (``/dev/null``, a FIFO, a tty).
 
-    The file appears (by rename) only if the block finishes without an exception.
-    Line ends are always ``\\n``.
+    Such a target must be written in place: renaming a temporary file over it
+    would replace the device or pipe with a regular file.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    if stat.S_ISDIR(mode):
+        raise InputError("is a directory; expected the name of a file to write", path)
+    return not stat.S_ISREG(mode)
+
+
+def _usual_file_mode() -> int:
+    """0o666 minus the umask: the mode `open()` would give a new file (mkstemp gives 0o600)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+@contextlib.contextmanager
+def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
+    """A stream for ``path``: stdout for None or ``-``, else an atomic file.
+
+    A regular file appears (by rename of a temporary file beside it, with the
+    usual permissions) only if the block finishes without an exception, so a
+    failed run never leaves a partial file. A target that exists and is not a
+    regular file (``/dev/null``, a named pipe) is written in place. Text
+    streams are UTF-8 with ``\\n`` line ends; ``binary=True`` gives a bytes stream.
     """
     if path is None or path == "-":
-        out = sys.stdout
+        out = sys.stdout.buffer if binary else sys.stdout
         yield out
         out.flush()
         return
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise InputError("output directory does not exist", path)
+    if _special_target(path):
+        with _open_stream(path, binary) as out:
+            yield out
+        return
     fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=directory)
     try:
-        with io.open(fd, "w", encoding="utf-8", newline="\n") as out:
+        with _open_stream(fd, binary) as out:
             yield out
+        os.chmod(tmp, _usual_file_mode())
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def _open_stream(target, binary: bool) -> IO:
+    """Open a path or file descriptor for writing: bytes, or UTF-8 text with \\n line ends."""
+    if binary:
+        return io.open(target, "wb")
+    return io.open(target, "w", encoding="utf-8", newline="\n")

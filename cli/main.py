@@ -55,10 +55,16 @@ def cli():
 
     \b
     A pipeline of four commands:
-      plantlod derive x.lsys            L-system -> branch tree (JSON Lines)
-      plantlod simulate x.lsys ...      wind model -> angle CSV
-      plantlod simplify x.lsys -n 1     level-n L-system
-      plantlod compare x.lsys y.lsys    amplitude/period/tip errors, OBJ, PNG
+      derive    L-system -> branch tree (JSON Lines)
+      simulate  wind model -> angle CSV
+      simplify  level-n L-system that sways like the original
+      compare   amplitude, period and tip errors; OBJ frames and pictures
+
+    \b
+    Example:
+      plantlod derive examples/stalk8.lsys | plantlod simulate - --dt 0.01 --steps 1000 --wind-speed 5
+      plantlod simplify examples/stalk8.lsys --level 1 -o stalk4.lsys
+      plantlod compare examples/stalk8.lsys stalk4.lsys --dt 0.01 --duration 20 --wind-speed 5
     """
 
 

@@ -28,6 +28,11 @@ def _vector(text: str) -> tuple[float, float, float]:
     return out  # type: ignore[return-value]
 
 
+def _wind_vector(ctx, param, value):
+    """Callback of --wind: "VX,VY,VZ" -> a tuple of three finite floats (or None)."""
+    return None if value is None else _vector(value)
+
+
 def _finite(ctx, param, value):
     if value is not None and not math.isfinite(value):
         raise click.BadParameter("must be a finite number")
@@ -44,7 +49,7 @@ def simulation_options(func):
         click.option("--steps", type=click.IntRange(min=0), default=None,
                      help="Number of time steps (instead of --duration)."),
         click.option("--wind", "wind_vector", metavar="VX,VY,VZ", default=None,
-                     help="Constant wind vector in m/s (world frame, z up)."),
+                     callback=_wind_vector, help="Constant wind vector in m/s (world frame, z up)."),
         click.option("--wind-speed", type=click.FloatRange(min=0), default=None,
                      callback=_finite, help="Constant wind speed in m/s ..."),
         click.option("--wind-direction", type=float, default=0.0, show_default=True,
@@ -99,7 +104,12 @@ class SimulationSettings:
             wind = wind_from_speed(wind_speed, wind_direction)
             description = f"wind {wind_speed:g} m/s toward {wind_direction:g} deg"
         else:
-            vector = _vector(wind_vector) if wind_vector is not None else (0.0, 0.0, 0.0)
+            if wind_vector is None:
+                vector = (0.0, 0.0, 0.0)
+            elif isinstance(wind_vector, str):
+                vector = _vector(wind_vector)
+            else:
+                vector = tuple(wind_vector)
             wind = ConstantWind(vector)
             description = "wind ({:g}, {:g}, {:g}) m/s".format(*vector)
         if gust_strength > 0:

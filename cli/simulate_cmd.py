@@ -7,7 +7,7 @@ import time
 
 import click
 
-from .io import display_name, open_output, say
+from .io import count, display_name, open_output, say
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
@@ -37,6 +37,8 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
       plantlod derive examples/stalk8.lsys | plantlod simulate - --dt 0.01 --steps 1000 --wind 2,0,0
       plantlod simulate examples/stalk8.lsys --dt 0.01 --steps 500 --wind-file gusts.csv --every 10
     """
+    if input_path == "-" and kwargs.get("wind_file") == "-":
+        raise click.UsageError("INPUT and --wind-file cannot both be - (stdin)")
     settings = settings_from_kwargs(kwargs)
     tree, _system = load_tree(input_path, steps_n)
     from plantlod.formats.angles_csv import AnglesCsvWriter
@@ -58,7 +60,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     seconds = time.perf_counter() - start
     branch_steps = tree.n_branches * settings.steps
     rate = branch_steps / seconds if seconds > 0 else float("inf")
-    say(f"simulate: {display_name(input_path)}: {tree.n_branches:,} branches, "
+    say(f"simulate: {display_name(input_path)}: {count(tree.n_branches, 'branch')}, "
         f"{settings.steps:,} steps of {settings.dt:g} s, {settings.description}, "
         f"{rate:,.0f} branch-steps/s")
 

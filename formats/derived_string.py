@@ -17,12 +17,9 @@ from typing import Iterator
 
 import numpy as np
 
+from plantlod.lsys.constants import DERIVED_TEXT_CHUNK_MODULES as CHUNK_MODULES
 from plantlod.lsys.derived import DerivedString, ragged_arange
 from plantlod.lsys.expr import format_number
-
-# Modules per text chunk: bounds the memory of one chunk (tokens, strings).
-# TODO(lead): move to constants
-CHUNK_MODULES = 1 << 18
 
 
 def _plain_text(codepoints: np.ndarray) -> str:

@@ -96,8 +96,31 @@ class DerivedString:
         return out
 
     def address_strings(self, idx) -> list[str]:
-        """The addresses ``"a0.a1.….ak"`` of the modules ``idx``, in that order."""
-        return [".".join(map(str, row)) for row in self.address_array(idx).tolist()]
+        """The addresses ``"a0.a1.….ak"`` of the modules ``idx``, in that order.
+
+        Builds each distinct prefix once, step by step: the modules of one
+        successor share their parent's text, so this costs about one string
+        concatenation per module instead of a join of k+1 numbers.
+        """
+        cur = np.asarray(idx, dtype=np.int64).reshape(-1)
+        if self.origin is not None:
+            cur = np.asarray(self.origin)[cur]
+        steps = []                             # per step, top down: (inverse, local)
+        for parent, local in reversed(self.history):
+            up = parent[cur]
+            if np.all(up[1:] >= up[:-1]):      # string order: parents are sorted
+                first = np.ones(len(up), dtype=bool)
+                first[1:] = up[1:] != up[:-1]
+                unique, inverse = up[first], np.cumsum(first) - 1
+            else:
+                unique, inverse = np.unique(up, return_inverse=True)
+            steps.append((inverse, local[cur]))
+            cur = unique
+        text = [str(a) for a in cur.tolist()]
+        for inverse, local in reversed(steps):
+            suffix = [f".{j}" for j in range(int(local.max(initial=0)) + 1)]
+            text = [text[i] + suffix[j] for i, j in zip(inverse.tolist(), local.tolist())]
+        return text
 
     def module_text(self, i: int) -> str:
         """Module i in ABOP notation, e.g. ``A(1,0.5)`` (for messages and tests)."""

@@ -31,14 +31,9 @@ from .expr import (
     Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, format_number, free_names,
 )
 from .system import (
-    BRACKETS, BRANCH_KEYS, LEAF_KEYS, RESERVED_CHARS, TURTLE_SYMBOLS,
-    BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
+    BRACKETS, BRANCH_KEYS, LEAF_KEYS, RESERVED_CHARS, TURTLE_NO_ARG, TURTLE_OPTIONAL_ARG,
+    TURTLE_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
-
-# Parameter counts the turtle accepts (docs/lsys-format.md, "Symbols").
-# TODO(lead): move to system.py, beside TURTLE_SYMBOLS
-TURTLE_OPTIONAL_ARG = frozenset("+-&^/\\f!")   # 0 or 1 parameter
-TURTLE_NO_ARG = frozenset("|[]$")              # no parameter
 
 # Header keys in the order the writer uses; name and ignore are not numbers.
 HEADER_KEYS = (

@@ -22,6 +22,9 @@ _NOPOS = Pos()
 #   !(r)  set the radius of the branches drawn after it (no parameter: no-op)
 #   $     roll about the heading so that the local x axis is horizontal (ABOP's $)
 TURTLE_SYMBOLS = frozenset("f+-&^/\\|[]!$")
+# Parameter counts the turtle accepts (docs/lsys-format.md, "Symbols").
+TURTLE_OPTIONAL_ARG = frozenset("+-&^/\\f!")   # 0 or 1 parameter
+TURTLE_NO_ARG = frozenset("|[]$")              # no parameter
 BRACKETS = frozenset("[]")
 # Characters that are syntax, never module names.
 RESERVED_CHARS = frozenset("(),:;#<>=\"'{}") | frozenset(" \t\r\n")

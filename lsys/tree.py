@@ -18,6 +18,22 @@ BRANCH_FLOAT_FIELDS = (
 )
 
 
+def chain_depths(parent: np.ndarray) -> np.ndarray:
+    """(k,) int64: the number of nodes from each node up to its root, itself included.
+
+    parent: (k,) int64, -1 at a root (any order). Pointer jumping.
+    """
+    depth = np.ones(len(parent), dtype=np.int64)
+    ptr = np.asarray(parent, dtype=np.int64).copy()
+    todo = np.flatnonzero(ptr >= 0)
+    while todo.size:
+        p = ptr[todo]
+        depth[todo] += depth[p]
+        ptr[todo] = ptr[p]
+        todo = todo[ptr[todo] >= 0]
+    return depth
+
+
 @dataclass
 class Tree:
     """A branch tree at rest.
@@ -75,10 +91,7 @@ class Tree:
 
     def depth(self) -> int:
         """Number of branches on the longest root-to-tip chain (0 for no branches)."""
-        d = np.zeros(self.n_branches, dtype=np.int64)
-        for i, p in enumerate(self.parent):
-            d[i] = 1 if p < 0 else d[p] + 1
-        return int(d.max()) if len(d) else 0
+        return int(chain_depths(self.parent).max(initial=0))
 
     def children(self) -> list[list[int]]:
         """Child branch indices of every branch, in index order."""

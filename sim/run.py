@@ -16,17 +16,13 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
+from plantlod.lsys.constants import SIM_CHUNK_VALUES as CHUNK_VALUES
+from plantlod.lsys.constants import SIM_STEPS_PER_CALL as STEPS_PER_CALL
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
 from .stability import check_stability
 from .wind import Wind
-
-# Rows per yielded chunk when the caller does not say: about this many angle
-# values per array (8 MB of float64).
-CHUNK_VALUES = 1 << 20          # TODO(lead): move to constants
-# Steps per kernel call at most, bounding the wind samples held at once.
-STEPS_PER_CALL = 1 << 16        # TODO(lead): move to constants
 
 
 class Samples(NamedTuple):

@@ -22,12 +22,8 @@ from typing import Protocol, TextIO
 
 import numpy as np
 
+from plantlod.lsys.constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY
 from plantlod.lsys.errors import InputError
-
-# Gust model defaults (docs/model.md, "Gusts").
-GUST_COMPONENTS = 8             # number of sinusoids  # TODO(lead): move to constants
-GUST_MIN_FREQUENCY = 0.05       # Hz                   # TODO(lead): move to constants
-GUST_MAX_FREQUENCY = 1.0        # Hz                   # TODO(lead): move to constants
 
 
 class Wind(Protocol):

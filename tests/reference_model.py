@@ -31,7 +31,7 @@ from plantlod.lsys.tree import Tree
 
 # `$` leaves the turtle unchanged when the heading is this close to vertical
 # (|z_world x h| below it; lsys-format.md / the brief: "within 1e-9").
-DOLLAR_VERTICAL_TOL = 1e-9  # TODO(lead): move to constants
+from plantlod.lsys.constants import DOLLAR_VERTICAL_TOL
 
 
 # --- tiny 3-vector and 3x3-matrix helpers -------------------------------------

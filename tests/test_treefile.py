@@ -18,6 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from plantlod.formats import treefile
 from plantlod.formats.treefile import iter_tree_lines, read_tree, write_tree
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
@@ -76,6 +77,14 @@ def test_doc_example_is_this_file():
     assert VALID in doc
 
 
+def test_doc_error_examples_are_real():
+    doc = (ROOT / "docs" / "tree-format.md").read_text(encoding="utf-8")
+    for text in (edit(3, '"parent": 0', '"parent": 5'), drop_line(6)):
+        with pytest.raises(InputError) as info:
+            read(text, "demo.tree.jsonl")
+        assert str(info.value) in doc
+
+
 def test_keys_in_another_order_and_integers_for_floats_are_accepted():
     lines = VALID.splitlines(keepends=True)
     record = json.loads(lines[2])
@@ -87,6 +96,11 @@ def test_keys_in_another_order_and_integers_for_floats_are_accepted():
     for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_normal", "leaf_area"):
         assert bits(getattr(tree, name)) == bits(getattr(expected, name))
     assert tree.address == expected.address
+
+
+def test_surrounding_white_space_and_crlf_are_accepted():
+    text = "".join("  " + line.rstrip("\n") + " \r\n" for line in VALID.splitlines(True))
+    assert write(read(text)) == VALID
 
 
 def test_empty_tree_round_trip():
@@ -121,7 +135,10 @@ def insert_line(line_no: int, text: str) -> str:
 # (id, text, line, column key or None (column 1) or an int column, message pattern)
 ERRORS = [
     ("empty", "", 1, None, r"empty file"),
-    ("bad json", edit(3, '"symbol": "G"', '"symbol": G'), 3, "G,", r"not valid JSON: Expecting value"),
+    ("bad json", edit(3, '"symbol": "G"', '"symbol": G'), 3, "G,",
+     r"not valid JSON: Expecting value"),
+    ("extra data", edit(4, '0.5]}', '0.5]} @@'), 4, "@@", r"not valid JSON: extra data"),
+    ("indented bad json", edit(4, '{"type"', '  {"type": ,'), 4, ",", r"not valid JSON"),
     ("not an object", edit(4, VALID.splitlines()[3], "[1, 2]"), 4, None,
      r"expected a JSON object .*got a list"),
     ("wrong format", edit(1, '"plantlod-tree"', '"other"'), 1, '"format"',
@@ -166,7 +183,11 @@ ERRORS = [
     ("bad address", edit(4, '"address": "7"', '"address": "7.x"'), 4, '"address"',
      r'"address" must be an address like'),
     ("bad leaf address", edit(6, '"address": "8"', '"address": ""'), 6, '"address"',
-     r'"address" must be an address like'),
+     r'"address" must be an address like "0.2.1", got ""'),
+    ("suffix on leaf address", edit(6, '"address": "8"', '"address": "8:1"'), 6, '"address"',
+     r'"address" must be an address like "0.2.1", got "8:1"'),
+    ("branch suffix not a number", edit(3, '"address": "3"', '"address": "3:x"'), 3,
+     '"address"', r'"address" must be an address like "0.2.1" or "0.2.1:1"'),
     ("long symbol", edit(3, '"symbol": "G"', '"symbol": "GG"'), 3, '"symbol"',
      r'"symbol" must be one character'),
     ("misnumbered branch", edit(4, '"index": 2', '"index": 5'), 4, '"index"',
@@ -174,7 +195,8 @@ ERRORS = [
     ("misnumbered leaf", edit(6, '"index": 1', '"index": 0'), 6, '"index"',
      r'"index" is 0, expected 1'),
     ("wrong type name", edit(3, '"type": "branch"', '"type": "brunch"'), 3, '"type"',
-     r'expected branch record 1 \(the header says 3 branches, then 2 leaves\), found "type": "brunch"'),
+     r'expected branch record 1 \(the header says 3 branches, then 2 leaves\), '
+     r'found "type": "brunch"'),
     ("header counts too many branches", edit(1, '"branches": 3', '"branches": 4'), 5, '"type"',
      r'expected branch record 3 .* found "type": "leaf"'),
     ("header counts too few branches", edit(1, '"branches": 3', '"branches": 2'), 4, '"type"',
@@ -192,13 +214,17 @@ ERRORS = [
      '"leaf_force_scale"', r'"leaf_force_scale" must be a number, got a string'),
     ("source not a string", edit(1, '"source": "examples/demo.lsys"', '"source": 5'), 1,
      '"source"', r'"source" must be a string, got an integer'),
-    ("header key missing", edit(1, ', "depth": 2', ""), 1, None, r'missing key "depth" in a header'),
+    ("header key missing", edit(1, ', "depth": 2', ""), 1, None,
+     r'missing key "depth" in a header'),
 ]
 
 
+@pytest.mark.parametrize("block", [1, 2, 4096], ids=lambda b: f"block{b}")
 @pytest.mark.parametrize("text,line,col_key,pattern", [e[1:] for e in ERRORS],
                          ids=[e[0] for e in ERRORS])
-def test_validation_errors(text, line, col_key, pattern):
+def test_validation_errors(text, line, col_key, pattern, block, monkeypatch):
+    # Records are read in blocks: the same errors whatever the block size.
+    monkeypatch.setattr(treefile, "_RECORDS_PER_BLOCK", block)
     with pytest.raises(InputError, match=pattern) as info:
         read(text, "bad.jsonl")
     err = info.value
@@ -305,10 +331,15 @@ def expected_records(tree: Tree) -> list[dict]:
 
 
 @settings(max_examples=150, deadline=None)
-@given(trees())
-def test_round_trip_is_bit_exact(tree):
+@given(trees(), st.sampled_from([1, 3, 4096]))
+def test_round_trip_is_bit_exact(tree, block):
     text = write(tree)
-    back = read(text)
+    saved = treefile._RECORDS_PER_BLOCK
+    treefile._RECORDS_PER_BLOCK = block            # blocks of records: any size reads the same
+    try:
+        back = read(text)
+    finally:
+        treefile._RECORDS_PER_BLOCK = saved
     for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal"):
         assert bits(getattr(back, name)) == bits(getattr(tree, name) + 0.0), name
     assert np.array_equal(back.parent, tree.parent)

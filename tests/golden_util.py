@@ -1,0 +1,136 @@
+"""Golden-file comparison for command outputs.
+
+Usage in a test (the test's name must contain "golden" so that ``make golden``,
+which runs ``pytest -k golden`` with PLANTLOD_REGEN_GOLDEN=1, regenerates it)::
+
+    from golden_util import assert_golden, run_cli
+
+    def test_derive_stalk8_golden():
+        result = run_cli("derive", "examples/stalk8.lsys")
+        assert_golden("derive_stalk8.jsonl", result.stdout)
+
+Behaviour of ``assert_golden(name, text)``:
+
+- ``PLANTLOD_REGEN_GOLDEN=1`` in the environment: (re)write
+  ``tests/golden/<name>`` with ``text`` and pass.
+- golden file missing: fail, telling the reader to run ``make golden``.
+- golden file differs (byte for byte, after UTF-8 encoding; no newline
+  translation): write ``tests/golden/<name>.obtained`` beside it (git-ignored)
+  and fail with a short unified diff.
+- golden file equal: pass, and remove a stale ``.obtained`` file if present.
+
+``run_cli(*args, input=None, exit_code=0)`` runs ``plantlod ARGS`` in-process
+(click's CliRunner, stdout and stderr kept apart) from the repository root, so
+that paths like ``examples/stalk8.lsys`` (which the tree file's ``source`` and
+messages repeat) are the same on every machine; it checks the exit code and
+returns the click ``Result``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import difflib
+import os
+import pathlib
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+GOLDEN_DIR = ROOT / "tests" / "golden"
+REGEN_VARIABLE = "PLANTLOD_REGEN_GOLDEN"
+# Lines of unified diff shown in a failure message before it is cut short.
+MAX_DIFF_LINES = 40
+
+
+def golden_path(name: str) -> pathlib.Path:
+    """Path of the golden file ``tests/golden/<name>`` (``name`` may hold sub-folders)."""
+    if not name or pathlib.PurePath(name).is_absolute() or ".." in pathlib.PurePath(name).parts:
+        raise ValueError(f"golden name must be a relative path inside tests/golden, got {name!r}")
+    return GOLDEN_DIR / name
+
+
+def regenerating() -> bool:
+    """True when golden files are being rewritten (PLANTLOD_REGEN_GOLDEN=1)."""
+    return os.environ.get(REGEN_VARIABLE, "") == "1"
+
+
+def _short_diff(expected: str, obtained: str, name: str) -> str:
+    diff = list(
+        difflib.unified_diff(
+            expected.splitlines(keepends=True),
+            obtained.splitlines(keepends=True),
+            fromfile=f"golden/{name}",
+            tofile=f"golden/{name}.obtained",
+            n=1,
+        )
+    )
+    if not diff:  # same lines, different bytes (line endings, final newline)
+        return "(texts differ only in line endings or the final newline)\n"
+    shown = diff[:MAX_DIFF_LINES]
+    if len(diff) > MAX_DIFF_LINES:
+        shown.append(f"... ({len(diff) - MAX_DIFF_LINES} more diff lines)\n")
+    return "".join(line if line.endswith("\n") else line + "\n" for line in shown)
+
+
+def assert_golden(name: str, text: str) -> None:
+    """Compare ``text`` with ``tests/golden/<name>`` byte for byte (see module docstring)."""
+    if not isinstance(text, str):
+        raise TypeError(f"assert_golden expects str text, got {type(text).__name__}")
+    path = golden_path(name)
+    obtained_path = path.with_name(path.name + ".obtained")
+    data = text.encode("utf-8")
+    if regenerating():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        obtained_path.unlink(missing_ok=True)
+        return
+    if not path.exists():
+        pytest.fail(
+            f"golden file tests/golden/{name} is missing; run `make golden` to create it "
+            f"and review it before committing",
+            pytrace=False,
+        )
+    expected = path.read_bytes()
+    if expected == data:
+        obtained_path.unlink(missing_ok=True)
+        return
+    obtained_path.write_bytes(data)
+    diff = _short_diff(expected.decode("utf-8", errors="replace"), text, name)
+    pytest.fail(
+        f"output differs from golden file tests/golden/{name} "
+        f"(obtained output written to tests/golden/{name}.obtained; "
+        f"if the change is intended, run `make golden` and review the diff)\n{diff}",
+        pytrace=False,
+    )
+
+
+@contextlib.contextmanager
+def _working_directory(path: pathlib.Path):
+    before = os.getcwd()
+    os.chdir(path)
+    try:
+        yield
+    finally:
+        os.chdir(before)
+
+
+def run_cli(*args: str, input: str | bytes | None = None, exit_code: int | None = 0,
+            cwd: pathlib.Path | None = None):
+    """Run ``plantlod ARGS`` in-process from ``cwd`` (default: the repository root).
+
+    ``exit_code`` None skips the check; otherwise a different exit code fails
+    the test with the command's stderr. Returns the click ``Result``
+    (``.stdout``, ``.stderr``, ``.exit_code``, ``.exception``).
+    """
+    from click.testing import CliRunner
+
+    from plantlod.cli.main import cli
+
+    with _working_directory(cwd or ROOT):
+        result = CliRunner().invoke(cli, list(args), input=input, catch_exceptions=True,
+                                    prog_name="plantlod")
+    if exit_code is not None and result.exit_code != exit_code:
+        detail = result.stderr.strip() or repr(result.exception)
+        pytest.fail(f"plantlod {' '.join(args)} exited {result.exit_code}, expected {exit_code}: "
+                    f"{detail}", pytrace=False)
+    return result
