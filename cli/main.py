@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from plantlod.lsys.errors import PlantlodError
+from plantlod.lsys.errors import InputError, PlantlodError
 
 from .derive_cmd import derive
 
@@ -30,13 +30,13 @@ class PlantlodGroup(click.Group):
 
 
 def format_error(exc: PlantlodError, ctx) -> str:
-    text = str(exc)
+    """One line: ``file:line:col: error: message`` (compiler style, so editors can
+    jump to it) when the error has a place, else ``plantlod CMD: error: message``."""
+    if isinstance(exc, InputError) and exc.file:
+        loc = ":".join(str(p) for p in (exc.file, exc.line, exc.col) if p is not None)
+        return f"{loc}: error: {exc.message}"
     name = ctx.invoked_subcommand or ctx.info_name or "plantlod"
-    if getattr(exc, "file", None):
-        # compiler style, so editors can jump to it: file:line:col: error: message
-        loc, _, msg = text.partition(": ")
-        return f"{loc}: error: {msg}"
-    return f"plantlod {name}: error: {text}"
+    return f"plantlod {name}: error: {exc}"
 
 
 def _quiet_broken_pipe() -> None:
