@@ -18,7 +18,10 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PLANTLOD) derive examples/stalk8.lsys | head -n 4
+	$(PLANTLOD) derive examples/stalk8.lsys -o /tmp/plantlod-demo-stalk8.jsonl
+	head -n 2 /tmp/plantlod-demo-stalk8.jsonl
+	$(PLANTLOD) simulate /tmp/plantlod-demo-stalk8.jsonl --dt 0.01 --duration 10 \
+	    --wind-speed 10 --every 100 | cut -d, -f1-5
 
 test: $(STAMP)
 	$(PY) -m pytest -q

@@ -47,6 +47,9 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
 
     check_stability(tree, settings.dt, settings.damping)
     show = sys.stderr.isatty() if progress is None else progress
+    begin = time.perf_counter()
+    import plantlod.sim.kernel  # noqa: F401  (numba and the cached machine code load here)
+
     start = time.perf_counter()
     chunks = run_simulation(tree, settings.dt, settings.steps, settings.wind,
                             every=every, damping=settings.damping)
@@ -62,7 +65,8 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     rate = branch_steps / seconds if seconds > 0 else float("inf")
     say(f"simulate: {display_name(input_path)}: {count(tree.n_branches, 'branch')}, "
         f"{settings.steps:,} steps of {settings.dt:g} s, {settings.description}, "
-        f"{rate:,.0f} branch-steps/s")
+        f"{seconds:.2f} s, {rate:,.0f} branch-steps/s with output "
+        f"(+{start - begin:.2f} s kernel start-up)")
 
 
 def _write_with_progress(writer, chunks, steps: int, dt: float) -> None:

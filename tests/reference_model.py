@@ -1,6 +1,7 @@
 """A slow, literal reference implementation of model.md sections 2-4.
 
-This module is an independent reading of /work/shared/model.md, written for
+This module is an independent reading of the model contract (the team's model.md,
+restated in docs/model.md), written for
 tests: the production turtle (lsys/turtle.py) and simulation kernel (sim/) are
 checked against it. It uses nothing but plain Python floats and lists, 3x3
 matrices as nested lists (row-major: ``M[row][col]``), the ``math`` module, and
