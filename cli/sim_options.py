@@ -39,10 +39,16 @@ def _finite(ctx, param, value):
     return value
 
 
-def simulation_options(func):
-    """Add --dt, --duration/--steps, wind, gust and damping options to a command."""
+def simulation_options(func=None, *, dt_required: bool = True):
+    """Add --dt, --duration/--steps, wind, gust and damping options to a command.
+
+    Use bare (``@simulation_options``) or as ``@simulation_options(dt_required=False)``
+    for a command that checks itself whether it needs --dt (compare on CSVs alone).
+    """
+    if func is None:
+        return lambda f: simulation_options(f, dt_required=dt_required)
     options = [
-        click.option("--dt", type=click.FloatRange(min=0, min_open=True), required=True,
+        click.option("--dt", type=click.FloatRange(min=0, min_open=True), required=dt_required,
                      callback=_finite, help="Time step Δt in seconds."),
         click.option("--duration", type=click.FloatRange(min=0), default=None, callback=_finite,
                      help="Simulated time in seconds (steps = round(T / Δt))."),

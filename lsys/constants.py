@@ -29,9 +29,26 @@ SIM_CHUNK_VALUES = 1 << 20    # angle values per yielded simulation chunk (8 MB 
 SIM_STEPS_PER_CALL = 1 << 16  # kernel steps per call at most (bounds wind samples held)
 DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format string`
 
+# --- compare -------------------------------------------------------------------------
+# Two runs' times agree when they differ by at most this much, relative to
+# max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
+TIME_MATCH_RTOL = 1e-9
+# `pose` needs about 200 bytes per branch and sample; tips are computed in
+# blocks of about this many branch-samples (~50 MB).
+POSE_BLOCK_BRANCH_SAMPLES = 1 << 18
+DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)
+
+# --- OBJ frames (formats/obj.py) ---------------------------------------------------------
+OBJ_SIDES = 8                 # sides of a branch tube
+OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without children
+OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
+OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)
+
 # --- output formatting ------------------------------------------------------------
 # Angles and other floats in CSV output: fixed significant digits, so that a
 # last-bit difference in a libm routine on another machine does not change bytes.
 CSV_FLOAT_FORMAT = "%.10g"
+JSON_SIGNIFICANT_DIGITS = 10  # compare --json rounds floats to this many digits
+TABLE_FLOAT_FORMAT = "%.4g"   # compare's table
 # Tree files store floats exactly (shortest repr round-trips), so that
 # `derive | simulate -` and `simulate x.lsys` see identical numbers.

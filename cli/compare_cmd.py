@@ -1,0 +1,342 @@
+"""`plantlod compare`: how far simplified trees move from the original (docs/compare.md).
+
+The work is in `plantlod.simplify.compare` (groups, combined angles, report),
+`plantlod.formats.compare_report` (table, JSON), `plantlod.formats.obj` and
+`plantlod.formats.plot`; this module reads the inputs, runs what needs running
+and writes the outputs.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import sys
+
+import click
+
+from plantlod.lsys.constants import DEFAULT_PLOT_TIME
+from plantlod.lsys.errors import InputError, RunFailure
+
+from .io import display_name, open_output, read_text, say, warn
+from .loading import load_tree
+from .sim_options import settings_from_kwargs, simulation_options
+
+SIMULATION_PARAMS = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
+                     "wind_file", "gust_strength", "gust_seed", "damping")
+
+
+def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[float | None]:
+    """Comma-separated numbers; with allow_empty an empty field is None."""
+    if text is None:
+        return []
+    out: list[float | None] = []
+    for part in text.split(","):
+        part = part.strip()
+        if not part and allow_empty:
+            out.append(None)
+            continue
+        try:
+            value = float(part)
+        except ValueError:
+            raise click.BadParameter(f"expected numbers separated by commas, got {text!r}",
+                                     param_hint=option) from None
+        if not math.isfinite(value):
+            raise click.BadParameter(f"expected finite numbers, got {text!r}", param_hint=option)
+        out.append(value)
+    return out
+
+
+@click.command()
+@click.argument("original", metavar="ORIGINAL")
+@click.argument("simplified", metavar="SIMPLIFIED...", nargs=-1, required=True)
+@click.option("--original-angles", metavar="A.csv", default=None,
+              help="Angle CSV of ORIGINAL from `plantlod simulate` (else ORIGINAL is simulated here).")
+@click.option("--simplified-angles", metavar="B.csv", multiple=True,
+              help="Angle CSV of a SIMPLIFIED file; give it once per SIMPLIFIED, in order.")
+@click.option("--degrees", is_flag=True, help="The angle CSVs hold degrees (simulate --degrees).")
+@click.option("-n", "--derivation-length", "original_n", type=click.IntRange(min=0), default=None,
+              help="Derivation length of an .lsys ORIGINAL (default: the file's).")
+@click.option("--simplified-n", type=click.IntRange(min=0), multiple=True,
+              help="Derivation length of an .lsys SIMPLIFIED; once per SIMPLIFIED, in order.")
+@simulation_options(dt_required=False)
+@click.option("--window", "window_text", metavar="T0,T1", default=None,
+              help="Compare only the samples with T0 <= t <= T1 (either may be left empty).")
+@click.option("--json", "as_json", is_flag=True, help="Write JSON instead of the table.")
+@click.option("-o", "--output", default=None, metavar="OUT",
+              help="Write the table or JSON here (atomically) instead of stdout.")
+@click.option("--max-amplitude-error", type=click.FloatRange(min=0), default=None,
+              help="Exit 1 when the worst amplitude error is above this (a fraction).")
+@click.option("--max-period-error", type=click.FloatRange(min=0), default=None,
+              help="Exit 1 when the worst period error is above this (a fraction).")
+@click.option("--max-tip-error", type=click.FloatRange(min=0), default=None,
+              help="Exit 1 when the worst tip error is above this (a fraction of the rest height).")
+@click.option("--obj", "obj_dir", metavar="DIR", default=None,
+              help="Write OBJ files of the posed trees side by side into DIR (with --at / --every).")
+@click.option("--at", "at_text", metavar="T[,T...]", default=None,
+              help="Times (s) of the OBJ frames DIR/frame_t<T>.obj.")
+@click.option("--every", type=click.IntRange(min=1), default=None,
+              help="Also write every K-th sample as DIR/frame_<NNNNN>.obj (an animation).")
+@click.option("--plot", "plot_path", metavar="FILE.png", default=None,
+              help="Draw angles of the worst groups and the posed trees into a PNG (needs matplotlib).")
+@click.option("--plot-at", type=float, default=None,
+              help="Time (s) of the posed trees in the plot (default: the first --at, else 4 s).")
+@click.option("--angles", "angles_mode", is_flag=True,
+              help="Compare two angle CSVs of one tree instead: ORIGINAL and SIMPLIFIED are CSVs.")
+@click.option("--atol", type=click.FloatRange(min=0), default=None,
+              help="With --angles: exit 1 when some angle differs by more than this (radians, "
+                   "or degrees with --degrees).")
+@click.pass_context
+def compare(ctx, original, simplified, original_angles, simplified_angles, degrees, original_n,
+            simplified_n, window_text, as_json, output, max_amplitude_error, max_period_error,
+            max_tip_error, obj_dir, at_text, every, plot_path, plot_at, angles_mode, atol,
+            **sim_kwargs):
+    """Compare the motion of simplified trees with the original's.
+
+    ORIGINAL and each SIMPLIFIED are .lsys files or tree files. Each is
+    simulated here with the simulation options, unless its angle CSV from
+    `plantlod simulate` is given (--original-angles, --simplified-angles).
+    Every simplified branch stands for a group of original branches (the
+    original branches whose addresses begin with its address); per group the
+    table shows amplitudes, periods, their errors and the tip error
+    (docs/compare.md, docs/errors.md). Exit status 1 when a --max-… bound is
+    broken, 2 for bad input.
+
+    \b
+    Examples:
+      plantlod compare examples/stalk8.lsys stalk8_l1.lsys --dt 0.01 --duration 20 --wind-speed 10
+      plantlod compare stalk8.lsys l1.lsys l2.lsys --dt 0.01 --duration 6 --wind-speed 10 \\
+          --obj frames --at 4 --plot cmp.png
+      plantlod compare tree.jsonl l1.tree.jsonl --original-angles a.csv --simplified-angles b.csv --json
+      plantlod compare --angles golden.csv new.csv --atol 1e-9
+    """
+    if angles_mode:
+        _check_angles_mode(ctx, simplified)
+        _compare_csvs(original, simplified[0], degrees, atol, as_json, output)
+        return
+    if atol is not None:
+        raise click.UsageError("--atol applies to --angles (two angle CSVs of one tree)")
+    _check_pairs(simplified, simplified_angles, "--simplified-angles")
+    _check_pairs(simplified, simplified_n, "--simplified-n")
+    window = _numbers(window_text, "--window", allow_empty=True)
+    if window_text is not None and len(window) != 2:
+        raise click.BadParameter("expected T0,T1 (either may be empty)", param_hint="--window")
+    at_times = _numbers(at_text, "--at")
+    if (at_times or every) and obj_dir is None:
+        raise click.UsageError("--at and --every choose OBJ frames; give --obj DIR too")
+    if obj_dir is not None and not at_times and every is None:
+        raise click.UsageError("--obj needs the times of its frames: --at T[,T...] and/or --every K")
+    if plot_at is not None and plot_path is None:
+        raise click.UsageError("--plot-at chooses the time of the trees in --plot FILE.png; give --plot too")
+    if plot_path is not None:
+        from plantlod.formats.plot import require_matplotlib
+        require_matplotlib()                 # fail before any simulation runs
+    if obj_dir is not None and not os.path.isdir(obj_dir):
+        raise InputError("the --obj directory does not exist", obj_dir)
+
+    sides = [(original, original_angles, original_n)]
+    sides += [(s, simplified_angles[i] if simplified_angles else None,
+               simplified_n[i] if simplified_n else None) for i, s in enumerate(simplified)]
+    settings = _settings_if_needed(ctx, sides, sim_kwargs)
+    runs = [_run_side(path, csv, n, degrees, settings) for path, csv, n in sides]
+
+    from plantlod.simplify.compare import check_bounds, compare_runs
+
+    comparisons = [compare_runs(runs[0], run, window[0] if window else None,
+                                window[1] if window else None) for run in runs[1:]]
+    bounds = {"amplitude_error": max_amplitude_error, "period_error": max_period_error,
+              "tip_error": max_tip_error}
+    violations = [check_bounds(c.report, bounds) for c in comparisons]
+
+    _write_report(comparisons, bounds, violations, as_json, output)
+    if obj_dir is not None or plot_path is not None:
+        _write_pictures(runs, obj_dir, at_times, every, plot_path, plot_at, comparisons)
+    for comp in comparisons:
+        _summarise(comp)
+    broken = [v.describe(c.simplified.name) for c, vs in zip(comparisons, violations) for v in vs]
+    if broken:
+        raise RunFailure("bound exceeded: " + "; ".join(broken))
+
+
+# --- inputs ----------------------------------------------------------------------------
+
+def _check_pairs(simplified, values, option: str) -> None:
+    if values and len(values) != len(simplified):
+        raise click.UsageError(f"{option} was given {len(values)} time(s) for {len(simplified)} "
+                               f"SIMPLIFIED file(s); give it once per SIMPLIFIED, in order")
+
+
+def _given(ctx, name: str) -> bool:
+    from click.core import ParameterSource
+
+    return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT)
+
+
+def _settings_if_needed(ctx, sides, sim_kwargs):
+    """The simulation settings when some side has no angle CSV; None (and no options) otherwise."""
+    needed = [path for path, csv, _n in sides if csv is None]
+    if not needed:
+        given = [p for p in SIMULATION_PARAMS if _given(ctx, p)]
+        if given:
+            raise click.UsageError(f"--{given[0].replace('_', '-')} applies only when a side is "
+                                   f"simulated; every side here comes with an angle CSV")
+        return None
+    if sim_kwargs.get("dt") is None:
+        raise click.UsageError(f"--dt is required to simulate {display_name(needed[0])} "
+                               f"(or give its angle CSV)")
+    return settings_from_kwargs(dict(sim_kwargs))
+
+
+def _check_angles_mode(ctx, simplified) -> None:
+    if len(simplified) != 1:
+        raise click.UsageError(f"--angles compares exactly two CSVs; got {1 + len(simplified)} files")
+    other = [p for p in ("original_angles", "simplified_angles", "original_n", "simplified_n",
+                         "window_text", "max_amplitude_error", "max_period_error", "max_tip_error",
+                         "obj_dir", "at_text", "every", "plot_path", "plot_at") + SIMULATION_PARAMS
+             if _given(ctx, p)]
+    if other:
+        name = {"window_text": "window", "at_text": "at", "obj_dir": "obj", "plot_path": "plot",
+                "original_n": "derivation-length"}.get(other[0], other[0])
+        raise click.UsageError(f"--{name.replace('_', '-')} does not apply to --angles "
+                               f"(two angle CSVs of one tree)")
+
+
+def _read_csv(path: str, degrees: bool):
+    from plantlod.formats.angles_csv import read_angles_csv
+
+    return read_angles_csv(io.StringIO(read_text(path)), display_name(path), degrees=degrees)
+
+
+def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):
+    """A `Run` of one side: its tree, with angles from its CSV or simulated here."""
+    from plantlod.simplify.compare import Run, angles_in_tree_order
+
+    tree, _system = load_tree(path, n)
+    name = display_name(path) if n is None else f"{display_name(path)} (n={n})"
+    if csv is not None:
+        times, addresses, bend, rot = _read_csv(csv, degrees)
+        bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(csv))
+        return Run(tree, times, bend, rot, name)
+    from plantlod.sim.run import simulate_arrays
+
+    samples = simulate_arrays(tree, settings.dt, settings.steps, settings.wind,
+                              damping=settings.damping)
+    return Run(tree, samples.times, samples.bend, samples.rot, name)
+
+
+# --- outputs ---------------------------------------------------------------------------
+
+def _write_report(comparisons, bounds, violations, as_json: bool, output: str | None) -> None:
+    from plantlod.formats import compare_report as fmt
+
+    if as_json:
+        text = fmt.dumps(fmt.comparison_document(comparisons, bounds, violations))
+    elif output in (None, "-") and sys.stdout.isatty():
+        from rich.console import Console
+
+        fmt.print_rich(comparisons, Console(file=sys.stdout))
+        return
+    else:
+        text = fmt.comparison_text(comparisons)
+    with open_output(output) as out:
+        out.write(text)
+
+
+def _summarise(comp) -> None:
+    r = comp.report
+    say(f"compare: {comp.simplified.name} against {comp.original.name}: "
+        f"{len(r.groups)} groups, {len(comp.original.times)} samples; worst amplitude error "
+        f"{_g(r.amplitude_error)}, period error {_g(r.period_error)}, tip error {_g(r.tip_error)}")
+    if r.undefined_periods:
+        warn(f"{comp.simplified.name}: {len(r.undefined_periods)} counted component(s) have no "
+             f"defined period (e.g. group {r.undefined_periods[0].address} "
+             f"{r.undefined_periods[0].component}); the period error leaves them out")
+
+
+def _g(value: float) -> str:
+    return "undefined" if not math.isfinite(value) else f"{value:.4g}"
+
+
+def _sample_index(times, t: float, option: str) -> int:
+    """The sample nearest to t (the earlier of two equally near); InputError outside the run."""
+    import numpy as np
+
+    if not times[0] - 1e-9 <= t <= times[-1] + 1e-9:
+        raise InputError(f"{option} {t:g} s is outside the run, {times[0]:g} to {times[-1]:g} s; "
+                         f"expected a time inside it")
+    k = int(np.searchsorted(times, t))
+    if k == len(times) or (k > 0 and t - times[k - 1] <= times[k] - t):
+        k -= 1
+    return k
+
+
+def _write_pictures(runs, obj_dir, at_times, every, plot_path, plot_at, comparisons) -> None:
+    from plantlod.formats.obj import obj_text, posed_meshes, rest_layout
+    from plantlod.sim.kinematics import rest_height
+
+    trees = [r.tree for r in runs]
+    names = ["original"] + [f"simplified_{i}" for i in range(1, len(runs))]
+    offsets = rest_layout(trees, [rest_height(t) for t in trees])
+    times = runs[0].times
+
+    def frame(k: int) -> str:
+        meshes = posed_meshes(trees, names, [r.bend[k] for r in runs], [r.rot[k] for r in runs],
+                              offsets)
+        return obj_text(meshes)
+
+    written = 0
+    for t in at_times:
+        with open_output(os.path.join(obj_dir, f"frame_t{t:g}.obj")) as out:
+            out.write(frame(_sample_index(times, t, "--at")))
+        written += 1
+    if every is not None:
+        for number, k in enumerate(range(0, len(times), every)):
+            with open_output(os.path.join(obj_dir, f"frame_{number:05d}.obj")) as out:
+                out.write(frame(k))
+            written += 1
+    if obj_dir is not None:
+        say(f"compare: wrote {written} OBJ file(s) to {obj_dir}")
+    if plot_path is not None:
+        from plantlod.formats.plot import plot_comparison
+
+        if plot_at is None:
+            t_plot = at_times[0] if at_times else min(DEFAULT_PLOT_TIME, float(times[-1]))
+        else:
+            t_plot = plot_at
+        k = _sample_index(times, t_plot, "--plot-at")
+        png = plot_comparison(comparisons, trees, [os.path.basename(r.name) for r in runs],
+                              [r.bend[k] for r in runs], [r.rot[k] for r in runs], offsets,
+                              float(times[k]))
+        with open_output(plot_path, binary=True) as out:
+            out.write(png)
+        say(f"compare: wrote {plot_path}")
+
+
+
+def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, as_json: bool,
+                  output: str | None) -> None:
+    from plantlod.formats import compare_report as fmt
+    from plantlod.simplify.compare import angle_differences
+
+    name_a, name_b = display_name(path_a), display_name(path_b)
+    times_a, addr_a, bend_a, rot_a = _read_csv(path_a, degrees)
+    times_b, addr_b, bend_b, rot_b = _read_csv(path_b, degrees)
+    diff = angle_differences(times_a, addr_a, bend_a, rot_a, times_b, addr_b, bend_b, rot_b,
+                             name_a, name_b)
+    limit = None if atol is None else (math.radians(atol) if degrees else atol)
+    if as_json:
+        text = fmt.dumps(fmt.difference_document(diff, name_a, name_b, len(times_a), limit))
+    else:
+        text = fmt.plain_table(fmt.DIFF_HEADERS, fmt.difference_rows(diff))
+    with open_output(output) as out:
+        out.write(text)
+    j, component = diff.worst()
+    largest = float(diff.largest[j])
+    t = diff.bend_at[j] if component == "bend" else diff.rot_at[j]
+    unit, scale = ("deg", 180 / math.pi) if degrees else ("rad", 1.0)
+    say(f"compare: {name_a} against {name_b}: {len(addr_a)} branches, {len(times_a)} samples; "
+        f"largest difference {largest * scale:.4g} {unit} at branch {diff.addresses[j]} "
+        f"{component}, t = {t:g} s")
+    if limit is not None and largest > limit:
+        raise RunFailure(f"largest angle difference {largest * scale:.4g} {unit} > --atol {atol:g} "
+                         f"at branch {diff.addresses[j]} {component}, t = {t:g} s")

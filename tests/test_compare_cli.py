@@ -1,0 +1,264 @@
+"""`plantlod compare` through click's CliRunner: groups, figures, outputs and exit codes.
+
+Figures are checked against the slow literal model in tests/reference_model.py
+(the original's angles) and against closed forms of the groups and main paths
+worked out by hand from the productions; stdout and stderr are asserted apart.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+import shutil
+
+import numpy as np
+import pytest
+
+from golden_util import assert_golden
+from plantlod.cli.main import cli
+from reference_model import reference_simulate
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+
+# The thesis' level-1 stalk for stalk8.lsys: N = 2, F twice as long, k_fp = 0.7^2.
+STALK8_LEVEL1 = """\
+# level 1 of stalk8.lsys by the thesis' rules
+name: stalk8_level1
+derivation_length: 2
+branching_angle: 30
+rotation_angle: 90
+seed: 0
+force_absorbed: 0.005
+force_propagated: 0.49
+drag_coefficient: 0.0015
+
+branch F: length=2 radius=0.02 bend_strength=20 rotation_strength=20
+leaf L: area=0.01
+
+axiom: F L
+productions:
+  F -> F F
+"""
+RUN = ["--dt", "0.01", "--steps", "1000", "--wind-speed", "20"]
+
+
+@pytest.fixture
+def stalks(tmp_path, monkeypatch):
+    """A working directory holding stalk8.lsys and its level-1 file stalk8_level1.lsys."""
+    shutil.copy(EXAMPLES / "stalk8.lsys", tmp_path / "stalk8.lsys")
+    (tmp_path / "stalk8_level1.lsys").write_text(STALK8_LEVEL1)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def invoke(runner, args):
+    return runner.invoke(cli, ["compare", *args], catch_exceptions=False)
+
+
+def test_stalk_groups_and_figures_against_the_reference_model(runner, stalks):
+    result = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--json"])
+    assert result.exit_code == 0, result.stderr
+    doc = json.loads(result.stdout)
+    (comp,) = doc["comparisons"]
+    # 8 branches 0.a.b.c, 4 groups 0.a.b, each a chain of two: the main path is the whole group
+    assert [g["address"] for g in comp["groups"]] == ["0.0.0", "0.0.1", "0.1.0", "0.1.1"]
+    for g in comp["groups"]:
+        assert g["members"] == 2
+        assert g["main_path"] == [g["address"] + ".0", g["address"] + ".1"]
+    assert comp["unassigned_branches"] == 0 and doc["samples"] == 1001
+    assert doc["original"] == {"file": "stalk8.lsys", "branches": 8, "leaves": 1, "rest_height": 8.0}
+
+    # the original's motion from the literal model; the stalk is straight, so a group's
+    # combined bend is the sum of its two members' bends (model.md 5)
+    from plantlod.cli.loading import load_tree
+    tree, _ = load_tree("stalk8.lsys")
+    bend, rot = reference_simulate(tree, 0.01, 1000, lambda t: (20.0, 0.0, 0.0))
+    bend = np.array(bend)
+    assert np.abs(np.array(rot)).max() == 0.0          # wind along x: no rotation at all
+    largest = 0.0
+    for j, g in enumerate(comp["groups"]):
+        combined = bend[:, 2 * j] + bend[:, 2 * j + 1]
+        amp = (combined.max() - combined.min()) / 2
+        largest = max(largest, amp)
+        assert g["bend"]["amplitude_original"] == pytest.approx(amp, rel=1e-8)
+        assert g["rotation"]["amplitude_original"] == 0.0
+        assert g["rotation"]["counted"] is False and g["rotation"]["period_original"] is None
+    assert comp["largest_amplitude"] == pytest.approx(largest, rel=1e-8)
+    worst = max(comp["groups"], key=lambda g: g["bend"]["amplitude_error"])
+    assert comp["amplitude_error"] == worst["bend"]["amplitude_error"]
+    assert comp["amplitude_error_at"] == {"address": worst["address"], "component": "bend"}
+    assert result.stderr.startswith("compare: stalk8_level1.lsys against stalk8.lsys: 4 groups")
+
+
+def test_branching_tree_groups_and_main_paths(runner):
+    # abop_1_24a: F -> F[+FL]F[-FL]F. In the successor F[+FL]F[-FL]F the branches have
+    # indices 0, 3, 6, 9, 12; the first F carries the side branch 3 (+, alpha 25.7 deg)
+    # and the straight 6, which carries 9 (-) and the straight 12. So the group of the
+    # level-1 branch 0.a (n = 1 against n = 2) holds 0.a.{0,3,6,9,12} and its main path
+    # is 0.a.0, 0.a.6, 0.a.12 (the straight line); 25 branches, 5 groups.
+    lsys = str(EXAMPLES / "abop_1_24a.lsys")
+    result = invoke(runner, [lsys, lsys, "-n", "2", "--simplified-n", "1", "--dt", "0.01",
+                             "--steps", "300", "--wind-speed", "20", "--json"])
+    assert result.exit_code == 0, result.stderr
+    (comp,) = json.loads(result.stdout)["comparisons"]
+    assert comp["simplified"]["file"].endswith("abop_1_24a.lsys (n=1)")
+    assert [g["address"] for g in comp["groups"]] == ["0.0", "0.3", "0.6", "0.9", "0.12"]
+    for g in comp["groups"]:
+        a = g["address"]
+        assert g["members"] == 5
+        assert g["main_path"] == [f"{a}.0", f"{a}.6", f"{a}.12"]
+
+
+def test_table_is_plain_aligned_text(runner, stalks):
+    table = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", *RUN])
+    assert table.exit_code == 0
+    doc = json.loads(invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--json"]).stdout)
+    lines = table.stdout.splitlines()
+    assert lines[0].startswith("original:   stalk8.lsys (8 branches, 1 leaf, rest height 8 m)")
+    header = next(i for i, line in enumerate(lines) if line.startswith("group"))
+    assert set(lines[header + 1]) <= {"-", " "}
+    rows = lines[header + 2: header + 10]
+    # the bend rows carry the figures of the JSON, amplitudes in degrees
+    for j, g in enumerate(doc["comparisons"][0]["groups"]):
+        bend_row, rot_row = rows[2 * j].split(), rows[2 * j + 1].split()
+        assert bend_row[:4] == [g["address"], "2", "2", "bend"]
+        assert float(bend_row[4]) == pytest.approx(math.degrees(g["bend"]["amplitude_original"]), rel=1e-3)
+        assert float(bend_row[6]) == pytest.approx(g["bend"]["amplitude_error"], rel=1e-3)
+        assert float(bend_row[-1]) == pytest.approx(g["tip_error"], rel=1e-3)
+        assert rot_row == ["rotation", "0", "0", "-", "-", "-", "-", "no"]
+    assert "\x1b" not in table.stdout                   # no terminal codes when piped
+    assert table.stdout == invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", *RUN]).stdout
+
+
+def test_compare_stalk8_level1_golden(runner, stalks):
+    result = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", "--dt", "0.01", "--duration", "10",
+                             "--wind-speed", "20", "--json"])
+    assert result.exit_code == 0
+    assert_golden("compare_stalk8_level1.json", result.stdout)
+
+
+def test_bounds_and_exit_codes(runner, stalks):
+    base = ["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--json"]
+    doc = json.loads(invoke(runner, base).stdout)["comparisons"][0]
+    amp, per, tip = doc["amplitude_error"], doc["period_error"], doc["tip_error"]
+    ok = invoke(runner, base + ["--max-amplitude-error", str(amp * 1.01), "--max-period-error",
+                                str(per * 1.01), "--max-tip-error", str(tip * 1.01)])
+    assert ok.exit_code == 0 and json.loads(ok.stdout)["passed"] is True
+
+    bad = invoke(runner, base + ["--max-tip-error", str(tip * 0.99)])
+    assert bad.exit_code == 1
+    out = json.loads(bad.stdout)                         # the JSON is still written
+    assert out["passed"] is False
+    (exceeded,) = out["comparisons"][0]["exceeded"]
+    assert exceeded["bound"] == "--max-tip-error" and exceeded["at"] == doc["tip_error_at"]
+    errors = [line for line in bad.stderr.splitlines() if "error:" in line]
+    assert len(errors) == 1
+    assert "--max-tip-error" in errors[0] and f"at group {doc['tip_error_at']['address']}" in errors[0]
+
+    table = invoke(runner, base[:-1] + ["--max-amplitude-error", "0"])
+    assert table.exit_code == 1 and table.stdout.startswith("original:")
+
+
+def test_usage_errors_exit_2(runner, stalks):
+    cases = [
+        (["stalk8.lsys", "stalk8_level1.lsys", "--steps", "10"], "--dt is required"),
+        (["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--simplified-n", "1", "--simplified-n", "2"],
+         "--simplified-n was given 2 time(s) for 1"),
+        (["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--window", "5"], "T0,T1"),
+        (["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--at", "4"], "--obj"),
+        (["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--window", "20,30"], "window"),
+        (["stalk8_level1.lsys", "stalk8.lsys", *RUN], "more than the original"),
+        (["stalk8.lsys", "missing.lsys", *RUN], "missing.lsys: error: no such file"),
+        (["--angles", "a.csv", "b.csv", "--wind-speed", "3"], "does not apply to --angles"),
+    ]
+    for args, message in cases:
+        result = invoke(runner, args)
+        assert result.exit_code == 2, (args, result.stderr)
+        assert message in result.stderr, (args, result.stderr)
+        assert result.stdout == ""
+
+
+def simulate_csv(runner, source, out, extra=()):
+    result = runner.invoke(cli, ["simulate", source, *RUN, "-o", out, *extra], catch_exceptions=False)
+    assert result.exit_code == 0, result.stderr
+
+
+def test_tree_files_with_angle_csvs(runner, stalks):
+    for name in ("stalk8", "stalk8_level1"):
+        derived = runner.invoke(cli, ["derive", f"{name}.lsys", "-o", f"{name}.tree.jsonl"])
+        assert derived.exit_code == 0
+        simulate_csv(runner, f"{name}.lsys", f"{name}.csv")
+    from_csv = invoke(runner, ["stalk8.tree.jsonl", "stalk8_level1.tree.jsonl", "--original-angles",
+                               "stalk8.csv", "--simplified-angles", "stalk8_level1.csv", "--json"])
+    assert from_csv.exit_code == 0, from_csv.stderr
+    simulated = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--json"])
+    a = json.loads(from_csv.stdout)["comparisons"][0]
+    b = json.loads(simulated.stdout)["comparisons"][0]
+    for key in ("amplitude_error", "period_error", "tip_error"):    # the CSV keeps 10 digits
+        assert a[key] == pytest.approx(b[key], rel=1e-6)
+
+    # the wrong CSV for a tree, runs of different lengths, simulation options with nothing to run
+    wrong = invoke(runner, ["stalk8.tree.jsonl", "stalk8_level1.tree.jsonl", "--original-angles",
+                            "stalk8_level1.csv", "--simplified-angles", "stalk8_level1.csv"])
+    assert wrong.exit_code == 2 and "stalk8_level1.csv: error: the angle CSV does not belong" in wrong.stderr
+    short = runner.invoke(cli, ["simulate", "stalk8_level1.lsys", "--dt", "0.01", "--steps", "500",
+                                "--wind-speed", "20", "-o", "short.csv"])
+    assert short.exit_code == 0
+    mixed = invoke(runner, ["stalk8.lsys", "stalk8_level1.tree.jsonl", *RUN, "--simplified-angles",
+                            "short.csv"])
+    assert mixed.exit_code == 2 and "1001 samples" in mixed.stderr and "501" in mixed.stderr
+    extra = invoke(runner, ["stalk8.tree.jsonl", "stalk8_level1.tree.jsonl", "--original-angles",
+                            "stalk8.csv", "--simplified-angles", "stalk8_level1.csv", "--dt", "0.01"])
+    assert extra.exit_code == 2 and "--dt applies only when a side is simulated" in extra.stderr
+
+
+def test_two_csvs_of_one_tree(runner, stalks):
+    simulate_csv(runner, "stalk8.lsys", "golden.csv")
+    same = invoke(runner, ["--angles", "golden.csv", "golden.csv", "--atol", "0"])
+    assert same.exit_code == 0
+    assert "largest difference 0 rad" in same.stderr
+    # another wind: the differences, read back independently from both files
+    other = runner.invoke(cli, ["simulate", "stalk8.lsys", "--dt", "0.01", "--steps", "1000",
+                                "--wind-speed", "21", "-o", "new.csv"])
+    assert other.exit_code == 0
+    a = np.loadtxt("golden.csv", delimiter=",", skiprows=1)
+    b = np.loadtxt("new.csv", delimiter=",", skiprows=1)
+    want = np.abs(a[:, 1:] - b[:, 1:]).max(axis=0)          # b:0.0.0.0, r:0.0.0.0, b:...
+    result = invoke(runner, ["--angles", "golden.csv", "new.csv", "--json"])
+    assert result.exit_code == 0
+    doc = json.loads(result.stdout)
+    np.testing.assert_allclose([br["bend"] for br in doc["branches"]], want[0::2], rtol=1e-9)
+    np.testing.assert_allclose([br["rotation"] for br in doc["branches"]], want[1::2], atol=0)
+    assert doc["largest"] == pytest.approx(want.max(), rel=1e-9) and doc["at"]["component"] == "bend"
+    limit = want.max()
+    above = invoke(runner, ["--angles", "golden.csv", "new.csv", "--atol", str(limit * 0.99)])
+    assert above.exit_code == 1 and above.stdout.startswith("branch")
+    assert "--atol" in above.stderr.splitlines()[-1]
+    below = invoke(runner, ["--angles", "golden.csv", "new.csv", "--atol", str(limit * 1.01)])
+    assert below.exit_code == 0
+    # degrees: the limit is read in degrees too
+    deg = invoke(runner, ["--angles", "golden.csv", "new.csv", "--degrees", "--atol",
+                          str(limit * 0.99)])
+    assert deg.exit_code == 1 and " deg " in deg.stderr
+
+
+def test_window_and_several_simplified_files(runner, stalks):
+    (stalks / "stalk8_level2.lsys").write_text(
+        STALK8_LEVEL1.replace("derivation_length: 2", "derivation_length: 1").replace("length=2", "length=4"))
+    result = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", "stalk8_level2.lsys", *RUN,
+                             "--window", "2,", "--json"])
+    assert result.exit_code == 0, result.stderr
+    doc = json.loads(result.stdout)
+    assert [c["simplified"]["file"] for c in doc["comparisons"]] == ["stalk8_level1.lsys",
+                                                                     "stalk8_level2.lsys"]
+    assert all(c["window"] == [2.0, 10.0] for c in doc["comparisons"])
+    # level 2: two groups 0.0 and 0.1 of four straight branches each
+    level2 = doc["comparisons"][1]["groups"]
+    assert [(g["address"], g["members"]) for g in level2] == [("0.0", 4), ("0.1", 4)]
+    assert level2[1]["main_path"] == ["0.1.0.0", "0.1.0.1", "0.1.1.0", "0.1.1.1"]
+    table = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", "stalk8_level2.lsys", *RUN])
+    assert table.stdout.count("\noriginal:   stalk8.lsys") == 1            # the second block
+    assert table.stdout.count("window:     0 to 10 s (1001 samples)") == 2
+    assert len(table.stderr.splitlines()) == 2                           # one summary per file
