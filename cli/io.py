@@ -16,6 +16,9 @@ import sys
 import tempfile
 from typing import IO, Iterator
 
+# Re-exported: every command reads its inputs through formats.text_input.
+from plantlod.formats.text_input import read_text  # noqa: F401
+from plantlod.formats.text_input import source_name as display_name  # noqa: F401
 from plantlod.lsys.errors import InputError
 
 _console = None
@@ -39,41 +42,12 @@ def warn(message: str) -> None:
     say(f"warning: {message}")
 
 
-def read_text(path: str) -> str:
-    """The whole text of ``path`` (``-`` reads stdin), as UTF-8.
-
-    Errors name the file as the user wrote it (stdin as ``<stdin>``).
-    """
-    name = display_name(path)
-    try:
-        if path == "-":
-            data = sys.stdin.buffer.read()
-        else:
-            with open(path, "rb") as fh:
-                data = fh.read()
-    except FileNotFoundError:
-        raise InputError("no such file", name) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not a file", name) from None
-    except PermissionError:
-        raise InputError("permission denied", name) from None
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"not UTF-8 text (byte {exc.start}); expected a UTF-8 text file",
-                         name) from None
-
-
 _PLURALS = {"branch": "branches", "leaf": "leaves"}
 
 
 def count(n: int, noun: str) -> str:
     """``n`` and ``noun`` for a summary line: "1 leaf", "1,563 leaves", "8 branches"."""
     return f"{n:,} {noun if n == 1 else _PLURALS.get(noun, noun + 's')}"
-
-
-def display_name(path: str) -> str:
-    return "<stdin>" if path == "-" else path
 
 
 def _special_target(path: str) -> bool:

@@ -10,14 +10,13 @@ builds, and writing is deterministic.
 
 from __future__ import annotations
 
-import sys
-
-from plantlod.lsys.errors import InputError
 from plantlod.lsys.expr import format_expr, format_number
 from plantlod.lsys.parse import HEADER_KEYS, parse_lsys
 from plantlod.lsys.system import (
     BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
+
+from .text_input import read_text, source_name
 
 _INDENT = "  "
 
@@ -124,25 +123,4 @@ def read_lsys(path: str) -> LSystem:
     A missing or unreadable file, or one that is not UTF-8, is an `InputError`
     naming the file (at the line and column of the first bad byte for UTF-8).
     """
-    name = "<stdin>" if path == "-" else path
-    try:
-        if path == "-":
-            data = sys.stdin.buffer.read()
-        else:
-            with open(path, "rb") as handle:
-                data = handle.read()
-    except FileNotFoundError:
-        raise InputError(f"cannot read '{path}': no such file", name) from None
-    except OSError as exc:
-        raise InputError(f"cannot read '{path}': {exc.strerror or exc}", name) from None
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        bom = 3 if data.startswith(b"\xef\xbb\xbf") else 0
-        offset = exc.start + bom
-        line = data.count(b"\n", 0, offset) + 1
-        line_start = max(data.rfind(b"\n", 0, offset) + 1, bom)
-        col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
-        raise InputError(f"not UTF-8 text: byte 0x{data[offset]:02x} cannot be decoded; "
-                         "expected a UTF-8 file", name, line, col) from None
-    return parse_lsys(text, name)
+    return parse_lsys(read_text(path), source_name(path))

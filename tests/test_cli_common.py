@@ -4,6 +4,7 @@ start-up cost, and the golden-file utility itself."""
 from __future__ import annotations
 
 import os
+import re
 import stat
 import subprocess
 import threading
@@ -69,7 +70,7 @@ def _input_error(result, name: str, message: str) -> None:
     assert result.stdout == ""
     assert "Traceback" not in result.stderr
     assert result.stderr.count("\n") == 1, result.stderr
-    assert result.stderr.startswith(f"{name}: error: ")
+    assert re.match(rf"{re.escape(name)}(:\d+:\d+)?: error: ", result.stderr), result.stderr
     assert message in result.stderr
 
 
