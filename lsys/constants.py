@@ -38,6 +38,26 @@ TIME_MATCH_RTOL = 1e-9
 POSE_BLOCK_BRANCH_SAMPLES = 1 << 18
 DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)
 
+# --- simplify (docs/simplify.md) ------------------------------------------------------
+SIMPLIFY_WRITE_DIGITS = 12    # significant digits of every computed value simplify writes
+MATCH_DIRECTIONS = 16         # horizontal wind directions the static least-squares matches use
+MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
+SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
+# Measurement and calibration winds: directions (deg) along x, 15 deg off x (hardest
+# for a stalk whose leaf faces x), the diagonal and y; speeds low, sqrt(low*high),
+# HIGH_SPEED_FRACTION of the way to high, and high.
+MEASURE_WIND_DIRECTIONS = (0.0, 15.0, 45.0, 90.0)
+HIGH_SPEED_FRACTION = 0.75
+SIMPLIFY_DT = 0.01            # s, measurement runs (periods are 2.5 to 4.5 s)
+SIMPLIFY_DURATION = 20.0      # s, at least four periods
+SIMPLIFY_WIND_RANGE = (0.5, 20.0)   # m/s
+SIMPLIFY_EVERY = 4            # keep every 4th step when measuring
+CALIBRATION_EVALUATIONS = 40  # candidate trees simulated by --calibrate (each at every wind)
+CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_FA, C_d, strengths
+CALIBRATION_STABILITY_MARGIN = 0.9  # largest fraction of the stability limit a strength may reach
+CALIBRATION_ROUNDS = 6        # re-weighting rounds toward the worst error
+CALIBRATION_WEIGHT_FLOOR = 0.1  # weight every residual keeps
+
 # --- OBJ frames (formats/obj.py) ---------------------------------------------------------
 OBJ_SIDES = 8                 # sides of a branch tube
 OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without children

@@ -1,0 +1,105 @@
+"""`plantlod simplify`: write the level-n L-system of a tree, with its measured errors."""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import click
+
+from plantlod.lsys.constants import (
+    CALIBRATION_EVALUATIONS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
+)
+
+from .io import display_name, open_output, say
+
+
+def _wind_range(ctx, param, value):
+    parts = value.split(",")
+    try:
+        low, high = (float(p) for p in parts)
+    except ValueError:
+        raise click.BadParameter("expected two speeds LOW,HIGH in m/s, e.g. 0.5,20") from None
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
+        raise click.BadParameter(f"expected 0 < LOW <= HIGH, got {value}")
+    return low, high
+
+
+@click.command()
+@click.argument("input_path", metavar="FILE")
+@click.option("-o", "--output", default=None, metavar="OUT.lsys",
+              help="Write the level-n .lsys here (atomically) instead of stdout.")
+@click.option("-n", "--level", type=click.IntRange(min=1), required=True,
+              help="Level n: the result derives N - n steps (1 <= n < N).")
+@click.option("--method", type=click.Choice(["derived", "thesis"]), default="derived",
+              show_default=True,
+              help="derived: closed-form rules matching every group's static angle; "
+                   "thesis: the thesis' rules (summed length, k_fp^(n+1), leaf force on the top group).")
+@click.option("--calibrate", is_flag=True,
+              help="Refine the derived values against simulated runs of the original "
+                   "(deterministic, bounded by --evaluations).")
+@click.option("--wind-range", default="{:g},{:g}".format(*SIMPLIFY_WIND_RANGE), show_default=True, callback=_wind_range,
+              metavar="LOW,HIGH", help="Speed range (m/s) of the measurement and calibration winds: "
+                                       "LOW, sqrt(LOW*HIGH), 3/4 of HIGH and HIGH, toward 0, 15, 45 and 90 deg.")
+@click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=SIMPLIFY_DT, show_default=True,
+              help="Time step (s) of the measurement and calibration runs.")
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True), default=SIMPLIFY_DURATION,
+              show_default=True, help="Length (s) of each measurement and calibration run.")
+@click.option("--evaluations", type=click.IntRange(min=1), default=CALIBRATION_EVALUATIONS, show_default=True,
+              help="Calibration budget: candidate trees simulated (each at every wind).")
+@click.option("--progress/--no-progress", default=None,
+              help="Progress bar on stderr (default: only when stderr is a terminal).")
+def simplify(input_path, output, level, method, calibrate, wind_range, dt, duration,
+             evaluations, progress):
+    """Write a level-n L-system that sways like FILE's tree.
+
+    The result keeps FILE's axiom and productions and derives N - n steps; its
+    branch at address a stands for the original branches whose addresses begin
+    with a. Its header comment records the source, level, method and the errors
+    (docs/model.md section 6) measured for it over the winds of --wind-range.
+
+    \b
+    Example:
+      plantlod simplify examples/stalk8.lsys --level 1 -o stalk8_l1.lsys
+      plantlod simplify examples/stalk8.lsys --level 2 --calibrate
+      plantlod simplify examples/stalk8.lsys --level 1 --method thesis
+    """
+    from plantlod.formats.lsys_file import read_lsys
+    from plantlod.simplify.pipeline import Options, simplify as run_simplify
+
+    system = read_lsys(input_path)
+    options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
+                      dt=dt, duration=duration, max_evaluations=evaluations)
+    show = sys.stderr.isatty() if progress is None else progress
+    if show:
+        result = _with_progress(run_simplify, system, options)
+    else:
+        result = run_simplify(system, options)
+    with open_output(output) as out:
+        out.write(result.text)
+    s = result.summary
+    say(f"simplify: {display_name(input_path)} level {level} ({method}"
+        f"{', calibrated' if calibrate else ''}): {result.original.n_branches:,} -> "
+        f"{result.tree.n_branches:,} branches; worst amplitude error {_pct(s.amplitude)}, "
+        f"period {_pct(s.period)}, tip {_pct(s.tip)} of height")
+    for note in result.notes:
+        say(f"simplify: {note}")
+
+
+def _pct(x: float) -> str:
+    return "undefined" if not math.isfinite(x) else f"{100 * x:.2f} %"
+
+
+def _with_progress(run, system, options):
+    from rich.progress import Progress
+
+    from .io import console
+
+    with Progress(console=console(), transient=True, redirect_stdout=False,
+                  redirect_stderr=False) as bar:
+        task = bar.add_task("simplify", total=1.0)
+
+        def update(stage: str, fraction: float) -> None:
+            bar.update(task, description=stage, completed=fraction)
+
+        return run(system, options, progress=update)

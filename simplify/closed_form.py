@@ -1,0 +1,299 @@
+"""Closed-form level-n parameters: match every group's static angle, tips down.
+
+Notation (docs/simplify.md has the derivation): for a wind v V̂ at small
+angles, group g of the original turns by the combined angle
+Θ_g = v Θ^L_g(V̂) + v² Θ^D_g(V̂) (leaf part and drag part, `static`). Its
+simplified branch, with absorbed force κ, propagated force p', drag area
+c' = C_d' 2π r' L' and areas A_k of the leaves it carries, turns by
+
+    θ'_g = κ G_g (F'^L_g v + F'^D_g v²),     G_g = 1000 [W'e_x / k_bs', W'e_y / k_rs']  (2, 3)
+    F'^L_g = p' (Σ_k A_k ℓ_k(V̂) + Σ_children F'^L_c)
+    F'^D_g = c' |z'×V̂| V̂ + p' Σ_children F'^D_c
+
+Only the products λ = κ p', u_k = κ p' A_k and μ = κ c' enter θ'_g, and the
+children are fixed first (children have higher indices), so each group is a
+small linear least-squares problem over a set of horizontal directions:
+
+    leaf part:  Θ^L_g ≈ λ G ΣF'^L_c + Σ_k u_k G ℓ_k          (λ, u_k >= 0: NNLS)
+    drag part:  Θ^D_g - λ G ΣF'^D_c ≈ μ G |z'×V̂| V̂           (μ >= 0)
+
+For a stalk every direction gives the same equations, so the match is exact.
+What is left, κ, sets how large a force the branch passes down: it is chosen so
+that the leaf part of F'_g best matches the force at the original group's root
+(the force the parent group receives), which for a stalk gives k_fp' = k_fp^m
+for a group of m branches in a row. k_bs' and k_rs' keep the group's own
+values (the period depends on k and Δt only); the length makes the rest tip
+lie as near the group tip as the branch's direction allows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import lsq_linear, nnls
+from scipy.sparse import coo_matrix
+
+from plantlod.lsys.constants import MATCH_DIRECTIONS
+from plantlod.lsys.constants import MIN_LENGTH_FRACTION as _MIN_LENGTH_FRACTION
+from plantlod.lsys.constants import SPLIT_REGULARISATION as _SPLIT_REGULARISATION
+from plantlod.lsys.tree import Tree
+
+from .groups import assign_groups, combined_angles, main_paths
+from .static import (RestFrames, angle_gains, horizontal_directions, own_drag_shape,
+                     own_leaf_forces, rest_frames, static_angles, static_parts)
+
+
+
+@dataclass
+class GroupMap:
+    """Which original branches each simplified branch stands for.
+
+    groups : (B_orig,) int64 simplified-branch index of every original branch (-1: none)
+    paths  : G main paths, (m_g,) int64 original branch indices each
+    """
+
+    groups: np.ndarray
+    paths: list[np.ndarray]
+
+    @property
+    def roots(self) -> np.ndarray:
+        return np.array([int(p[0]) for p in self.paths], dtype=np.int64)
+
+    @property
+    def tips(self) -> np.ndarray:
+        return np.array([int(p[-1]) for p in self.paths], dtype=np.int64)
+
+
+def group_map(original: Tree, simplified: Tree) -> GroupMap:
+    groups = assign_groups(original, simplified)
+    return GroupMap(groups, main_paths(original, groups, simplified.n_branches))
+
+
+@dataclass
+class StaticTargets:
+    """The original's static combined angles and root forces per group.
+
+    directions : (D, 3) unit wind directions
+    leaf, drag : (D, G, 2) combined (Θb, Θr) per unit v and per unit v², rad
+    root_leaf  : (D, G, 3) leaf part of the force at each group's root branch, N per (m/s)
+    """
+
+    directions: np.ndarray
+    leaf: np.ndarray
+    drag: np.ndarray
+    root_leaf: np.ndarray
+
+
+def static_targets(original: Tree, gmap: GroupMap, directions: np.ndarray) -> StaticTargets:
+    frames = rest_frames(original)
+    parts = static_parts(original, directions, frames)
+    out = []
+    for force in (parts.leaf, parts.drag):
+        bend, rot = static_angles(original, force, frames)
+        cb, cr = combined_angles(original, gmap.paths, bend, rot)
+        out.append(np.stack([cb, cr], axis=-1))
+    return StaticTargets(directions, out[0], out[1], parts.leaf[:, gmap.roots])
+
+
+def group_strengths(original: Tree, gmap: GroupMap) -> tuple[np.ndarray, np.ndarray]:
+    """k_bs' and k_rs' per group: (G,) each; the members' values where the main path is uniform.
+
+    Where members differ, the mean over the main path (the combined angle
+    sums the members' swings, each with its own period; the mean keeps the
+    result between the members' periods and the tree stable wherever the
+    original is).
+    """
+    kb = np.array([original.bend_strength[p].mean() for p in gmap.paths])
+    kr = np.array([original.rotation_strength[p].mean() for p in gmap.paths])
+    return kb, kr
+
+
+def fit_lengths(original: Tree, simplified: Tree, frames: RestFrames, gmap: GroupMap) -> np.ndarray:
+    """Lengths (G,) m that put the simplified rest tips nearest their groups' rest tips.
+
+    A tip is its root's offset plus, for every branch on the way to it, length
+    times axis plus offset; with the frames fixed (they do not depend on
+    lengths) this is linear in the lengths, so all lengths are fitted at once
+    (bounded linear least squares, `scipy.optimize.lsq_linear`): one group's
+    miss does not push every group above it. Each length stays at least
+    `_MIN_LENGTH_FRACTION` of its group's summed main-path length.
+    """
+    orig_tips = rest_frames(original).tip[gmap.tips]                    # (G, 3)
+    summed = np.array([original.length[p].sum() for p in gmap.paths])
+    g = simplified.n_branches
+    parent = simplified.parent
+    # constant part: offsets, carried by the parents' frames
+    shift = np.empty((g, 3))
+    for i in range(g):
+        p = int(parent[i])
+        shift[i] = simplified.offset[i] if p < 0 else shift[p] + frames.frame[p] @ simplified.offset[i]
+    rows, cols, vals = [], [], []
+    for i in range(g):
+        a = i
+        while a >= 0:                                  # i and its ancestors
+            for k in range(3):
+                rows.append(3 * i + k)
+                cols.append(a)
+                vals.append(frames.axis[a, k])
+            a = int(parent[a])
+    matrix = coo_matrix((vals, (rows, cols)), shape=(3 * g, g)).tocsr()
+    lower = _MIN_LENGTH_FRACTION * summed
+    fit = lsq_linear(matrix, (orig_tips - shift).reshape(-1), bounds=(lower, np.inf),
+                     method="trf", lsmr_tol="auto", tol=1e-12)
+    return np.maximum(fit.x, lower)
+
+
+@dataclass
+class LevelParameters:
+    """Per simplified branch (G,) values and per leaf address areas, ready for `write_parameters`."""
+
+    branch: dict[str, np.ndarray]
+    leaf_areas: dict[str, float]
+
+
+def _leaf_address_table(tree: Tree) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Adjustable leaf addresses: those whose leaves all sit on one branch.
+
+    Returns (addresses, branch of each (A,), address index of every leaf (F,), -1 if fixed).
+    """
+    first: dict[str, int] = {}
+    branch_of: dict[str, set[int]] = {}
+    for addr, b in zip(tree.leaf_address, tree.leaf_branch.tolist()):
+        first.setdefault(addr, len(first))
+        branch_of.setdefault(addr, set()).add(b)
+    names = [a for a in first if len(branch_of[a]) == 1]
+    index = {a: k for k, a in enumerate(names)}
+    which = np.array([index.get(a, -1) for a in tree.leaf_address], dtype=np.int64)
+    branch = np.array([next(iter(branch_of[a])) for a in names], dtype=np.int64)
+    return names, branch, which
+
+
+def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
+                directions: np.ndarray | None = None) -> LevelParameters:
+    """Parameters of the level-n tree ``skeleton`` (its arrays are read for geometry only).
+
+    ``skeleton`` is the level-n tree as the skeleton system builds it
+    (`levels.level_system`), equivalent leaves included (any area).
+    """
+    directions = horizontal_directions(MATCH_DIRECTIONS) if directions is None else directions
+    targets = static_targets(original, gmap, directions)
+    frames = rest_frames(skeleton)
+    g_count = skeleton.n_branches
+    d = len(directions)
+    kb, kr = group_strengths(original, gmap)
+    lengths = fit_lengths(original, skeleton, frames, gmap)
+    path_kfa = np.array([original.force_absorbed[p].mean() for p in gmap.paths])
+    path_kfp = np.array([np.prod(original.force_propagated[p]) for p in gmap.paths])
+
+    # unit-area leaf forces, summed per adjustable address; fixed leaves keep their area
+    names, addr_branch, which = _leaf_address_table(skeleton)
+    unit = own_leaf_forces(_one_leaf_per_branch(skeleton), frames_for_leaves(frames, skeleton),
+                           directions, np.ones(skeleton.n_leaves))          # (D, F, 3)
+    per_addr = np.zeros((d, len(names), 3))
+    fixed = np.zeros((d, g_count, 3))
+    natural_area = np.zeros(len(names))                    # the areas the file gives them
+    for f in range(skeleton.n_leaves):
+        if which[f] >= 0:
+            per_addr[:, which[f]] += unit[:, f]
+            natural_area[which[f]] = skeleton.leaf_area[f]
+        else:
+            fixed[:, skeleton.leaf_branch[f]] += skeleton.leaf_area[f] * unit[:, f]
+    addr_of_branch: list[list[int]] = [[] for _ in range(g_count)]
+    for k, b in enumerate(addr_branch.tolist()):
+        addr_of_branch[b].append(k)
+
+    tmp = Tree(**{**skeleton.__dict__})
+    tmp.bend_strength, tmp.rotation_strength = kb, kr
+    tmp.force_absorbed = np.ones(g_count)
+    gains = angle_gains(tmp, frames)                       # (G, 2, 3) per unit κ
+    drag_shape = own_drag_shape(frames, directions)        # (D, G, 3)
+
+    kfa = np.empty(g_count)
+    kfp = np.empty(g_count)
+    drag_c = np.empty(g_count)
+    areas = np.zeros(len(names))
+    in_leaf = fixed.copy()                                 # Σ children F'^L + fixed leaves
+    in_drag = np.zeros((d, g_count, 3))
+    for g in range(g_count - 1, -1, -1):
+        gain = gains[g]                                    # (2, 3)
+        own = addr_of_branch[g]
+        has_in = bool(np.any(in_leaf[:, g] != 0))
+        lam, u = _leaf_split(gain, in_leaf[:, g], per_addr[:, own], targets.leaf[:, g],
+                             natural_area[own])
+        # κ: the force passed down (y / κ) should match the original group root's
+        y = lam * in_leaf[:, g] + np.einsum("k,dkj->dj", u, per_addr[:, own])
+        t = targets.root_leaf[:, g]
+        yy, yt = float(np.sum(y * y)), float(np.sum(y * t))
+        kappa = yy / yt if yy > 0 and yt > 0 else path_kfa[g]
+        p_new = lam / kappa if has_in else path_kfp[g]     # no children: the chain's k_fp^m
+        if p_new == 0 and np.any(u > 0):                   # leaves need p' > 0
+            p_new = path_kfp[g]
+        lam = kappa * p_new
+        if own:
+            areas[own] = u / lam if lam > 0 else 0.0
+        col = (drag_shape[:, g] @ gain.T).reshape(-1)
+        rhs = (targets.drag[:, g] - lam * (in_drag[:, g] @ gain.T)).reshape(-1)
+        cc = float(col @ col)
+        mu = max(0.0, float(col @ rhs) / cc) if cc > 0 else 0.0
+        c_new = mu / kappa
+        kfa[g], kfp[g] = kappa, p_new
+        drag_c[g] = c_new / (2.0 * math.pi * skeleton.radius[g] * lengths[g])
+        out_leaf = p_new * (in_leaf[:, g] + np.einsum("k,dkj->dj", areas[own], per_addr[:, own]))
+        out_drag = c_new * drag_shape[:, g] + p_new * in_drag[:, g]
+        parent = int(skeleton.parent[g])
+        if parent >= 0:
+            in_leaf[:, parent] += out_leaf
+            in_drag[:, parent] += out_drag
+    branch = {"length": lengths, "bend_strength": kb, "rotation_strength": kr,
+              "force_absorbed": kfa, "force_propagated": kfp, "drag_coefficient": drag_c}
+    return LevelParameters(branch, {a: float(areas[k]) for k, a in enumerate(names)})
+
+
+def _nnls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return nnls(a, b)[0] if np.any(a) else np.zeros(a.shape[1])
+
+
+def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target: np.ndarray,
+                natural_areas: np.ndarray) -> tuple[float, np.ndarray]:
+    """λ and u_k of one group's leaf part: Θ^L ≈ λ G·incoming + Σ_k u_k G·ℓ_k, all >= 0.
+
+    gain (2, 3); incoming (D, 3) children's F'^L plus fixed leaves; own (D, K, 3)
+    unit-area forces of the group's adjustable leaf addresses; target (D, 2);
+    natural_areas (K,) the areas the level-n file gives those leaves.
+
+    Where several splits fit equally well (a planar tree: children and own
+    leaves push the same way), the fit is pulled, with a small weight
+    (`_SPLIT_REGULARISATION`, relative to the column norms), toward the natural
+    split: children passed through and leaves at their natural areas, in the
+    ratio 1 : A_k, scaled to fit.
+    """
+    basis = np.concatenate([incoming[:, None, :], own], axis=1)            # (D, 1+K, 3)
+    a = np.einsum("ij,dkj->dik", gain, basis).reshape(-1, basis.shape[1])   # (2D, 1+K)
+    b = target.reshape(-1)
+    shape = np.concatenate([[1.0 if np.any(incoming) else 0.0], natural_areas])
+    guess = a @ shape
+    gg = float(guess @ guess)
+    x0 = shape * max(0.0, float(guess @ b) / gg) if gg > 0 else np.zeros_like(shape)
+    reg = _SPLIT_REGULARISATION * np.diag(np.linalg.norm(a, axis=0))
+    sol = _nnls(np.vstack([a, reg]), np.concatenate([b, reg @ x0]))
+    return float(sol[0]), sol[1:]
+
+
+def _one_leaf_per_branch(tree: Tree) -> Tree:
+    """A view of ``tree`` whose leaves are indexed as 'branches' for per-leaf forces.
+
+    `own_leaf_forces` sums leaves per branch; giving every leaf its own slot
+    yields per-leaf forces (D, F, 3).
+    """
+    view = Tree(**{**tree.__dict__})
+    view.leaf_branch = np.arange(tree.n_leaves, dtype=np.int64)
+    view.parent = np.full(tree.n_leaves, -1, dtype=np.int64)
+    return view
+
+
+def frames_for_leaves(frames: RestFrames, tree: Tree) -> RestFrames:
+    """Rest frames re-indexed by leaf (each leaf gets its branch's frame), for `_one_leaf_per_branch`."""
+    b = tree.leaf_branch
+    return RestFrames(frames.swing[b], frames.axis[b], frames.base[b], frames.tip[b], frames.frame[b])

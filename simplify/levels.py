@@ -1,0 +1,278 @@
+"""The level-n L-system: same axiom and productions, N - n steps, new parameters.
+
+`level_system` makes the skeleton (derivation length N - n, and, where the
+level-n tree loses leaves, *equivalent leaves*: interpretation rules that
+attach the leaves the dropped step would have attached); `write_parameters` turns per-branch and per-leaf values into symbol
+declarations where one value per symbol suffices and per-address overrides
+where it does not (docs/lsys-format.md, "Overrides").
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import replace
+
+import numpy as np
+
+from plantlod.lsys.build import build
+from plantlod.lsys.constants import SIMPLIFY_WRITE_DIGITS as WRITE_DIGITS
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.system import (
+    TURTLE_SYMBOLS, LSystem, Module, Override, Pattern, Production,
+)
+
+
+
+def round_sig(x: float, digits: int = WRITE_DIGITS) -> float:
+    """``x`` rounded to ``digits`` significant digits (0 and non-finite values unchanged)."""
+    x = float(x)
+    if x == 0.0 or not math.isfinite(x):
+        return x
+    return float(f"{x:.{digits}g}")
+
+
+def check_level(system: LSystem, level: int) -> None:
+    """Raise InputError unless 1 <= level < the derivation length."""
+    n = system.derivation_length
+    if level < 1:
+        raise InputError(f"--level {level}: expected a level of at least 1 (level 0 is the "
+                         f"original)", system.source or None)
+    if level >= n:
+        raise InputError(f"--level {level}: expected a level below the derivation length {n} "
+                         f"(a level-n tree derives N - n >= 1 steps)", system.source or None)
+
+
+def level_system(system: LSystem, level: int, equivalent_leaves: bool) -> tuple[LSystem, list[str]]:
+    """The level-``level`` skeleton of ``system`` and the symbols given equivalent leaves.
+
+    The skeleton derives N - level steps and drops the input's overrides (their
+    addresses belong to step N). With ``equivalent_leaves``, every symbol X with
+    one unconditional, context-free, deterministic production gets an
+    interpretation rule that draws what X draws now and, in brackets, the leaves
+    that X's successor would attach, with the same turns (so with the same
+    rest normals), its branches and moves left out (`equivalent_leaf_rules`).
+    `write_parameters` then scales each address's leaves with an ``area``
+    override.
+    """
+    check_level(system, level)
+    skeleton = replace(system, derivation_length=system.derivation_length - level, overrides=())
+    if not equivalent_leaves:
+        return skeleton, []
+    rules = equivalent_leaf_rules(system)
+    if not rules:
+        return skeleton, []
+    replaced = {r.pred.name for r in rules}
+    kept = tuple(r for r in system.interpretation if r.pred.name not in replaced)
+    return replace(skeleton, interpretation=kept + tuple(rules)), sorted(replaced)
+
+
+def _single_rule(rules, name: str) -> Production | None:
+    """The one plain rule for ``name`` (no context, condition or probability), else None."""
+    mine = [r for r in rules if r.pred.name == name]
+    if len(mine) != 1:
+        return None
+    r = mine[0]
+    if r.left or r.right or r.condition is not None or r.probability is not None:
+        return None
+    return r
+
+
+def _substitute(expr, mapping: dict):
+    """``expr`` with the names in ``mapping`` replaced by expressions."""
+    from plantlod.lsys.expr import Binary, Call, Name, Unary
+    if isinstance(expr, Name):
+        return mapping.get(expr.name, expr)
+    if isinstance(expr, Unary):
+        return Unary(expr.op, _substitute(expr.operand, mapping))
+    if isinstance(expr, Binary):
+        return Binary(expr.op, _substitute(expr.left, mapping), _substitute(expr.right, mapping))
+    if isinstance(expr, Call):
+        return Call(expr.func, tuple(_substitute(a, mapping) for a in expr.args))
+    return expr
+
+
+def _apply_rule(rule: Production, module: Module) -> tuple[Module, ...]:
+    """``rule``'s successor for ``module``, its parameters replaced by the module's arguments."""
+    mapping = dict(zip(rule.pred.params, module.args))
+    return tuple(Module(m.name, tuple(_substitute(a, mapping) for a in m.args))
+                 for m in rule.successor)
+
+
+def _leaf_part(modules, system: LSystem) -> list[Module]:
+    """The turns, brackets and leaves of ``modules`` after interpretation; branches, moves dropped."""
+    leaves = {leaf.name for leaf in system.leaves}
+    out: list[Module] = []
+    for m in modules:
+        rule = _single_rule(system.interpretation, m.name)
+        if rule is not None and len(rule.pred.params) == len(m.args):
+            out += _leaf_part(_apply_rule(rule, m), replace(system, interpretation=()))
+        elif m.name in leaves or m.name in "+-&^/\\|[]$":
+            out.append(m)
+    return _prune(out, leaves)
+
+
+def _prune(modules: list[Module], leaves: set[str]) -> list[Module]:
+    """Drop bracketed parts without a leaf and turns that no later leaf in their scope follows."""
+    def parse(i):
+        items = []
+        while i < len(modules) and modules[i].name != "]":
+            if modules[i].name == "[":
+                inner, i = parse(i + 1)
+                items.append(inner)
+            else:
+                items.append(modules[i])
+            i += 1
+        return items, i
+
+    def has_leaf(items):
+        return any(has_leaf(x) if isinstance(x, list) else x.name in leaves for x in items)
+
+    def emit(items):
+        out = []
+        keep_until = max((k for k, x in enumerate(items)
+                          if (has_leaf(x) if isinstance(x, list) else x.name in leaves)), default=-1)
+        for k, x in enumerate(items[:keep_until + 1]):
+            if isinstance(x, list):
+                if has_leaf(x):
+                    out += [Module("[")] + emit(x) + [Module("]")]
+            else:
+                out.append(x)
+        return out
+
+    return emit(parse(0)[0])
+
+
+def equivalent_leaf_rules(system: LSystem) -> list[Production]:
+    """Interpretation rules that add, at each module, the leaves its next step would attach.
+
+    For a symbol X with exactly one plain production ``X(p) -> S``: the rule is
+    ``X(p) -> X(p)[L]`` for a branch symbol (it still draws its branch) and
+    ``X(p) -> [L]`` for any other symbol (in the original it has been replaced
+    by S, so what it shows now, e.g. an apex leaf, goes), L being the leaf part
+    of S (`_leaf_part`); for a leaf (``L ->`` erasing old leaves) or a module
+    shown through interpretation whose successor attaches no leaf, the rule is
+    empty, since in the original it is gone. Branch symbols whose successor
+    attaches no leaf, plain modules that show nothing, and branch symbols with
+    interpretation rules of their own get no rule.
+    """
+    branches = {b.name for b in system.branches}
+    leaf_names = {leaf.name for leaf in system.leaves}
+    interpreted = {r.pred.name for r in system.interpretation}
+    rules = []
+    for name in sorted({r.pred.name for r in system.productions}):
+        if name in TURTLE_SYMBOLS or (name in branches and name in interpreted):
+            continue
+        prod = _single_rule(system.productions, name)
+        if prod is None:
+            continue
+        leaves = _leaf_part(prod.successor, system)
+        shows_now = name in leaf_names or name in interpreted
+        if not leaves and (name in branches or not shows_now):
+            continue
+        head = (Module(name, tuple(_name_expr(p) for p in prod.pred.params)),) \
+            if name in branches else ()
+        tail = (Module("["),) + tuple(leaves) + (Module("]"),) if leaves else ()
+        rules.append(Production(Pattern(name, prod.pred.params), tuple(head) + tail))
+    return rules
+
+
+def _mode(values: list[float]) -> float:
+    """The most common value; ties: the smallest."""
+    counts = Counter(values)
+    best = max(counts.values())
+    return min(v for v, c in counts.items() if c == best)
+
+
+def _base_address(address: str) -> tuple[int, ...]:
+    return tuple(int(p) for p in address.partition(":")[0].split("."))
+
+
+def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
+                     leaf_areas: dict[str, float]) -> LSystem:
+    """``skeleton`` with the given parameters, per symbol where possible, else per address.
+
+    branch_values : key of BRANCH_KEYS -> (B,) values for the skeleton tree's
+                    branches (in its branch order); keys not given keep the
+                    skeleton's values
+    leaf_areas    : leaf address -> area (m^2) for the leaves at that address
+
+    Every value is rounded to WRITE_DIGITS significant digits. A symbol gets the
+    most common value of its branches; a branch whose resolved value (module
+    parameter or symbol) then differs gets an override. Raises InputError when
+    a value is not finite or not positive where the model needs it.
+    """
+    built = build(skeleton)
+    tree = built.tree
+    values = {k: np.array([round_sig(x) for x in v]) for k, v in branch_values.items()}
+    for key, v in values.items():
+        if v.shape != (tree.n_branches,):
+            raise ValueError(f"{key}: expected {tree.n_branches} values, got {v.shape}")
+        bad = ~np.isfinite(v) | (v < 0) | ((v == 0) & (key in ("length", "bend_strength",
+                                                                "rotation_strength")))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"simplify computed {key} = {v[i]:g} for the branch at "
+                             f"{tree.address[i]}; expected a finite positive value "
+                             f"(this tree cannot be simplified to this level)",
+                             skeleton.source or None)
+    symbols = []
+    for sym in skeleton.branches:
+        mine = [i for i, s in enumerate(tree.symbol) if s == sym.name]
+        changes = {key: _mode(values[key][mine].tolist()) for key in values if mine}
+        symbols.append(replace(sym, **changes))
+    leaves = []
+    by_symbol: dict[str, list[float]] = {}
+    leaf_symbol_of = {}
+    symbol_at = _leaf_symbols(skeleton, built)
+    missing = sorted(set(leaf_areas) - set(symbol_at))
+    if missing:
+        raise ValueError(f"no leaf at address(es) {', '.join(missing[:3])} of the level-n tree")
+    for addr, name in symbol_at.items():
+        leaf_symbol_of[addr] = name
+        if addr in leaf_areas:
+            by_symbol.setdefault(name, []).append(round_sig(leaf_areas[addr]))
+    for sym in skeleton.leaves:
+        if sym.name in by_symbol:
+            sym = replace(sym, area=_mode(by_symbol[sym.name]))
+        leaves.append(sym)
+    declared = replace(skeleton, branches=tuple(symbols), leaves=tuple(leaves))
+
+    resolved = build(declared).tree
+    overrides: dict[tuple[int, ...], dict[str, float]] = {}
+    for key, v in values.items():
+        have = getattr(resolved, key)
+        for i in np.flatnonzero(have != v).tolist():
+            overrides.setdefault(_base_address(resolved.address[i]), {}).setdefault(key, float(v[i]))
+    area_now = {}
+    for addr, area in zip(resolved.leaf_address, resolved.leaf_area.tolist()):
+        area_now.setdefault(addr, area)
+    for addr, area in sorted(leaf_areas.items()):
+        a = round_sig(area)
+        if not (math.isfinite(a) and a >= 0):
+            raise InputError(f"simplify computed a leaf area {a:g} at {addr}; expected >= 0",
+                             skeleton.source or None)
+        if area_now.get(addr) != a:
+            overrides.setdefault(_base_address(addr), {})["area"] = a
+    lines = tuple(Override(addr, tuple(sorted(kv.items())))
+                  for addr, kv in sorted(overrides.items()))
+    return replace(declared, overrides=lines)
+
+
+def _leaf_symbols(skeleton: LSystem, built) -> dict[str, str]:
+    """Leaf address -> the leaf symbol drawn there (from the built skeleton's interpreted string)."""
+    interpreted = built.interpreted
+    names = {leaf.name for leaf in skeleton.leaves}
+    out: dict[str, str] = {}
+    alphabet = interpreted.alphabet
+    codes = np.asarray(interpreted.codes)
+    is_leaf = np.isin(codes, [alphabet.index(n) for n in names if n in alphabet])
+    idx = np.flatnonzero(is_leaf)
+    for addr, code in zip(interpreted.address_strings(idx), codes[idx].tolist()):
+        out.setdefault(addr, alphabet[code])
+    return out
+
+
+def _name_expr(name: str):
+    from plantlod.lsys.expr import Name
+    return Name(name)

@@ -1,0 +1,182 @@
+"""`simplify`: from an L-system and a level to the level-n L-system and its measured errors.
+
+Steps: check the level; build the original; make the level-n skeleton (with
+equivalent leaves where the level-n tree loses leaves, for the derived
+method); compute the parameters (`closed_form` or `thesis`); write them per
+symbol or per address; optionally calibrate; read the written text back and
+measure it against the original over the calibration winds (section 6); put
+those figures in the file's header comment.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+
+from plantlod.formats.lsys_file import write_lsys
+from plantlod.lsys.build import build
+from plantlod.lsys.constants import CALIBRATION_EVALUATIONS as DEFAULT_CALIBRATION_EVALUATIONS
+from plantlod.lsys.constants import SIMPLIFY_DT as DEFAULT_DT
+from plantlod.lsys.constants import SIMPLIFY_DURATION as DEFAULT_DURATION
+from plantlod.lsys.constants import SIMPLIFY_EVERY as DEFAULT_EVERY
+from plantlod.lsys.constants import SIMPLIFY_WIND_RANGE as DEFAULT_WIND_RANGE
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.parse import parse_lsys
+from plantlod.lsys.system import LSystem
+from plantlod.lsys.tree import Tree
+from plantlod.sim.stability import check_stability
+
+from .calibrate import calibrate
+from .closed_form import GroupMap, closed_form, group_map
+from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
+from .levels import check_level, level_system, round_sig, write_parameters
+from .measures import Report
+from .thesis import thesis_parameters
+
+METHODS = ("derived", "thesis")
+
+
+@dataclass
+class Options:
+    """What `simplify` does.
+
+    level        : n, 1 <= n < N
+    method       : "derived" (closed form) or "thesis"
+    calibrate    : refine against simulated series (derived method only)
+    wind_range   : (low, high) m/s of the measurement and calibration winds
+    dt, duration : time step and run length (s) of those runs
+    every        : keep every k-th step when measuring
+    max_evaluations : calibration budget (candidate evaluations)
+    """
+
+    level: int
+    method: str = "derived"
+    calibrate: bool = False
+    wind_range: tuple[float, float] = DEFAULT_WIND_RANGE
+    dt: float = DEFAULT_DT
+    duration: float = DEFAULT_DURATION
+    every: int = DEFAULT_EVERY
+    max_evaluations: int = DEFAULT_CALIBRATION_EVALUATIONS
+
+    def winds(self) -> list[WindCase]:
+        return wind_cases(*self.wind_range)
+
+    @property
+    def steps(self) -> int:
+        return int(round(self.duration / self.dt))
+
+
+@dataclass
+class Result:
+    """The level-n system, its text (header comment included) and the figures in that header."""
+
+    system: LSystem
+    text: str
+    original: Tree
+    tree: Tree
+    reports: list[tuple[WindCase, Report]]
+    summary: Summary
+    notes: list[str] = field(default_factory=list)
+
+
+def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, source) -> None:
+    sizes = np.bincount(gmap.groups[gmap.groups >= 0], minlength=simplified.n_branches)
+    if np.all(sizes <= 1) and original.n_leaves == simplified.n_leaves \
+            and original.n_branches == simplified.n_branches:
+        raise InputError("nothing to merge: the level-n tree has the same branches and leaves as "
+                         "the original; expected productions that add branches in the last steps",
+                         source)
+
+
+def simplify(system: LSystem, options: Options,
+             progress: Callable[[str, float], None] | None = None) -> Result:
+    """Simplify ``system`` to ``options.level``. Raises InputError for bad input (see module doc)."""
+    source = system.source or None
+    if options.method not in METHODS:
+        raise InputError(f"unknown method {options.method!r}; expected one of {', '.join(METHODS)}")
+    if options.calibrate and options.method != "derived":
+        raise InputError("--calibrate refines the derived method; expected --method derived")
+    check_level(system, options.level)
+    winds = options.winds()
+    original = build(system).tree
+    if original.n_branches == 0:
+        raise InputError("the original tree has no branches; expected a tree to simplify", source)
+    check_stability(original, options.dt)
+
+    plain, _ = level_system(system, options.level, equivalent_leaves=False)
+    plain_tree = build(plain).tree
+    if plain_tree.n_branches == 0:
+        raise InputError(f"the level-{options.level} tree has no branches (nothing draws after "
+                         f"{plain.derivation_length} steps); expected a lower level", source)
+    gmap = group_map(original, plain_tree)
+    _check_something_merges(original, plain_tree, gmap, source)
+    loses_leaves = plain_tree.n_leaves < original.n_leaves
+    notes = []
+
+    if options.method == "thesis":
+        skeleton, skeleton_tree = plain, plain_tree
+        params, scale = thesis_parameters(original, skeleton_tree, gmap, options.level)
+        skeleton = replace(skeleton, leaf_force_scale=round_sig(system.leaf_force_scale * scale))
+    else:
+        skeleton, expanded = level_system(system, options.level, equivalent_leaves=loses_leaves)
+        skeleton_tree = build(skeleton).tree if expanded else plain_tree
+        if expanded:
+            notes.append(f"equivalent leaves at the modules {', '.join(expanded)}")
+        params = closed_form(original, skeleton_tree, gmap)
+    out = write_parameters(skeleton, params.branch, params.leaf_areas)
+    tree = _read_back(out)
+    check_stability(tree, options.dt)
+
+    runs = None
+    if options.calibrate:
+        if progress:
+            progress("simulating the original", 0.0)
+        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
+        cal = calibrate(runs, tree, options.max_evaluations,
+                        None if progress is None else (lambda f: progress("calibrating", f)))
+        values = {**params.branch, **cal.values}
+        out = write_parameters(skeleton, values, params.leaf_areas)
+        tree = _read_back(out)
+        check_stability(tree, options.dt)
+        notes.append(f"calibration: worst relative error {cal.worst_before:.4f} -> "
+                     f"{cal.worst_after:.4f} in {cal.evaluations} evaluations")
+    if progress:
+        progress("measuring", 1.0)
+    if runs is None:
+        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
+    reports = list(zip(winds, runs.compare(tree)))
+    summary = summarize([r for _, r in reports])
+    header = header_comment(system, options, reports, summary)
+    text = write_lsys(out, header)
+    return Result(out, text, original, tree, reports, summary, notes)
+
+
+def _read_back(system: LSystem) -> Tree:
+    """The tree of the text that will be written (so the figures describe the file)."""
+    return build(parse_lsys(write_lsys(system), system.source)).tree
+
+
+def _percent(x: float) -> str:
+    return "undefined" if not math.isfinite(x) else f"{100.0 * x:.3f} %"
+
+
+def header_comment(system: LSystem, options: Options, reports: list[tuple[WindCase, Report]],
+                   summary: Summary) -> str:
+    """The header: source, level, method, and the section-6 errors simplify measured."""
+    lines = [
+        f"plantlod simplify: level {options.level} of {system.source or '<input>'} "
+        f"(derivation length {system.derivation_length} -> {system.derivation_length - options.level})",
+        f"method: {options.method}" + (", calibrated" if options.calibrate else ""),
+        "errors of this file against the original (model.md section 6), steady winds from rest,",
+        f"dt {options.dt:g} s, {options.duration:g} s, every {options.every} steps sampled:",
+        "  wind m/s  toward deg  amplitude    period       tip/height",
+    ]
+    for wind, rep in reports:
+        lines.append(f"  {wind.speed:<8g}  {wind.direction:<10g}  {_percent(rep.amplitude_error):<11}"
+                     f"  {_percent(rep.period_error):<11}  {_percent(rep.tip_error)}")
+    lines.append(f"worst: amplitude {_percent(summary.amplitude)}, period {_percent(summary.period)}, "
+                 f"tip {_percent(summary.tip)} of the rest height")
+    return "\n".join(lines)

@@ -1,0 +1,158 @@
+"""Linear static theory of the wind model at the rest geometry (model.md section 4).
+
+Under a steady wind V = v V̂ a branch settles where its velocity update is 0:
+θb = 1000 k_FA F·S e_x / k_bs and θr = 1000 k_FA F·S e_y / k_rs. For small
+angles the frames are the rest frames, and the force splits into a part linear
+in v (the leaves: f = s_L A (V·n̂) n̂) and a part in v² (the drag:
+C_d v² 2π r L |z × V̂| V̂), each propagated down with k_fp:
+
+    F_i = v F^L_i(V̂) + v² F^D_i(V̂)
+    F^L_i = k_fp,i (Σ leaves on i  s_L A_j (n̂_j·V̂) n̂_j + Σ children F^L_c)
+    F^D_i = C_d,i 2π r_i L_i |z_i × V̂| V̂ + k_fp,i Σ children F^D_c
+
+This module computes F^L and F^D for a set of wind directions, and the angles
+they give. `simplify` matches a level-n tree to the original with it; tests
+check it against simulations run to equilibrium.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantlod.lsys.tree import Tree
+from plantlod.sim.kinematics import depth_levels, rest_pose
+
+
+@dataclass
+class RestFrames:
+    """World frames of every branch at rest.
+
+    swing : (B, 3, 3) rest swing frames W_i (columns: the directions a force bends
+            and rotates the branch in, and the branch axis before its twist ψ)
+    axis  : (B, 3) unit branch axes R_i e_z
+    base, tip : (B, 3) m
+    frame : (B, 3, 3) branch frames R_i
+    """
+
+    swing: np.ndarray
+    axis: np.ndarray
+    base: np.ndarray
+    tip: np.ndarray
+    frame: np.ndarray
+
+
+def rest_frames(tree: Tree) -> RestFrames:
+    p = rest_pose(tree)
+    return RestFrames(p.swing, p.frame[:, :, 2], p.base, p.tip, p.frame)
+
+
+def horizontal_directions(count: int) -> np.ndarray:
+    """``count`` unit horizontal wind directions at azimuths 0, 360/count, ... deg: (D, 3)."""
+    az = np.arange(count) * (2.0 * math.pi / count)
+    out = np.stack([np.cos(az), np.sin(az), np.zeros(count)], axis=1)
+    out[np.abs(out) < 1e-15] = 0.0
+    return out
+
+
+def own_leaf_forces(tree: Tree, frames: RestFrames, directions: np.ndarray,
+                    area: np.ndarray | None = None) -> np.ndarray:
+    """Σ over each branch's leaves of s_L A (n̂·V̂) n̂ at v = 1: (D, B, 3) N per (m/s).
+
+    area : (F,) leaf areas to use instead of the tree's (m^2)
+    """
+    d = directions.shape[0]
+    out = np.zeros((d, tree.n_branches, 3))
+    if tree.n_leaves == 0:
+        return out
+    area = tree.leaf_area if area is None else area
+    normals = np.einsum("fij,fj->fi", frames.frame[tree.leaf_branch], tree.leaf_normal)  # (F, 3)
+    along = directions @ normals.T                                           # (D, F)
+    f = (tree.leaf_force_scale * area)[None, :, None] * along[:, :, None] * normals[None]
+    for k in range(d):
+        np.add.at(out[k], tree.leaf_branch, f[k])
+    return out
+
+
+def own_drag_shape(frames: RestFrames, directions: np.ndarray) -> np.ndarray:
+    """|z_i × V̂| V̂ for every direction and branch: (D, B, 3), dimensionless.
+
+    A branch's drag at speed v is C_d 2π r L v² times this.
+    """
+    sin = np.linalg.norm(np.cross(frames.axis[None, :, :], directions[:, None, :]), axis=-1)
+    return sin[:, :, None] * directions[:, None, :]
+
+
+def drag_area(tree: Tree) -> np.ndarray:
+    """C_d 2π r L per branch: (B,) m^2."""
+    return tree.drag_coefficient * 2.0 * math.pi * tree.radius * tree.length
+
+
+def propagate(tree: Tree, own: np.ndarray, through_own: bool) -> np.ndarray:
+    """Total forces from each branch's own forces: (D, B, 3).
+
+    through_own True (leaves):  F_i = k_fp,i (own_i + Σ children F_c)
+    through_own False (drag):   F_i = own_i + k_fp,i Σ children F_c
+    """
+    total = np.array(own, dtype=np.float64, copy=True)
+    p = tree.force_propagated
+    levels = depth_levels(tree.parent)
+    incoming = np.zeros_like(total)
+    for idx in reversed(levels):
+        if through_own:
+            total[:, idx] = p[idx][None, :, None] * (total[:, idx] + incoming[:, idx])
+        else:
+            total[:, idx] = total[:, idx] + p[idx][None, :, None] * incoming[:, idx]
+        kids = idx[tree.parent[idx] >= 0]
+        if len(kids):
+            for k in range(total.shape[0]):
+                np.add.at(incoming[k], tree.parent[kids], total[k, kids])
+    return total
+
+
+@dataclass
+class StaticParts:
+    """The two parts of every branch's total force at unit wind speed.
+
+    leaf : (D, B, 3) F^L, N per (m/s)  (force at v: v F^L)
+    drag : (D, B, 3) F^D, N per (m/s)^2 (force at v: v² F^D)
+    """
+
+    leaf: np.ndarray
+    drag: np.ndarray
+
+
+def static_parts(tree: Tree, directions: np.ndarray, frames: RestFrames | None = None) -> StaticParts:
+    frames = rest_frames(tree) if frames is None else frames
+    leaf = propagate(tree, own_leaf_forces(tree, frames, directions), through_own=True)
+    drag_own = drag_area(tree)[None, :, None] * own_drag_shape(frames, directions)
+    drag = propagate(tree, drag_own, through_own=False)
+    return StaticParts(leaf, drag)
+
+
+def angle_gains(tree: Tree, frames: RestFrames) -> np.ndarray:
+    """Rows mapping a force to the static (θb, θr) of each branch: (B, 2, 3) rad per N.
+
+    Row 0: 1000 k_FA / k_bs W_i e_x; row 1: 1000 k_FA / k_rs W_i e_y.
+    """
+    scale = 1000.0 * tree.force_absorbed
+    out = np.empty((tree.n_branches, 2, 3))
+    out[:, 0] = (scale / tree.bend_strength)[:, None] * frames.swing[:, :, 0]
+    out[:, 1] = (scale / tree.rotation_strength)[:, None] * frames.swing[:, :, 1]
+    return out
+
+
+def static_angles(tree: Tree, force: np.ndarray, frames: RestFrames | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Static (θb, θr) of every branch under total forces (D, B, 3): two (D, B) arrays, rad."""
+    frames = rest_frames(tree) if frames is None else frames
+    ang = np.einsum("bij,dbj->dbi", angle_gains(tree, frames), force)
+    return ang[..., 0], ang[..., 1]
+
+
+def static_angles_at(tree: Tree, parts: StaticParts, speed: float,
+                     frames: RestFrames | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Static (θb, θr) (D, B) at wind speed ``speed`` m/s in the parts' directions."""
+    return static_angles(tree, speed * parts.leaf + speed * speed * parts.drag, frames)

@@ -1,0 +1,114 @@
+"""Level-n skeletons: addresses, groups, equivalent-leaf rules, bad levels (simplify/levels.py)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from plantlod.formats.lsys_file import format_production, read_lsys, write_lsys
+from plantlod.lsys.build import build
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.parse import parse_lsys
+from plantlod.simplify.closed_form import group_map
+from plantlod.simplify.levels import (equivalent_leaf_rules, level_system, round_sig,
+                                      write_parameters)
+
+
+def stalk():
+    return read_lsys("examples/stalk8.lsys")
+
+
+@pytest.mark.parametrize("level, addresses", [
+    # F -> F F from axiom "F L": step 2 has F at 0.0.0, 0.0.1, 0.1.0, 0.1.1 (by hand)
+    (1, ["0.0.0", "0.0.1", "0.1.0", "0.1.1"]),
+    (2, ["0.0", "0.1"]),
+])
+def test_stalk_levels_have_the_expected_branches_and_groups(level, addresses):
+    system = stalk()
+    skeleton, expanded = level_system(system, level, equivalent_leaves=True)
+    assert skeleton.derivation_length == 3 - level
+    assert skeleton.axiom == system.axiom and skeleton.productions == system.productions
+    assert expanded == []                     # F -> F F attaches no leaf: nothing to stand in
+    tree = build(skeleton).tree
+    assert tree.address == addresses
+    original = build(system).tree
+    gmap = group_map(original, tree)
+    for g, a in enumerate(addresses):
+        members = [original.address[i] for i in np.flatnonzero(gmap.groups == g)]
+        assert members == [x for x in original.address if x.startswith(a + ".")]
+        assert len(members) == 2 ** level
+        # the main path of a straight stalk is the whole group, bottom to top
+        assert [original.address[i] for i in gmap.paths[g]] == members
+
+
+@pytest.mark.parametrize("level", [0, 3, 7])
+def test_level_must_lie_between_1_and_n_minus_1(level):
+    with pytest.raises(InputError, match="level"):
+        level_system(stalk(), level, equivalent_leaves=False)
+
+
+def test_equivalent_leaf_rules_by_hand():
+    # abop_1_24a: F -> F[+FL]F[-FL]F; dropping the branches leaves the two side leaves,
+    # with their turns, bracketed so that nothing after F is turned.
+    rules = equivalent_leaf_rules(read_lsys("examples/abop_1_24a.lsys"))
+    assert [format_production(r) for r in rules] == ["F -> F[[+L][-L]]"]
+    # abop_1_24b: F -> F[+FL]F[-FL][FL] and L -> (old leaves are erased): the L of the
+    # level-n string is gone in the original, so it goes in the level-n tree too.
+    rules = equivalent_leaf_rules(read_lsys("examples/abop_1_24b.lsys"))
+    assert [format_production(r) for r in rules] == ["F -> F[[+L][-L][L]]", "L ->"]
+    # abop_2_6: apices A, B, C show a leaf now (A -> L); in the original they are replaced
+    # by their successors, whose apices are leaves: A(l,w) -> !(w)F(l)[&(a0)B(..)]/(d)A(..)
+    rules = equivalent_leaf_rules(read_lsys("examples/abop_2_6.lsys"))
+    assert [format_production(r) for r in rules] == [
+        "A(l,w) -> [[&(a0)L]/(d)L]", "B(l,w) -> [[-(a2)$L]L]", "C(l,w) -> [[+(a2)$L]L]"]
+
+
+def test_equivalent_leaves_have_the_originals_rest_normals():
+    # Level 1 of abop_2_6 at N = 3: every original leaf at step 3 hangs under an apex of
+    # step 2, and the equivalent leaves repeat the turns that lead to it, so the sets of
+    # world-frame normals are equal.
+    from plantlod.simplify.static import rest_frames
+    system = replace(read_lsys("examples/abop_2_6.lsys"), derivation_length=3)
+    original = build(system).tree
+    skeleton, expanded = level_system(system, 1, equivalent_leaves=True)
+    simplified = build(skeleton).tree
+    assert expanded == ["A", "B", "C"]
+
+    def normals(tree):
+        frames = rest_frames(tree).frame[tree.leaf_branch]
+        n = np.einsum("fij,fj->fi", frames, tree.leaf_normal)
+        return np.array(sorted(map(tuple, np.round(n, 9))))
+
+    assert simplified.n_leaves == original.n_leaves
+    np.testing.assert_allclose(normals(simplified), normals(original), atol=1e-8)
+
+
+def test_write_parameters_uses_symbols_where_one_value_suffices():
+    skeleton, _ = level_system(stalk(), 1, equivalent_leaves=False)
+    drag = np.array([0.5, 0.5, 0.5, 0.25])
+    out = write_parameters(skeleton, {"drag_coefficient": drag, "length": np.full(4, 2.0)},
+                           {"1.0.0": 0.03})   # the axiom's L (address 1), copied twice
+    f = out.branch_symbol("F")
+    assert f.drag_coefficient == 0.5 and f.length == 2.0
+    assert out.leaf_symbol("L").area == 0.03
+    assert [(o.address, o.values) for o in out.overrides] == [
+        ((0, 1, 1), (("drag_coefficient", 0.25),))]
+    tree = build(parse_lsys(write_lsys(out))).tree
+    np.testing.assert_array_equal(tree.drag_coefficient, drag)
+    np.testing.assert_array_equal(tree.leaf_area, [0.03])
+
+
+def test_write_parameters_rejects_impossible_values():
+    skeleton, _ = level_system(stalk(), 1, equivalent_leaves=False)
+    with pytest.raises(InputError, match="drag_coefficient"):
+        write_parameters(skeleton, {"drag_coefficient": np.array([1.0, -1.0, 1.0, 1.0])}, {})
+    with pytest.raises(ValueError, match="no leaf"):
+        write_parameters(skeleton, {}, {"1": 0.03})
+
+
+def test_round_sig():
+    assert round_sig(0.1 + 0.2) == 0.3
+    assert round_sig(1 / 3) == 0.333333333333
+    assert round_sig(0.0) == 0.0
