@@ -117,6 +117,29 @@ def speedup_over_reference(steps: int = 200) -> tuple[int, float]:
     return tree.n_branches, t_ref / t_kernel
 
 
+def end_to_end_values_per_second() -> tuple[int, float]:
+    """(values, values/s) of a whole ``plantlod simulate`` writing CSV (subprocess, best of 2).
+
+    ABOP 1.24a (3125 branches) for 2000 steps: 2001 rows of 6250 angles, derived,
+    simulated and written to a file; start-up and derivation included.
+    """
+    plantlod = ROOT / ".venv" / "bin" / "plantlod"
+    steps = 2000
+    best = float("inf")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "angles.csv")
+        args = [str(plantlod), "simulate", "examples/abop_1_24a.lsys", "--dt", "0.01",
+                "--steps", str(steps), "--wind-speed", "10", "-o", out]
+        for _ in range(2):
+            t0 = time.perf_counter()
+            subprocess.run(args, cwd=ROOT, check=True, capture_output=True)
+            best = min(best, time.perf_counter() - t0)
+        with open(out) as fh:
+            columns = fh.readline().count(",")
+    values = (steps + 1) * columns
+    return values, values / best
+
+
 def run(report) -> None:
     b, rate = kernel_throughput()
     report(f"kernel throughput ({b} branches, 2000 steps, no output)", rate, "branch-steps/s",
@@ -126,6 +149,10 @@ def run(report) -> None:
     report("kernel first call, numba cache filled (load)", cached_s, "s", "", COMMAND)
     report("angle CSV writing (200 rows x 6251 values)", csv_values_per_second(), "values/s",
            ">= 2e6", COMMAND)
+    values, per_second = end_to_end_values_per_second()
+    report(f"plantlod simulate abop_1_24a.lsys, 2000 steps to CSV ({values:,} values, "
+           "start-up included)", per_second, "values/s", ">= 2e6",
+           "plantlod simulate examples/abop_1_24a.lsys --dt 0.01 --steps 2000 --wind-speed 10 -o x.csv")
     nb, speedup = speedup_over_reference()
     report(f"kernel speed / reference speed ({nb} branches, 200 steps)", speedup, "x", "", COMMAND)
 
