@@ -131,8 +131,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     if plot_path is not None:
         from plantlod.formats.plot import require_matplotlib
         require_matplotlib()                 # fail before any simulation runs
-    if obj_dir is not None and not os.path.isdir(obj_dir):
-        raise InputError("the --obj directory does not exist", obj_dir)
+    if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
+        raise InputError("--obj needs a directory; this is a file", obj_dir)
 
     sides = [(original, original_angles, original_n)]
     sides += [(s, simplified_angles[i] if simplified_angles else None,
@@ -285,6 +285,8 @@ def _write_pictures(runs, obj_dir, at_times, every, plot_path, plot_at, comparis
         return obj_text(meshes)
 
     written = 0
+    if obj_dir is not None:
+        os.makedirs(obj_dir, exist_ok=True)    # created only once every run succeeded
     for t in at_times:
         with open_output(os.path.join(obj_dir, f"frame_t{t:g}.obj")) as out:
             out.write(frame(_sample_index(times, t, "--at")))

@@ -202,5 +202,8 @@ def test_every_writes_a_numbered_sequence(runner, stalks):
     outside = runner.invoke(cli, ["compare", "stalk8.lsys", "l1.lsys", *RUN, "--obj", "frames",
                                   "--at", "99"])
     assert outside.exit_code == 2 and "--at 99 s is outside the run" in outside.stderr
-    nodir = runner.invoke(cli, ["compare", "stalk8.lsys", "l1.lsys", *RUN, "--obj", "nodir", "--at", "1"])
-    assert nodir.exit_code == 2 and "nodir: error: the --obj directory does not exist" in nodir.stderr
+    made = runner.invoke(cli, ["compare", "stalk8.lsys", "l1.lsys", *RUN, "--obj", "new/dir", "--at", "1"])
+    assert made.exit_code == 0 and (stalks / "new" / "dir" / "frame_t1.obj").is_file()
+    (stalks / "afile").write_text("x")
+    notdir = runner.invoke(cli, ["compare", "stalk8.lsys", "l1.lsys", *RUN, "--obj", "afile", "--at", "1"])
+    assert notdir.exit_code == 2 and "afile: error: --obj needs a directory" in notdir.stderr
