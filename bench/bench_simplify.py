@@ -1,8 +1,8 @@
 """Simplification benchmarks: section-6 errors of level-n trees over wind sweeps, and their cost.
 
 ``run(report)`` is called by bench/run.py (``make bench``); ``python
-bench/bench_simplify.py [stalk|trees|all]`` prints the full tables that
-docs/simplify.md quotes.
+bench/bench_simplify.py [stalk|trees [NAME ...] [--level N ...]|all]`` prints
+the full tables that docs/simplify.md quotes.
 
 - stalk8, levels 1 and 2, methods thesis, derived (closed form) and derived
   with --calibrate: worst-group amplitude, period and tip errors over speeds
@@ -159,4 +159,10 @@ if __name__ == "__main__":
     if which in ("stalk", "all"):
         stalk_table()
     if which in ("trees", "all"):
-        trees_table(names=tuple(sys.argv[2:]) or TREES)
+        # arguments: tree names, and optionally --level N (repeatable) to bench only those levels
+        args, levels = sys.argv[2:], []
+        while "--level" in args:
+            k = args.index("--level")
+            levels.append(int(args[k + 1]))
+            del args[k:k + 2]
+        trees_table(names=tuple(args) or TREES, levels=tuple(levels) or (1, 2))

@@ -43,6 +43,15 @@ SIMPLIFY_WRITE_DIGITS = 12    # significant digits of every computed value simpl
 MATCH_DIRECTIONS = 16         # horizontal wind directions the static least-squares matches use
 MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
 SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
+# Global static refinement of the derived parameters (simplify/closed_form.py):
+REFINE_DIRECTIONS = 8        # horizontal wind directions of the refinement
+REFINE_LOG_RANGE = 8.0       # each refined value stays within e^±8 of its sequential value
+REFINE_FLOOR = 0.01          # relative errors are taken against at least this x the largest angle
+REFINE_START_FLOOR = 1e-4    # zero values start at this x the largest of their kind (log scale)
+REFINE_PRIOR = 0.3           # pull of every log-value toward its sequential value (one residual each)
+REFINE_SKIP = 1e-9           # no refinement where the sequential solution is already this close
+REFINE_EVALUATIONS = 30      # residual evaluations of the least-squares refinement
+REFINE_LSMR_ITERATIONS = 50  # inner iterations of each trust-region step (scipy lsmr)
 # Measurement and calibration winds: directions (deg) along x, 15 deg off x (hardest
 # for a stalk whose leaf faces x), the diagonal and y; speeds low, sqrt(low*high),
 # HIGH_SPEED_FRACTION of the way to high, and high.

@@ -18,6 +18,13 @@ small linear least-squares problem over a set of horizontal directions:
     drag part:  Θ^D_g - λ G ΣF'^D_c ≈ μ G |z'×V̂| V̂           (μ >= 0)
 
 For a stalk every direction gives the same equations, so the match is exact.
+In a branching tree the sequential fit has two flaws: it fits absolute angles
+(small components of a group are fitted badly in relative terms, and section 6
+measures relative errors), and a group's parameters are fixed before its
+parent's, so the force it passes down has whatever shape fits its own angle.
+A global refinement (`_StaticModel`) therefore adjusts all values together,
+minimising the relative static errors of all groups at once, starting from the
+sequential solution.
 What is left, κ, sets how large a force the branch passes down: it is chosen so
 that the leaf part of F'_g best matches the force at the original group's root
 (the force the parent group receives), which for a stalk gives k_fp' = k_fp^m
@@ -32,18 +39,26 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import lsq_linear, nnls
+from scipy.optimize import least_squares, lsq_linear, nnls
 from scipy.sparse import coo_matrix
 
-from plantlod.lsys.constants import MATCH_DIRECTIONS
+from plantlod.lsys.constants import MATCH_DIRECTIONS, SIMPLIFY_WIND_RANGE
 from plantlod.lsys.constants import MIN_LENGTH_FRACTION as _MIN_LENGTH_FRACTION
 from plantlod.lsys.constants import SPLIT_REGULARISATION as _SPLIT_REGULARISATION
+from plantlod.lsys.constants import REFINE_DIRECTIONS as _REFINE_DIRECTIONS
+from plantlod.lsys.constants import REFINE_LOG_RANGE as _REFINE_LOG_RANGE
+from plantlod.lsys.constants import REFINE_FLOOR as _REFINE_FLOOR
+from plantlod.lsys.constants import REFINE_START_FLOOR as _REFINE_START_FLOOR
+from plantlod.lsys.constants import REFINE_PRIOR as _REFINE_PRIOR
+from plantlod.lsys.constants import REFINE_SKIP as _REFINE_SKIP
+from plantlod.lsys.constants import REFINE_EVALUATIONS as _REFINE_EVALUATIONS
+from plantlod.lsys.constants import REFINE_LSMR_ITERATIONS as _REFINE_LSMR_ITERATIONS
 from plantlod.lsys.tree import Tree
+from plantlod.sim.kinematics import depth_levels
 
 from .groups import assign_groups, combined_angles, main_paths
 from .static import (RestFrames, angle_gains, horizontal_directions, own_drag_shape,
                      own_leaf_forces, rest_frames, static_angles, static_parts)
-
 
 
 @dataclass
@@ -171,11 +186,18 @@ def _leaf_address_table(tree: Tree) -> tuple[list[str], np.ndarray, np.ndarray]:
 
 
 def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
-                directions: np.ndarray | None = None) -> LevelParameters:
+                directions: np.ndarray | None = None, refine: bool = True,
+                speeds: tuple[float, ...] = SIMPLIFY_WIND_RANGE) -> LevelParameters:
     """Parameters of the level-n tree ``skeleton`` (its arrays are read for geometry only).
 
     ``skeleton`` is the level-n tree as the skeleton system builds it
     (`levels.level_system`), equivalent leaves included (any area).
+    First the sequential solution, group by group from the tips down; then,
+    with ``refine``, every k_FA, k_fp, C_d and leaf area at once
+    (`_StaticModel.refine`): least squares on the relative errors of every
+    group's static angles at the wind ``speeds`` (m/s), which is what the
+    section-6 amplitude error is at small angles. The refinement is kept only
+    where it lowers the worst of those errors.
     """
     directions = horizontal_directions(MATCH_DIRECTIONS) if directions is None else directions
     targets = static_targets(original, gmap, directions)
@@ -246,9 +268,204 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
         if parent >= 0:
             in_leaf[:, parent] += out_leaf
             in_drag[:, parent] += out_drag
+    if refine:
+        sub = slice(None, None, max(1, d // _REFINE_DIRECTIONS))     # every other of 16
+        model = _StaticModel(skeleton, gains, per_addr[sub], addr_branch, fixed[sub],
+                             drag_shape[sub], StaticTargets(directions[sub], targets.leaf[sub],
+                                                            targets.drag[sub], targets.root_leaf[sub]),
+                             np.asarray(speeds, dtype=np.float64))
+        surface = 2.0 * math.pi * skeleton.radius * lengths            # (G,) m^2
+        refined = model.refine(kfa, kfp, drag_c * surface, areas)
+        if refined is not None:
+            kfa, kfp, drag_area_, areas = refined
+            drag_c = drag_area_ / surface
     branch = {"length": lengths, "bend_strength": kb, "rotation_strength": kr,
               "force_absorbed": kfa, "force_propagated": kfp, "drag_coefficient": drag_c}
     return LevelParameters(branch, {a: float(areas[k]) for k, a in enumerate(names)})
+
+
+class _StaticModel:
+    """Every group's static angle as a function of all level-n parameters at once.
+
+    Parameters (log scale, so they stay positive): κ_g, p'_g, c'_g (G each: the
+    absorbed force, propagated force and drag area C_d 2π r L of each
+    simplified branch) and A_k (K leaf areas, one per adjustable address).
+    For speeds v_s and directions V̂_d,
+
+        θ'_g(v, V̂) = κ_g G_g F'_g,   F'_g = p'_g (Σ_k A_k ℓ_k + fixed_g + Σ_c F'_c) v
+                                            + c'_g s_g v² + p'_g Σ_c F'^D_c v²
+
+    and the residual of group g, component c is (θ'_gc - Θ_gc) / max(|Θ_gc|,
+    `_REFINE_FLOOR` · largest), the section-6 relative amplitude error at small
+    angles (floored where a component does not count). A force entering branch
+    h reaches its ancestor a multiplied by T(a, h), the product of p' over the
+    path from h's parent to a, so every derivative is a sum over ancestor
+    pairs (a, h) (`_pairs`) and the Jacobian is exact and sparse.
+
+    gains (G, 2, 3) per unit κ; per_addr (D, K, 3) unit-area leaf forces;
+    addr_branch (K,); fixed (D, G, 3) fixed leaves' forces; drag_shape (D, G, 3);
+    targets: the original's static angles; speeds (S,) m/s.
+    """
+
+    def __init__(self, tree: Tree, gains, per_addr, addr_branch, fixed, drag_shape,
+                 targets: StaticTargets, speeds: np.ndarray):
+        self.parent = np.asarray(tree.parent, dtype=np.int64)
+        self.levels = depth_levels(self.parent)
+        self.gains, self.per_addr, self.addr_branch = gains, per_addr, addr_branch
+        self.fixed, self.drag_shape, self.speeds = fixed, drag_shape, speeds
+        self.g = len(self.parent)
+        v = speeds[:, None, None, None]
+        self.target = v * targets.leaf[None] + v * v * targets.drag[None]     # (S, D, G, 2)
+        largest = np.abs(self.target).max(axis=(2, 3), keepdims=True)
+        self.weight = 1.0 / np.maximum(np.abs(self.target), _REFINE_FLOOR * largest
+                                       + np.finfo(float).tiny)
+        self.pair_a, self.pair_h = _pairs(self.parent)
+        # G_a ℓ_k and G_a s_h per pair, fixed by the geometry: (D, P, 2)
+        self.gs = np.einsum("pij,dpj->dpi", gains[self.pair_a], drag_shape[:, self.pair_h])
+        self.addr_pairs = [np.flatnonzero(self.pair_h == b) for b in addr_branch.tolist()]
+        self.gl = [np.einsum("pij,dj->dpi", gains[self.pair_a[idx]], per_addr[:, k])
+                   for k, idx in enumerate(self.addr_pairs)]                 # (D, n_k, 2) each
+
+    def _unpack(self, x):
+        g = self.g
+        e = np.exp(x)
+        return e[:g], e[g:2 * g], e[2 * g:3 * g], e[3 * g:]
+
+    def forces(self, p, c, area):
+        """(F^L, F^D) (D, G, 3) of every simplified branch at unit speed."""
+        own = self.fixed.copy()
+        for k, b in enumerate(self.addr_branch.tolist()):
+            own[:, b] += area[k] * self.per_addr[:, k]
+        leaf = own.copy()
+        drag = c[None, :, None] * self.drag_shape
+        incoming_l = np.zeros_like(leaf)
+        incoming_d = np.zeros_like(drag)
+        for idx in reversed(self.levels):
+            leaf[:, idx] = p[idx][None, :, None] * (leaf[:, idx] + incoming_l[:, idx])
+            drag[:, idx] = drag[:, idx] + p[idx][None, :, None] * incoming_d[:, idx]
+            kids = idx[self.parent[idx] >= 0]
+            if len(kids):
+                np.add.at(incoming_l, (slice(None), self.parent[kids]), leaf[:, kids])
+                np.add.at(incoming_d, (slice(None), self.parent[kids]), drag[:, kids])
+        return leaf, drag
+
+    def angles(self, x):
+        """Static (θb, θr) (S, D, G, 2) rad at the log-parameters x, and (F^L, F^D) (D, G, 3)."""
+        kappa, p, c, area = self._unpack(x)
+        leaf, drag = self.forces(p, c, area)
+        v = self.speeds[:, None, None, None]
+        force = v * leaf[None] + v * v * drag[None]                         # (S, D, G, 3)
+        return kappa[None, None, :, None] * np.einsum("gij,sdgj->sdgi", self.gains, force), \
+            leaf, drag
+
+    def residual(self, x):
+        """Weighted angle errors (S·D·G·2,), then the pull toward the start (len(x),)."""
+        theta, _, _ = self.angles(x)
+        return np.concatenate([((theta - self.target) * self.weight).reshape(-1),
+                               self.prior * (x - self.x0)])
+
+    def worst(self, x) -> float:
+        """The largest weighted angle error (the prior left out)."""
+        theta, _, _ = self.angles(x)
+        return float(np.max(np.abs((theta - self.target) * self.weight)))
+
+    def jacobian(self, x):
+        """d residual / d x, sparse (S·D·G·2 + len(x), len(x)): one block per ancestor pair."""
+        kappa, p, c, area = self._unpack(x)
+        theta, leaf, drag = self.angles(x)
+        s_count, d_count = len(self.speeds), leaf.shape[0]
+        v = self.speeds[:, None, None]
+        # T(a, h) for every pair
+        t = _transfer(self.parent, p, self.pair_a, self.pair_h)
+        a, h = self.pair_a, self.pair_h
+        scale = (kappa[a] * t)[None, None, :, None]                      # (1, 1, P, 1)
+        w = self.weight                                                  # (S, D, G, 2)
+        blocks_r, blocks_c, blocks_v = [], [], []
+        sidx = np.arange(s_count)[:, None, None, None]
+        didx = np.arange(d_count)[None, :, None, None]
+        comp = np.arange(2)[None, None, None, :]
+
+        def add(values, groups, cols):
+            # values (S, D, n, 2) for rows of ``groups`` (n,), columns ``cols`` (n,)
+            grp = groups[None, None, :, None]
+            r = ((sidx * d_count + didx) * self.g + grp) * 2 + comp
+            ww = w[sidx, didx, grp, comp]
+            blocks_r.append(np.broadcast_to(r, values.shape).reshape(-1))
+            blocks_c.append(np.broadcast_to(cols[None, None, :, None], values.shape).reshape(-1))
+            blocks_v.append((values * ww).reshape(-1))
+
+        gidx = np.arange(self.g)
+        add(theta, gidx, gidx)                                            # log κ
+        # log p'_h: T(a,h) κ_a G_a (F_h - v² c_h s_h)
+        e = v[..., None] * leaf[None] + (v * v)[..., None] * (drag - c[None, :, None]
+                                                                * self.drag_shape)[None]
+        ge = np.einsum("pij,sdpj->sdpi", self.gains[a], e[:, :, h])
+        add(scale * ge, a, self.g + h)
+        # log c'_h: T(a,h) κ_a v² c_h G_a s_h
+        add(scale * (v * v)[..., None] * c[h][None, None, :, None] * self.gs[None], a,
+            2 * self.g + h)
+        for k, idx in enumerate(self.addr_pairs):                         # log A_k
+            if not len(idx):
+                continue
+            hk = int(self.addr_branch[k])
+            val = (kappa[a[idx]] * t[idx])[None, None, :, None] * v[..., None] \
+                * p[hk] * area[k] * self.gl[k][None]
+            add(val, a[idx], np.full(len(idx), 3 * self.g + k))
+        n_rows = s_count * d_count * self.g * 2
+        blocks_r.append(n_rows + np.arange(len(x)))
+        blocks_c.append(np.arange(len(x)))
+        blocks_v.append(np.full(len(x), self.prior))
+        return coo_matrix((np.concatenate(blocks_v), (np.concatenate(blocks_r),
+                                                      np.concatenate(blocks_c))),
+                          shape=(n_rows + len(x), len(x))).tocsr()
+
+    def refine(self, kappa, p, c, area):
+        """Least-squares refinement of (κ, p', c', A) (G, G, G, K) from the sequential solution.
+
+        Returns the refined values, or None where refining does not lower the
+        worst weighted error (or there is nothing to refine).
+        """
+        def start(vals):
+            vals = np.asarray(vals, dtype=np.float64)
+            pos = vals[vals > 0]
+            lo = _REFINE_START_FLOOR * (pos.max() if len(pos) else 1.0)
+            return np.log(np.maximum(vals, lo))
+        x0 = np.concatenate([start(kappa), start(p), start(c), start(area)])
+        self.x0 = x0
+        self.prior = _REFINE_PRIOR
+        if self.target.size == 0 or self.worst(x0) < _REFINE_SKIP:
+            return None
+        fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
+                            bounds=(x0 - _REFINE_LOG_RANGE, x0 + _REFINE_LOG_RANGE),
+                            x_scale="jac", max_nfev=_REFINE_EVALUATIONS,
+                            tr_options={"maxiter": _REFINE_LSMR_ITERATIONS})
+        x = fit.x
+        if self.worst(x) >= self.worst(x0):
+            return None
+        return self._unpack(x)
+
+
+def _pairs(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (ancestor-or-self a, branch h) pair: two (P,) int64 arrays."""
+    pa, ph = [], []
+    for h in range(len(parent)):
+        a = h
+        while a >= 0:
+            pa.append(a)
+            ph.append(h)
+            a = int(parent[a])
+    return np.array(pa, dtype=np.int64), np.array(ph, dtype=np.int64)
+
+
+def _transfer(parent: np.ndarray, p: np.ndarray, pair_a: np.ndarray, pair_h: np.ndarray
+              ) -> np.ndarray:
+    """T(a, h) per pair: the product of p' from h's parent up to a (1 for a = h): (P,)."""
+    out = np.empty(len(pair_a))
+    prod = 1.0
+    for i, (a, h) in enumerate(zip(pair_a.tolist(), pair_h.tolist())):
+        prod = 1.0 if a == h else prod * p[a]
+        out[i] = prod
+    return out
 
 
 def _nnls(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -125,7 +125,7 @@ def simplify(system: LSystem, options: Options,
         skeleton_tree = build(skeleton).tree if expanded else plain_tree
         if expanded:
             notes.append(f"equivalent leaves at the modules {', '.join(expanded)}")
-        params = closed_form(original, skeleton_tree, gmap)
+        params = closed_form(original, skeleton_tree, gmap, speeds=tuple(options.wind_range))
     out = write_parameters(skeleton, params.branch, params.leaf_areas)
     tree = _read_back(out)
     check_stability(tree, options.dt)
