@@ -17,11 +17,16 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,plot]'
 	touch $(STAMP)
 
+# make demo: the short version of the thesis' experiment (examples/Makefile, QUICK=1):
+# the stalk simplified to levels 1 and 2 by both methods, compared in two winds.
+DEMO_JOBS ?= 4
+DEMO_OUT  := out/quick
+
 demo: $(STAMP)
-	$(PLANTLOD) derive examples/stalk8.lsys -o /tmp/plantlod-demo-stalk8.jsonl
-	head -n 2 /tmp/plantlod-demo-stalk8.jsonl
-	$(PLANTLOD) simulate /tmp/plantlod-demo-stalk8.jsonl --dt 0.01 --duration 10 \
-	    --wind-speed 10 --every 100 | cut -d, -f1-5
+	$(MAKE) -C examples -j$(DEMO_JOBS) QUICK=1 OUT=$(DEMO_OUT) PLANTLOD=$(abspath $(PLANTLOD)) \
+	    PYTHON=$(abspath $(PY))
+	cat examples/$(DEMO_OUT)/results.md
+	@echo "figure 4 (t = 4 s): examples/$(DEMO_OUT)/figure4.png, OBJ in examples/$(DEMO_OUT)/figure4/"
 
 test: $(STAMP)
 	$(PY) -m pytest -q
