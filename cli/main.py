@@ -13,7 +13,10 @@ import click
 
 from plantlod.lsys.errors import InputError, PlantlodError
 
+from .compare_cmd import compare
 from .derive_cmd import derive
+from .simplify_cmd import simplify
+from .simulate_cmd import simulate
 
 
 class PlantlodGroup(click.Group):
@@ -68,25 +71,8 @@ def cli():
     """
 
 
-cli.add_command(derive)
-
-
-def _register_optional_commands() -> None:
-    """Commands whose modules exist are added; each imports its heavy parts lazily."""
-    import importlib
-
-    for module, name in (("simulate_cmd", "simulate"), ("simplify_cmd", "simplify"),
-                         ("compare_cmd", "compare")):
-        try:
-            mod = importlib.import_module(f"plantlod.cli.{module}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"plantlod.cli.{module}":
-                continue
-            raise
-        cli.add_command(getattr(mod, name))
-
-
-_register_optional_commands()
+for command in (derive, simulate, simplify, compare):
+    cli.add_command(command)
 
 
 def main() -> None:
