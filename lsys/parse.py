@@ -184,6 +184,19 @@ def _unary(cur: _Cursor) -> Expr:
     return _primary(cur)
 
 
+def _parenthesised(cur, opened: int, what: str) -> Expr:
+    """The expression after the '(' at offset ``opened``, up to its ')'."""
+    cur.i = opened + 1
+    inner = _expression(cur)
+    close = _token(cur)
+    if close.kind != ")":
+        raise cur.error(f"expected ')' to close the {what} opened at "
+                        f"{_where(cur.pos(opened))}, found {_describe(close)}", close.start)
+    cur.i = close.end
+    return inner
+
+
+
 def _primary(cur: _Cursor) -> Expr:
     tok = _token(cur)
     pos = cur.pos(tok.start)
@@ -211,14 +224,7 @@ def _primary(cur: _Cursor) -> Expr:
             raise _error(pos, f"{tok.text}() takes {_plural(arity, 'argument')}, got {len(args)}")
         return Call(tok.text, args, pos)
     if tok.kind == "(":
-        cur.i = tok.end
-        inner = _expression(cur)
-        close = _token(cur)
-        if close.kind != ")":
-            raise cur.error(f"expected ')' to close the parenthesis opened at "
-                            f"{_where(cur.pos(tok.start))}, found {_describe(close)}", close.start)
-        cur.i = close.end
-        return inner
+        return _parenthesised(cur, tok.start, "parenthesis")
     raise _error(pos, f"unexpected {_describe(tok)}; expected a number, a name or '('")
 
 
@@ -439,14 +445,7 @@ def _production(cur: _Cursor, defines: dict[str, float]) -> Production:
 
     probability = None
     if cur.char() == "(":
-        opened = cur.i
-        cur.i += 1
-        probability = _expression(cur)
-        close = _token(cur)
-        if close.kind != ")":
-            raise cur.error(f"expected ')' to close the probability opened at "
-                            f"{_where(cur.pos(opened))}, found {_describe(close)}", close.start)
-        cur.i = close.end
+        probability = _parenthesised(cur, cur.i, "probability")
         for node in _name_nodes(probability):
             if node.name in params_set:
                 raise _error(node.pos, f"a probability must be constant; '{node.name}' is a "

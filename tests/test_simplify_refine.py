@@ -24,6 +24,7 @@ from plantlod.simplify.levels import level_system, write_parameters
 from plantlod.simplify.static import horizontal_directions, static_angles, static_parts
 from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import wind_from_speed
+from test_simplify_static import assert_close_where_counted
 
 SPEEDS = (0.5, 20.0)
 
@@ -133,9 +134,7 @@ def test_refined_branching_tree_settles_near_the_original():
                             damping=0.02)
         want = np.stack([cb, cr], -1)
         got = np.stack([t.bend[-1], t.rot[-1]], -1)
-        counted = np.abs(want) >= 0.01 * np.abs(want).max()
-        assert counted.sum() >= 10
-        assert np.max(np.abs(got - want)[counted] / np.abs(want)[counted]) < 0.05
+        assert_close_where_counted(got, want, 0.05)
 
 
 @pytest.mark.parametrize("level", [1, 2])

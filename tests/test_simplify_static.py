@@ -31,6 +31,14 @@ KFA = 0.005               # stalk8's k_FA
 CD = 0.0015               # stalk8's C_d
 
 
+def assert_close_where_counted(got, want, rtol):
+    """Relative agreement on the components that section 6 counts (>= 1 % of the largest);
+    at least 10 of them, so the check cannot pass on an almost empty selection."""
+    counted = np.abs(want) >= 0.01 * np.abs(want).max()
+    assert counted.sum() >= 10
+    assert np.max(np.abs(got - want)[counted] / np.abs(want)[counted]) < rtol
+
+
 def settled(tree, speed, direction):
     """(bend, rot) (B,) at the end of a damped run: the static angles."""
     s = simulate_arrays(tree, DT, SETTLE_STEPS, wind_from_speed(speed, direction),
@@ -122,9 +130,7 @@ def test_branching_level_1_settles_near_the_original():
     ob, orr = settled(original, 0.3, 0.0)
     cb, _ = combined_angles(original, gmap.paths, ob, orr)
     sb, _ = settled(tree, 0.3, 0.0)
-    counted = np.abs(cb) >= 0.01 * np.abs(cb).max()
-    assert counted.sum() >= 10
-    assert np.max(np.abs(sb - cb)[counted] / np.abs(cb)[counted]) < 0.01
+    assert_close_where_counted(sb, cb, 0.01)
 
 
 @pytest.mark.parametrize("level", [1, 2])
