@@ -31,8 +31,8 @@ from .expr import (
     Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, format_number, free_names,
 )
 from .system import (
-    BRACKETS, BRANCH_KEYS, LEAF_KEYS, RESERVED_CHARS, TURTLE_NO_ARG, TURTLE_OPTIONAL_ARG,
-    TURTLE_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
+    BRACKETS, BRANCH_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, TURTLE_NO_ARG,
+    TURTLE_OPTIONAL_ARG, TURTLE_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
 # Header keys in the order the writer uses; name and ignore are not numbers.
@@ -648,8 +648,9 @@ class _FileParser:
             self.leaves.append(LeafSymbol(c, **values, pos=pos))
         self.declared[c] = pos
 
-    def _key_values(self, cur: _Cursor, keys: dict[str, bool], what: str) -> dict[str, float]:
-        """``key=EXPR key=EXPR ...`` to the end of the line; keys from ``keys``."""
+    def _key_values(self, cur: _Cursor, keys: dict[str, bool], what: str,
+                    pattern: re.Pattern | None = None) -> dict[str, float]:
+        """``key=EXPR key=EXPR ...`` to the end of the line; keys from ``keys`` or matching ``pattern``."""
         out: dict[str, float] = {}
         while True:
             tok = _token(cur)
@@ -657,9 +658,10 @@ class _FileParser:
                 return out
             if tok.kind != "name":
                 raise cur.error(f"expected key=value, found {_describe(tok)}", tok.start)
-            if tok.text not in keys:
+            if tok.text not in keys and not (pattern and pattern.fullmatch(tok.text)):
                 raise cur.error(f"unknown key '{tok.text}' in {what}{_suggest(tok.text, keys)}; "
-                                f"expected one of {', '.join(keys)}", tok.start)
+                                f"expected one of {', '.join(keys)}"
+                                f"{' or area_K (K = 0, 1, ...)' if pattern else ''}", tok.start)
             if tok.text in out:
                 raise cur.error(f"duplicate key '{tok.text}' in {what}; expected each key once",
                                 tok.start)
@@ -714,7 +716,8 @@ class _FileParser:
             raise cur.error(f"address {text} is overridden twice (first at "
                             f"{_where(self.override_pos[address])}); expected one line per address")
         cur.i = colon + 1
-        values = self._key_values(cur, OVERRIDE_KEYS, "an override (branch keys and area)")
+        values = self._key_values(cur, OVERRIDE_KEYS, "an override (branch keys, area, area_K)",
+                                  LEAF_ORDINAL_KEY)
         if not values:
             raise cur.error(f"expected key=value after '{text}:'")
         self.overrides.append(Override(address, tuple(sorted(values.items())), pos))

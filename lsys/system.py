@@ -11,6 +11,8 @@ character is a plain module the turtle ignores.
 
 from __future__ import annotations
 
+import re
+
 from dataclasses import dataclass, field
 
 from .constants import DEFAULT_DRAG_COEFFICIENT, DEFAULT_LEAF_FORCE_SCALE, DEFAULT_SEED
@@ -41,6 +43,9 @@ BRANCH_KEYS = {
     "drag_coefficient": False,
 }
 LEAF_KEYS = {"area": True}
+# An override may also set the area of one leaf among several drawn at its address:
+# area_K is the K-th (from 0, in drawing order) leaf attached there (docs/lsys-format.md).
+LEAF_ORDINAL_KEY = re.compile(r"area_(0|[1-9][0-9]*)")
 
 
 @dataclass(frozen=True)

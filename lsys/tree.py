@@ -34,6 +34,23 @@ def chain_depths(parent: np.ndarray) -> np.ndarray:
     return depth
 
 
+def occurrence_numbers(keys) -> np.ndarray:
+    """(k,) int64: how many earlier entries of ``keys`` (a sequence) equal each one.
+
+    For the leaves' addresses in drawing order this is each leaf's ordinal
+    among the leaves drawn at its address (the K of an ``area_K`` override).
+    """
+    _, codes = np.unique(np.asarray(keys), return_inverse=True)
+    codes = codes.reshape(-1)
+    order = np.argsort(codes, kind="stable")
+    sorted_codes = codes[order]
+    start = np.r_[0, np.flatnonzero(np.diff(sorted_codes)) + 1]
+    run_start = np.repeat(start, np.diff(np.r_[start, len(codes)]))
+    out = np.empty(len(codes), dtype=np.int64)
+    out[order] = np.arange(len(codes)) - run_start
+    return out
+
+
 @dataclass
 class Tree:
     """A branch tree at rest.

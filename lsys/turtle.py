@@ -55,8 +55,8 @@ from .constants import DEFAULT_MOVE_LENGTH, DOLLAR_VERTICAL_TOL
 from .derived import DerivedString
 from .errors import InputError
 from .rotation import rot_x, rot_y, rot_z, zyz_from_matrix
-from .system import BRANCH_KEYS, LSystem
-from .tree import Tree, chain_depths
+from .system import BRANCH_KEYS, LEAF_ORDINAL_KEY, LSystem
+from .tree import Tree, chain_depths, occurrence_numbers
 
 # Module kinds.
 PLAIN, OPEN, CLOSE, TURN, MOVE, RADIUS, ROLL, BRANCH, LEAF = range(9)
@@ -520,10 +520,33 @@ def _apply_overrides(system, derived, branches, values, leaves, leaf_area) -> No
                 col = np.array([merged[a].get(name, np.nan) for a in keys])
                 take = hit & ~np.isnan(col[np.maximum(which, 0)])
                 arr[take] = col[which[take]]
+        _apply_leaf_ordinal_overrides(merged, keys, key_rows, derived.address_array(leaves),
+                                      leaf_area)
     unmatched = [a for a in merged if len(a) != width] + [a for a, m in zip(keys, matched) if not m]
     for address in unmatched:
         warnings.warn(f"override for address {'.'.join(map(str, address))} matches no "
                       "branch or leaf module", stacklevel=3)
+
+
+def _apply_leaf_ordinal_overrides(merged, keys, key_rows, leaf_rows, leaf_area) -> None:
+    """``area_K`` overrides: the area of the K-th leaf (drawing order) at an address.
+
+    They are applied after ``area``, so on one line ``area`` sets every leaf
+    there and ``area_K`` then sets leaf K. A K beyond the leaves drawn at the
+    address gets a warning.
+    """
+    wanted = [(k, name, value) for k, a in enumerate(keys) for name, value in merged[a].items()
+              if LEAF_ORDINAL_KEY.fullmatch(name)]
+    if not wanted:
+        return
+    which = _match_rows(leaf_rows, key_rows)
+    ordinal = occurrence_numbers(which)
+    for k, name, value in wanted:
+        hit = (which == k) & (ordinal == int(name[len("area_"):]))
+        if not hit.any():
+            warnings.warn(f"override {name} for address {'.'.join(map(str, keys[k]))} matches no "
+                          f"leaf ({int(np.sum(which == k))} drawn there)", stacklevel=4)
+        leaf_area[hit] = value
 
 
 def _match_rows(rows: np.ndarray, keys: np.ndarray) -> np.ndarray:

@@ -443,7 +443,7 @@ def _check(body: str, line: int, col: int, fragment: str, head: str = HEAD):
     ("axiom: F\noverrides:\n  0..1: length=2\n", 7, 3, "override address '0..1'"),
     ("axiom: F\noverrides:\n  a.b: length=2\n", 7, 3, "override address 'a.b'"),
     ("axiom: F\noverrides:\n  0.1 length=2\n", 7, 3, "expected 'ADDRESS: key=value ...'"),
-    ("axiom: F\noverrides:\n  0.1: lenght=2\n", 7, 8, "unknown key 'lenght' in an override (branch keys and area)"),
+    ("axiom: F\noverrides:\n  0.1: lenght=2\n", 7, 8, "unknown key 'lenght' in an override (branch keys, area, area_K)"),
     ("axiom: F\noverrides:\n  0.1: length=2\n  0.1: area=1\n", 8, 3, "address 0.1 is overridden twice"),
     ("axiom: F\noverrides:\n  0.1:\n", 7, 7, "expected key=value after '0.1:'"),
 ])
