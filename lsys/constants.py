@@ -41,6 +41,12 @@ DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis
 # --- simplify (docs/simplify.md) ------------------------------------------------------
 SIMPLIFY_WRITE_DIGITS = 12    # significant digits of every computed value simplify writes
 MATCH_DIRECTIONS = 16         # horizontal wind directions the static least-squares matches use
+# Tilted winds matched too (docs/simplify.md, "Tilt"): when the branches below a group
+# turn it, the wind it sees leaves the horizontal; matching the response to winds
+# FIT_ELEVATION rad above and below the horizontal matches that part of the motion.
+MATCH_TILTED_DIRECTIONS = 8   # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION
+REFINE_TILTED_DIRECTIONS = 4  # the same, for the refinement
+FIT_ELEVATION = 0.2           # rad
 MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
 SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
 # Global static refinement of the derived parameters (simplify/closed_form.py):

@@ -42,10 +42,12 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear, nnls
 from scipy.sparse import coo_matrix
 
-from plantlod.lsys.constants import MATCH_DIRECTIONS, SIMPLIFY_WIND_RANGE
+from plantlod.lsys.constants import FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS
+from plantlod.lsys.constants import SIMPLIFY_WIND_RANGE
 from plantlod.lsys.constants import MIN_LENGTH_FRACTION as _MIN_LENGTH_FRACTION
 from plantlod.lsys.constants import SPLIT_REGULARISATION as _SPLIT_REGULARISATION
 from plantlod.lsys.constants import REFINE_DIRECTIONS as _REFINE_DIRECTIONS
+from plantlod.lsys.constants import REFINE_TILTED_DIRECTIONS as _REFINE_TILTED_DIRECTIONS
 from plantlod.lsys.constants import REFINE_LOG_RANGE as _REFINE_LOG_RANGE
 from plantlod.lsys.constants import REFINE_FLOOR as _REFINE_FLOOR
 from plantlod.lsys.constants import REFINE_START_FLOOR as _REFINE_START_FLOOR
@@ -53,11 +55,11 @@ from plantlod.lsys.constants import REFINE_PRIOR as _REFINE_PRIOR
 from plantlod.lsys.constants import REFINE_SKIP as _REFINE_SKIP
 from plantlod.lsys.constants import REFINE_EVALUATIONS as _REFINE_EVALUATIONS
 from plantlod.lsys.constants import REFINE_LSMR_ITERATIONS as _REFINE_LSMR_ITERATIONS
-from plantlod.lsys.tree import Tree
+from plantlod.lsys.tree import Tree, occurrence_numbers
 from plantlod.sim.kinematics import depth_levels
 
 from .groups import assign_groups, combined_angles, main_paths
-from .static import (RestFrames, angle_gains, horizontal_directions, own_drag_shape,
+from .static import (RestFrames, angle_gains, fit_directions, own_drag_shape,
                      own_leaf_forces, rest_frames, static_angles, static_parts)
 
 
@@ -162,27 +164,22 @@ def fit_lengths(original: Tree, simplified: Tree, frames: RestFrames, gmap: Grou
 
 @dataclass
 class LevelParameters:
-    """Per simplified branch (G,) values and per leaf address areas, ready for `write_parameters`."""
+    """Per simplified branch (G,) values and per leaf areas, ready for `write_parameters`.
+
+    leaf_areas: (address, K) -> area m^2 (`leaf_keys`)
+    """
 
     branch: dict[str, np.ndarray]
-    leaf_areas: dict[str, float]
+    leaf_areas: dict[tuple[str, int], float]
 
 
-def _leaf_address_table(tree: Tree) -> tuple[list[str], np.ndarray, np.ndarray]:
-    """Adjustable leaf addresses: those whose leaves all sit on one branch.
+def leaf_keys(tree: Tree) -> list[tuple[str, int]]:
+    """(address, K) of every leaf of ``tree``: K its ordinal among the leaves at that address.
 
-    Returns (addresses, branch of each (A,), address index of every leaf (F,), -1 if fixed).
+    The keys of `LevelParameters.leaf_areas`; K is the K of an ``area_K``
+    override (docs/lsys-format.md).
     """
-    first: dict[str, int] = {}
-    branch_of: dict[str, set[int]] = {}
-    for addr, b in zip(tree.leaf_address, tree.leaf_branch.tolist()):
-        first.setdefault(addr, len(first))
-        branch_of.setdefault(addr, set()).add(b)
-    names = [a for a in first if len(branch_of[a]) == 1]
-    index = {a: k for k, a in enumerate(names)}
-    which = np.array([index.get(a, -1) for a in tree.leaf_address], dtype=np.int64)
-    branch = np.array([next(iter(branch_of[a])) for a in names], dtype=np.int64)
-    return names, branch, which
+    return list(zip(tree.leaf_address, occurrence_numbers(tree.leaf_address).tolist()))
 
 
 def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
@@ -199,7 +196,8 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     section-6 amplitude error is at small angles. The refinement is kept only
     where it lowers the worst of those errors.
     """
-    directions = horizontal_directions(MATCH_DIRECTIONS) if directions is None else directions
+    if directions is None:
+        directions = fit_directions(MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS, FIT_ELEVATION)
     targets = static_targets(original, gmap, directions)
     frames = rest_frames(skeleton)
     g_count = skeleton.n_branches
@@ -209,19 +207,12 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     path_kfa = np.array([original.force_absorbed[p].mean() for p in gmap.paths])
     path_kfp = np.array([np.prod(original.force_propagated[p]) for p in gmap.paths])
 
-    # unit-area leaf forces, summed per adjustable address; fixed leaves keep their area
-    names, addr_branch, which = _leaf_address_table(skeleton)
-    unit = own_leaf_forces(_one_leaf_per_branch(skeleton), frames_for_leaves(frames, skeleton),
-                           directions, np.ones(skeleton.n_leaves))          # (D, F, 3)
-    per_addr = np.zeros((d, len(names), 3))
-    fixed = np.zeros((d, g_count, 3))
-    natural_area = np.zeros(len(names))                    # the areas the file gives them
-    for f in range(skeleton.n_leaves):
-        if which[f] >= 0:
-            per_addr[:, which[f]] += unit[:, f]
-            natural_area[which[f]] = skeleton.leaf_area[f]
-        else:
-            fixed[:, skeleton.leaf_branch[f]] += skeleton.leaf_area[f] * unit[:, f]
+    # every leaf has its own area (area_K overrides), so each is one adjustable value
+    names = leaf_keys(skeleton)
+    addr_branch = np.asarray(skeleton.leaf_branch, dtype=np.int64)
+    which = np.arange(skeleton.n_leaves, dtype=np.int64)
+    per_addr, fixed = _leaf_tables(skeleton, frames, which, len(names), directions)
+    natural_area = np.asarray(skeleton.leaf_area, dtype=np.float64).copy()
     addr_of_branch: list[list[int]] = [[] for _ in range(g_count)]
     for k, b in enumerate(addr_branch.tolist()):
         addr_of_branch[b].append(k)
@@ -269,10 +260,10 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
             in_leaf[:, parent] += out_leaf
             in_drag[:, parent] += out_drag
     if refine:
-        sub = slice(None, None, max(1, d // _REFINE_DIRECTIONS))     # every other of 16
-        model = _StaticModel(skeleton, gains, per_addr[sub], addr_branch, fixed[sub],
-                             drag_shape[sub], StaticTargets(directions[sub], targets.leaf[sub],
-                                                            targets.drag[sub], targets.root_leaf[sub]),
+        rdirs = fit_directions(_REFINE_DIRECTIONS, _REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
+        r_per_addr, r_fixed = _leaf_tables(skeleton, frames, which, len(names), rdirs)
+        model = _StaticModel(skeleton, gains, r_per_addr, addr_branch, r_fixed,
+                             own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs),
                              np.asarray(speeds, dtype=np.float64))
         surface = 2.0 * math.pi * skeleton.radius * lengths            # (G,) m^2
         refined = model.refine(kfa, kfp, drag_c * surface, areas)
@@ -496,6 +487,25 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
     reg = _SPLIT_REGULARISATION * np.diag(np.linalg.norm(a, axis=0))
     sol = _nnls(np.vstack([a, reg]), np.concatenate([b, reg @ x0]))
     return float(sol[0]), sol[1:]
+
+
+def _leaf_tables(skeleton: Tree, frames: RestFrames, which: np.ndarray, n_addresses: int,
+                 directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-area leaf forces per adjustable address (D, K, 3), and fixed leaves' forces (D, G, 3).
+
+    ``which`` (F,) is each leaf's adjustable entry (-1: the leaf keeps the area
+    the file gives it and counts as fixed).
+    """
+    unit = own_leaf_forces(_one_leaf_per_branch(skeleton), frames_for_leaves(frames, skeleton),
+                           directions, np.ones(skeleton.n_leaves))          # (D, F, 3)
+    per_addr = np.zeros((len(directions), n_addresses, 3))
+    fixed = np.zeros((len(directions), skeleton.n_branches, 3))
+    for f in range(skeleton.n_leaves):
+        if which[f] >= 0:
+            per_addr[:, which[f]] += unit[:, f]
+        else:
+            fixed[:, skeleton.leaf_branch[f]] += skeleton.leaf_area[f] * unit[:, f]
+    return per_addr, fixed
 
 
 def _one_leaf_per_branch(tree: Tree) -> Tree:

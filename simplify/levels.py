@@ -16,6 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from plantlod.lsys.build import build
+from plantlod.lsys.tree import occurrence_numbers
 from plantlod.lsys.constants import SIMPLIFY_WRITE_DIGITS as WRITE_DIGITS
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.system import (
@@ -195,7 +196,8 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
     branch_values : key of BRANCH_KEYS -> (B,) values for the skeleton tree's
                     branches (in its branch order); keys not given keep the
                     skeleton's values
-    leaf_areas    : leaf address -> area (m^2) for the leaves at that address
+    leaf_areas    : (leaf address, K) -> area (m^2) of the K-th leaf at that
+                    address (`closed_form.leaf_keys`)
 
     Every value is rounded to WRITE_DIGITS significant digits. A symbol gets the
     most common value of its branches; a branch whose resolved value (module
@@ -221,21 +223,24 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
         mine = [i for i, s in enumerate(tree.symbol) if s == sym.name]
         changes = {key: _mode(values[key][mine].tolist()) for key in values if mine}
         symbols.append(replace(sym, **changes))
-    leaves = []
-    by_symbol: dict[str, list[float]] = {}
-    leaf_symbol_of = {}
-    symbol_at = _leaf_symbols(skeleton, built)
-    missing = sorted(set(leaf_areas) - set(symbol_at))
+    keys = list(zip(tree.leaf_address, occurrence_numbers(tree.leaf_address).tolist()))
+    missing = sorted(set(leaf_areas) - set(keys))
     if missing:
-        raise ValueError(f"no leaf at address(es) {', '.join(missing[:3])} of the level-n tree")
-    for addr, name in symbol_at.items():
-        leaf_symbol_of[addr] = name
-        if addr in leaf_areas:
-            by_symbol.setdefault(name, []).append(round_sig(leaf_areas[addr]))
-    for sym in skeleton.leaves:
-        if sym.name in by_symbol:
-            sym = replace(sym, area=_mode(by_symbol[sym.name]))
-        leaves.append(sym)
+        raise ValueError(f"no leaf {missing[:3]} (address, K) in the level-n tree")
+    wanted = {}
+    for key, area in leaf_areas.items():
+        a = round_sig(area)
+        if not (math.isfinite(a) and a >= 0):
+            raise InputError(f"simplify computed a leaf area {a:g} at {key[0]} (leaf {key[1]}); "
+                             "expected >= 0", skeleton.source or None)
+        wanted[key] = a
+    symbol_of = _leaf_symbols(skeleton, built, tree)
+    by_symbol: dict[str, list[float]] = {}
+    for key, name in zip(keys, symbol_of):
+        if key in wanted:
+            by_symbol.setdefault(name, []).append(wanted[key])
+    leaves = [replace(sym, area=_mode(by_symbol[sym.name])) if sym.name in by_symbol else sym
+              for sym in skeleton.leaves]
     declared = replace(skeleton, branches=tuple(symbols), leaves=tuple(leaves))
 
     resolved = build(declared).tree
@@ -244,33 +249,55 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
         have = getattr(resolved, key)
         for i in np.flatnonzero(have != v).tolist():
             overrides.setdefault(_base_address(resolved.address[i]), {}).setdefault(key, float(v[i]))
-    area_now = {}
-    for addr, area in zip(resolved.leaf_address, resolved.leaf_area.tolist()):
-        area_now.setdefault(addr, area)
-    for addr, area in sorted(leaf_areas.items()):
-        a = round_sig(area)
-        if not (math.isfinite(a) and a >= 0):
-            raise InputError(f"simplify computed a leaf area {a:g} at {addr}; expected >= 0",
-                             skeleton.source or None)
-        if area_now.get(addr) != a:
-            overrides.setdefault(_base_address(addr), {})["area"] = a
+    _leaf_overrides(keys, resolved.leaf_area.tolist(), wanted, overrides)
     lines = tuple(Override(addr, tuple(sorted(kv.items())))
                   for addr, kv in sorted(overrides.items()))
     return replace(declared, overrides=lines)
 
 
-def _leaf_symbols(skeleton: LSystem, built) -> dict[str, str]:
-    """Leaf address -> the leaf symbol drawn there (from the built skeleton's interpreted string)."""
+def _leaf_overrides(keys: list[tuple[str, int]], have: list[float],
+                    wanted: dict[tuple[str, int], float],
+                    overrides: dict[tuple[int, ...], dict[str, float]]) -> None:
+    """Add ``area`` (every leaf at an address) or ``area_K`` (leaf K) overrides where needed.
+
+    keys, have: every leaf's (address, K) and its area as the file now gives it.
+    """
+    at: dict[str, list[int]] = {}
+    for i, (addr, _) in enumerate(keys):
+        at.setdefault(addr, []).append(i)
+    for addr in sorted(at):
+        idx = at[addr]
+        want = [wanted.get(keys[i], have[i]) for i in idx]
+        if all(w == h for w, h in zip(want, (have[i] for i in idx))):
+            continue
+        line = overrides.setdefault(_base_address(addr), {})
+        if len(set(want)) == 1:
+            line["area"] = want[0]
+            continue
+        for i, w in zip(idx, want):
+            if w != have[i]:
+                line[f"area_{keys[i][1]}"] = w
+
+
+def _leaf_symbols(skeleton: LSystem, built, tree) -> list[str]:
+    """The leaf symbol of every leaf of ``tree`` (the built skeleton's), in its order.
+
+    Read from the interpreted string; where the turtle dropped leaves (none on
+    a branch), each leaf gets the symbol of the first leaf read at its address.
+    """
     interpreted = built.interpreted
     names = {leaf.name for leaf in skeleton.leaves}
-    out: dict[str, str] = {}
     alphabet = interpreted.alphabet
     codes = np.asarray(interpreted.codes)
     is_leaf = np.isin(codes, [alphabet.index(n) for n in names if n in alphabet])
     idx = np.flatnonzero(is_leaf)
-    for addr, code in zip(interpreted.address_strings(idx), codes[idx].tolist()):
-        out.setdefault(addr, alphabet[code])
-    return out
+    symbols = [alphabet[c] for c in codes[idx].tolist()]
+    if len(symbols) == tree.n_leaves:
+        return symbols
+    first: dict[str, str] = {}
+    for addr, name in zip(interpreted.address_strings(idx), symbols):
+        first.setdefault(addr, name)
+    return [first[a] for a in tree.leaf_address]
 
 
 def _name_expr(name: str):

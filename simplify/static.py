@@ -57,6 +57,30 @@ def horizontal_directions(count: int) -> np.ndarray:
     return out
 
 
+def tilted_directions(count: int, elevation: float) -> np.ndarray:
+    """``count`` azimuths (as `horizontal_directions`) at elevation +e, then at -e rad: (2 count, 3).
+
+    A wind tilted by e out of the horizontal is what a group sees when the
+    branches below it have turned it by e: all forces depend only on
+    orientations, so turning a subtree by a rotation is the same as turning
+    the wind by its inverse.
+    """
+    flat = horizontal_directions(count)
+    out = []
+    for e in (elevation, -elevation):
+        d = flat * math.cos(e)
+        d[:, 2] = math.sin(e)
+        out.append(d)
+    return np.concatenate(out)
+
+
+def fit_directions(count: int, tilted: int, elevation: float) -> np.ndarray:
+    """``count`` horizontal directions, then ``tilted`` azimuths at ±``elevation`` rad: (D, 3)."""
+    if tilted == 0 or elevation == 0:
+        return horizontal_directions(count)
+    return np.concatenate([horizontal_directions(count), tilted_directions(tilted, elevation)])
+
+
 def own_leaf_forces(tree: Tree, frames: RestFrames, directions: np.ndarray,
                     area: np.ndarray | None = None) -> np.ndarray:
     """Σ over each branch's leaves of s_L A (n̂·V̂) n̂ at v = 1: (D, B, 3) N per (m/s).

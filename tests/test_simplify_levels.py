@@ -89,7 +89,7 @@ def test_write_parameters_uses_symbols_where_one_value_suffices():
     skeleton, _ = level_system(stalk(), 1, equivalent_leaves=False)
     drag = np.array([0.5, 0.5, 0.5, 0.25])
     out = write_parameters(skeleton, {"drag_coefficient": drag, "length": np.full(4, 2.0)},
-                           {"1.0.0": 0.03})   # the axiom's L (address 1), copied twice
+                           {("1.0.0", 0): 0.03})   # the axiom's L (address 1), copied twice
     f = out.branch_symbol("F")
     assert f.drag_coefficient == 0.5 and f.length == 2.0
     assert out.leaf_symbol("L").area == 0.03
@@ -100,12 +100,58 @@ def test_write_parameters_uses_symbols_where_one_value_suffices():
     np.testing.assert_array_equal(tree.leaf_area, [0.03])
 
 
+AREA_K_SYSTEM = """derivation_length: 1
+branching_angle: 30
+rotation_angle: 30
+force_absorbed: 0.001
+force_propagated: 0.5
+branch F: length=1 radius=0.01 bend_strength=20 rotation_strength=20
+leaf L: area=0.01
+axiom: Y G
+productions:
+  G -> F L
+interpretation:
+  Y -> F[+L][-L]L
+"""
+
+
+def test_write_parameters_gives_each_leaf_of_an_address_its_own_area():
+    # Y (address 0.0) draws three leaves under one address; two areas need area_K
+    system = parse_lsys(AREA_K_SYSTEM)
+    tree = build(system).tree
+    assert tree.leaf_address == ["0.0", "0.0", "0.0", "1.1"]
+    keys = [("0.0", 0), ("0.0", 1), ("0.0", 2)]
+    out = write_parameters(system, {}, {keys[0]: 0.02, keys[1]: 0.03, keys[2]: 0.02,
+                                        ("1.1", 0): 0.02})
+    assert out.leaf_symbol("L").area == 0.02                  # the most common value
+    assert [(o.address, o.values) for o in out.overrides] == [((0, 0), (("area_1", 0.03),))]
+    text = write_lsys(out)
+    assert "0.0: area_1=0.03" in text
+    np.testing.assert_array_equal(build(parse_lsys(text)).tree.leaf_area, [0.02, 0.03, 0.02, 0.02])
+    # all leaves of the address alike, but not the symbol's value: one area= line
+    out = write_parameters(system, {}, {**{k: 0.05 for k in keys}, ("1.1", 0): 0.01})
+    assert out.leaf_symbol("L").area == 0.05
+    assert [(o.address, o.values) for o in out.overrides] == [((1, 1), (("area", 0.01),))]
+
+
+def test_area_k_overrides_apply_after_area_and_by_drawing_order():
+    text = AREA_K_SYSTEM + """overrides:
+  0.0: area=0.5 area_2=0.7 area_9=1
+  1.1: area_0=0.2
+"""
+    built = build(parse_lsys(text))
+    assert built.warnings == ["override area_9 for address 0.0 matches no leaf (3 drawn there)"]
+    tree = built.tree
+    np.testing.assert_array_equal(tree.leaf_area, [0.5, 0.5, 0.7, 0.2])
+    assert "0.0: area=0.5 area_2=0.7 area_9=1" in write_lsys(parse_lsys(text))
+
+
 def test_write_parameters_rejects_impossible_values():
     skeleton, _ = level_system(stalk(), 1, equivalent_leaves=False)
     with pytest.raises(InputError, match="drag_coefficient"):
         write_parameters(skeleton, {"drag_coefficient": np.array([1.0, -1.0, 1.0, 1.0])}, {})
     with pytest.raises(ValueError, match="no leaf"):
-        write_parameters(skeleton, {}, {"1": 0.03})
+        write_parameters(skeleton, {}, {("1", 0): 0.03})
 
 
 def test_round_sig():
