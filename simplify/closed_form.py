@@ -313,9 +313,17 @@ class _StaticModel:
         self.pair_a, self.pair_h = _pairs(self.parent)
         # G_a ℓ_k and G_a s_h per pair, fixed by the geometry: (D, P, 2)
         self.gs = np.einsum("pij,dpj->dpi", gains[self.pair_a], drag_shape[:, self.pair_h])
-        self.addr_pairs = [np.flatnonzero(self.pair_h == b) for b in addr_branch.tolist()]
-        self.gl = [np.einsum("pij,dj->dpi", gains[self.pair_a[idx]], per_addr[:, k])
-                   for k, idx in enumerate(self.addr_pairs)]                 # (D, n_k, 2) each
+        # (leaf k, pair (a, h_k)) for every ancestor-or-self a of leaf k's branch: the pairs
+        # of one h are contiguous in `_pairs`' order
+        count = np.bincount(self.pair_h, minlength=self.g)
+        first = np.concatenate([[0], np.cumsum(count)[:-1]])
+        n_k = count[addr_branch]
+        self.leaf_of_pair = np.repeat(np.arange(len(addr_branch)), n_k)                # (Q,)
+        self.pair_of_leaf = (np.repeat(first[addr_branch] - np.cumsum(n_k) + n_k, n_k)
+                             + np.arange(int(n_k.sum())))                              # (Q,)
+        # G_a ℓ_k per (leaf, pair): (D, Q, 2)
+        self.gl = np.einsum("qij,dqj->dqi", gains[self.pair_a[self.pair_of_leaf]],
+                            per_addr[:, self.leaf_of_pair])
 
     def _unpack(self, x):
         g = self.g
@@ -395,13 +403,11 @@ class _StaticModel:
         # log c'_h: T(a,h) κ_a v² c_h G_a s_h
         add(scale * (v * v)[..., None] * c[h][None, None, :, None] * self.gs[None], a,
             2 * self.g + h)
-        for k, idx in enumerate(self.addr_pairs):                         # log A_k
-            if not len(idx):
-                continue
-            hk = int(self.addr_branch[k])
-            val = (kappa[a[idx]] * t[idx])[None, None, :, None] * v[..., None] \
-                * p[hk] * area[k] * self.gl[k][None]
-            add(val, a[idx], np.full(len(idx), 3 * self.g + k))
+        # log A_k: T(a,h_k) κ_a v p'_{h_k} A_k G_a ℓ_k, one term per (leaf, pair)
+        q, k = self.pair_of_leaf, self.leaf_of_pair
+        if len(q):
+            coef = kappa[a[q]] * t[q] * p[self.addr_branch[k]] * area[k]
+            add(coef[None, None, :, None] * v[..., None] * self.gl[None], a[q], 3 * self.g + k)
         n_rows = s_count * d_count * self.g * 2
         blocks_r.append(n_rows + np.arange(len(x)))
         blocks_c.append(np.arange(len(x)))
