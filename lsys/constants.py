@@ -72,6 +72,10 @@ CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_
 CALIBRATION_STABILITY_MARGIN = 0.9  # largest fraction of the stability limit a strength may reach
 CALIBRATION_ROUNDS = 6        # re-weighting rounds toward the worst error
 CALIBRATION_WEIGHT_FLOOR = 0.1  # weight every residual keeps
+# A period error counts this many times an amplitude error of the same size (the
+# branching targets: amplitude 10 %, period 2 %); without it calibration trades
+# periods for amplitudes (abop_1_24f: 43 % -> 29 % amplitude for 0.3 % -> 3.7 % period).
+CALIBRATION_PERIOD_WEIGHT = 5.0
 
 # --- OBJ frames (formats/obj.py) ---------------------------------------------------------
 OBJ_SIDES = 8                 # sides of a branch tube

@@ -10,7 +10,10 @@ for every simplified branch g, three factors on its closed-form values:
     x_g = (log a_g, log d_g, log k_g):  k_FA *= a_g,  C_d *= d_g,  k_bs and k_rs *= k_g
 
 The residuals are the section-6 errors, signed: for every wind, group and
-counted component, (A_y - A_x) / A_x and (P_y - P_x) / P_x, times a weight.
+counted component, (A_y - A_x) / A_x and w_P (P_y - P_x) / P_x, times a weight;
+w_P (`CALIBRATION_PERIOD_WEIGHT`) measures both against their targets, so that
+calibration does not buy amplitude with period (changing the strengths detunes
+a branch from the resonance that makes its amplitude hard to match).
 A few rounds multiply each weight by that residual's size relative to the
 largest (iteratively re-weighted least squares, a smooth stand-in for
 minimising the worst case). Group g's residuals depend mostly on its own
@@ -32,6 +35,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
 from plantlod.lsys.constants import CALIBRATION_BOUNDS as _BOUNDS
+from plantlod.lsys.constants import CALIBRATION_PERIOD_WEIGHT as _PERIOD_WEIGHT
 from plantlod.lsys.constants import CALIBRATION_ROUNDS
 from plantlod.lsys.constants import CALIBRATION_STABILITY_MARGIN as _STABILITY_MARGIN
 from plantlod.lsys.constants import CALIBRATION_WEIGHT_FLOOR as _WEIGHT_FLOOR
@@ -49,7 +53,8 @@ class Calibrated:
 
     values  : key -> (G,) branch values (force_absorbed, drag_coefficient,
               bend_strength, rotation_strength)
-    cost_before, cost_after : worst |residual| before and after
+    worst_before, worst_after : worst |residual| before and after (period errors
+              times CALIBRATION_PERIOD_WEIGHT)
     evaluations : simulations of the simplified tree (one per wind each)
     """
 
@@ -108,7 +113,8 @@ class _Residuals:
                         else np.zeros_like(a, bool) for a in amp_x]
 
     def per_wind(self, x: np.ndarray) -> np.ndarray:
-        """(W, G, 4) signed errors: bend amplitude, rotation amplitude, bend period, rotation period."""
+        """(W, G, 4) signed errors: bend amplitude, rotation amplitude, bend and rotation period
+        (these two times CALIBRATION_PERIOD_WEIGHT)."""
         if self.evaluations >= self.budget:
             raise _BudgetSpent
         self.evaluations += 1
@@ -129,7 +135,7 @@ class _Residuals:
             cnt = self.counted[w]
             ea = np.where(cnt & np.isfinite(ea), ea, 0.0)
             ep = np.where(cnt & np.isfinite(ep), ep, 0.0)
-            out[w] = np.concatenate([ea.T, ep.T], axis=1)
+            out[w] = np.concatenate([ea.T, _PERIOD_WEIGHT * ep.T], axis=1)
         worst = float(np.max(np.abs(out)))
         if worst < self.best[1]:
             self.best = (np.array(x, copy=True), worst)
