@@ -20,11 +20,14 @@ from plantlod.lsys.build import build
 from plantlod.sim.kernel import KernelState, advance, prepare
 from plantlod.sim.kinematics import pose, rest_pose
 from plantlod.sim.run import simulate_arrays
-from plantlod.sim.wind import ConstantWind
+from plantlod.sim.wind import ConstantWind, wind_from_speed
+from plantlod.simplify.closed_form import closed_form
 from plantlod.simplify.groups import combined_angles
+from plantlod.simplify.measures import amplitude
 from plantlod.simplify.static import (fit_directions, static_angles, static_angles_at,
                                       static_parts, tilted_directions)
 
+from test_simplify_refine import small_case, written_tree
 from test_simplify_static import DAMPING, DT, SETTLE_STEPS, simplified_stalk
 
 
@@ -128,3 +131,23 @@ def test_stalk_groups_settle_right_in_tilted_winds(level):
         scale = max(np.abs(cb).max(), np.abs(cr).max())
         np.testing.assert_allclose(s.bend[-1], cb[-1], atol=2e-3 * scale, rtol=2e-3)
         np.testing.assert_allclose(s.rot[-1], cr[-1], atol=2e-3 * scale, rtol=2e-3)
+
+
+@pytest.mark.parametrize("name, steps", [("abop_1_24a", 4), ("abop_1_24c", 3)])
+def test_level_1_sways_like_the_original_for_20_seconds(name, steps):
+    # The level-1 target for branching trees (amplitude within 10 %), here with a
+    # margin (5 %), over a whole 20 s run from rest, where the resonant drive of the tilt
+    # has time to grow: 2 m/s toward 0 deg and 10 m/s toward 45 deg. (Measured: 0.09 % and
+    # 1.25 % for abop_1_24a at N = 4, 1.5 % and 4.5 % for abop_1_24c at N = 3.)
+    original, skeleton, skel_tree, gmap = small_case(name, steps)
+    tree = written_tree(skeleton, closed_form(original, skel_tree, gmap))
+    for speed, direction in ((2.0, 0.0), (10.0, 45.0)):
+        wind = wind_from_speed(speed, direction)
+        o = simulate_arrays(original, DT, 2000, wind, every=2)
+        s = simulate_arrays(tree, DT, 2000, wind, every=2)
+        cb, cr = combined_angles(original, gmap.paths, o.bend, o.rot)
+        want = np.stack([amplitude(cb), amplitude(cr)], axis=-1)
+        got = np.stack([amplitude(s.bend), amplitude(s.rot)], axis=-1)
+        counted = want >= 0.01 * want.max()
+        assert counted.sum() >= 50
+        assert np.max(np.abs(got - want)[counted] / want[counted]) < 0.05
