@@ -209,13 +209,13 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
 
     # every leaf has its own area (area_K overrides), so each is one adjustable value
     names = leaf_keys(skeleton)
-    addr_branch = np.asarray(skeleton.leaf_branch, dtype=np.int64)
+    leaf_branch = np.asarray(skeleton.leaf_branch, dtype=np.int64)
     which = np.arange(skeleton.n_leaves, dtype=np.int64)
-    per_addr, fixed = _leaf_tables(skeleton, frames, which, len(names), directions)
+    per_leaf, fixed = _leaf_tables(skeleton, frames, which, len(names), directions)
     natural_area = np.asarray(skeleton.leaf_area, dtype=np.float64).copy()
-    addr_of_branch: list[list[int]] = [[] for _ in range(g_count)]
-    for k, b in enumerate(addr_branch.tolist()):
-        addr_of_branch[b].append(k)
+    leaves_of_branch: list[list[int]] = [[] for _ in range(g_count)]
+    for k, b in enumerate(leaf_branch.tolist()):
+        leaves_of_branch[b].append(k)
 
     tmp = Tree(**{**skeleton.__dict__})
     tmp.bend_strength, tmp.rotation_strength = kb, kr
@@ -231,12 +231,12 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     in_drag = np.zeros((d, g_count, 3))
     for g in range(g_count - 1, -1, -1):
         gain = gains[g]                                    # (2, 3)
-        own = addr_of_branch[g]
+        own = leaves_of_branch[g]
         has_in = bool(np.any(in_leaf[:, g] != 0))
-        lam, u = _leaf_split(gain, in_leaf[:, g], per_addr[:, own], targets.leaf[:, g],
+        lam, u = _leaf_split(gain, in_leaf[:, g], per_leaf[:, own], targets.leaf[:, g],
                              natural_area[own])
         # κ: the force passed down (y / κ) should match the original group root's
-        y = lam * in_leaf[:, g] + np.einsum("k,dkj->dj", u, per_addr[:, own])
+        y = lam * in_leaf[:, g] + np.einsum("k,dkj->dj", u, per_leaf[:, own])
         t = targets.root_leaf[:, g]
         yy, yt = float(np.sum(y * y)), float(np.sum(y * t))
         kappa = yy / yt if yy > 0 and yt > 0 else path_kfa[g]
@@ -253,7 +253,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
         c_new = mu / kappa
         kfa[g], kfp[g] = kappa, p_new
         drag_c[g] = c_new / (2.0 * math.pi * skeleton.radius[g] * lengths[g])
-        out_leaf = p_new * (in_leaf[:, g] + np.einsum("k,dkj->dj", areas[own], per_addr[:, own]))
+        out_leaf = p_new * (in_leaf[:, g] + np.einsum("k,dkj->dj", areas[own], per_leaf[:, own]))
         out_drag = c_new * drag_shape[:, g] + p_new * in_drag[:, g]
         parent = int(skeleton.parent[g])
         if parent >= 0:
@@ -261,8 +261,8 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
             in_drag[:, parent] += out_drag
     if refine:
         rdirs = fit_directions(_REFINE_DIRECTIONS, _REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
-        r_per_addr, r_fixed = _leaf_tables(skeleton, frames, which, len(names), rdirs)
-        model = _StaticModel(skeleton, gains, r_per_addr, addr_branch, r_fixed,
+        r_per_leaf, r_fixed = _leaf_tables(skeleton, frames, which, len(names), rdirs)
+        model = _StaticModel(skeleton, gains, r_per_leaf, leaf_branch, r_fixed,
                              own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs),
                              np.asarray(speeds, dtype=np.float64))
         surface = 2.0 * math.pi * skeleton.radius * lengths            # (G,) m^2
@@ -280,7 +280,7 @@ class _StaticModel:
 
     Parameters (log scale, so they stay positive): κ_g, p'_g, c'_g (G each: the
     absorbed force, propagated force and drag area C_d 2π r L of each
-    simplified branch) and A_k (K leaf areas, one per adjustable address).
+    simplified branch) and A_k (K leaf areas, one per leaf).
     For speeds v_s and directions V̂_d,
 
         θ'_g(v, V̂) = κ_g G_g F'_g,   F'_g = p'_g (Σ_k A_k ℓ_k + fixed_g + Σ_c F'_c) v
@@ -293,16 +293,16 @@ class _StaticModel:
     path from h's parent to a, so every derivative is a sum over ancestor
     pairs (a, h) (`_pairs`) and the Jacobian is exact and sparse.
 
-    gains (G, 2, 3) per unit κ; per_addr (D, K, 3) unit-area leaf forces;
-    addr_branch (K,); fixed (D, G, 3) fixed leaves' forces; drag_shape (D, G, 3);
+    gains (G, 2, 3) per unit κ; per_leaf (D, K, 3) unit-area leaf forces;
+    leaf_branch (K,) the branch of each; fixed (D, G, 3) fixed leaves' forces; drag_shape (D, G, 3);
     targets: the original's static angles; speeds (S,) m/s.
     """
 
-    def __init__(self, tree: Tree, gains, per_addr, addr_branch, fixed, drag_shape,
+    def __init__(self, tree: Tree, gains, per_leaf, leaf_branch, fixed, drag_shape,
                  targets: StaticTargets, speeds: np.ndarray):
         self.parent = np.asarray(tree.parent, dtype=np.int64)
         self.levels = depth_levels(self.parent)
-        self.gains, self.per_addr, self.addr_branch = gains, per_addr, addr_branch
+        self.gains, self.per_leaf, self.leaf_branch = gains, per_leaf, leaf_branch
         self.fixed, self.drag_shape, self.speeds = fixed, drag_shape, speeds
         self.g = len(self.parent)
         v = speeds[:, None, None, None]
@@ -317,13 +317,13 @@ class _StaticModel:
         # of one h are contiguous in `_pairs`' order
         count = np.bincount(self.pair_h, minlength=self.g)
         first = np.concatenate([[0], np.cumsum(count)[:-1]])
-        n_k = count[addr_branch]
-        self.leaf_of_pair = np.repeat(np.arange(len(addr_branch)), n_k)                # (Q,)
-        self.pair_of_leaf = (np.repeat(first[addr_branch] - np.cumsum(n_k) + n_k, n_k)
+        n_k = count[leaf_branch]
+        self.leaf_of_pair = np.repeat(np.arange(len(leaf_branch)), n_k)                # (Q,)
+        self.pair_of_leaf = (np.repeat(first[leaf_branch] - np.cumsum(n_k) + n_k, n_k)
                              + np.arange(int(n_k.sum())))                              # (Q,)
         # G_a ℓ_k per (leaf, pair): (D, Q, 2)
         self.gl = np.einsum("qij,dqj->dqi", gains[self.pair_a[self.pair_of_leaf]],
-                            per_addr[:, self.leaf_of_pair])
+                            per_leaf[:, self.leaf_of_pair])
 
     def _unpack(self, x):
         g = self.g
@@ -333,8 +333,8 @@ class _StaticModel:
     def forces(self, p, c, area):
         """(F^L, F^D) (D, G, 3) of every simplified branch at unit speed."""
         own = self.fixed.copy()
-        for k, b in enumerate(self.addr_branch.tolist()):
-            own[:, b] += area[k] * self.per_addr[:, k]
+        for k, b in enumerate(self.leaf_branch.tolist()):
+            own[:, b] += area[k] * self.per_leaf[:, k]
         leaf = own.copy()
         drag = c[None, :, None] * self.drag_shape
         incoming_l = np.zeros_like(leaf)
@@ -406,7 +406,7 @@ class _StaticModel:
         # log A_k: T(a,h_k) κ_a v p'_{h_k} A_k G_a ℓ_k, one term per (leaf, pair)
         q, k = self.pair_of_leaf, self.leaf_of_pair
         if len(q):
-            coef = kappa[a[q]] * t[q] * p[self.addr_branch[k]] * area[k]
+            coef = kappa[a[q]] * t[q] * p[self.leaf_branch[k]] * area[k]
             add(coef[None, None, :, None] * v[..., None] * self.gl[None], a[q], 3 * self.g + k)
         n_rows = s_count * d_count * self.g * 2
         blocks_r.append(n_rows + np.arange(len(x)))
@@ -474,7 +474,7 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
     """λ and u_k of one group's leaf part: Θ^L ≈ λ G·incoming + Σ_k u_k G·ℓ_k, all >= 0.
 
     gain (2, 3); incoming (D, 3) children's F'^L plus fixed leaves; own (D, K, 3)
-    unit-area forces of the group's adjustable leaf addresses; target (D, 2);
+    unit-area forces of the group's adjustable leaves; target (D, 2);
     natural_areas (K,) the areas the level-n file gives those leaves.
 
     Where several splits fit equally well (a planar tree: children and own
@@ -495,23 +495,23 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
     return float(sol[0]), sol[1:]
 
 
-def _leaf_tables(skeleton: Tree, frames: RestFrames, which: np.ndarray, n_addresses: int,
+def _leaf_tables(skeleton: Tree, frames: RestFrames, which: np.ndarray, n_adjustable: int,
                  directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit-area leaf forces per adjustable address (D, K, 3), and fixed leaves' forces (D, G, 3).
+    """Unit-area forces of the adjustable leaves (D, K, 3), and fixed leaves' forces (D, G, 3).
 
     ``which`` (F,) is each leaf's adjustable entry (-1: the leaf keeps the area
     the file gives it and counts as fixed).
     """
     unit = own_leaf_forces(_one_leaf_per_branch(skeleton), frames_for_leaves(frames, skeleton),
                            directions, np.ones(skeleton.n_leaves))          # (D, F, 3)
-    per_addr = np.zeros((len(directions), n_addresses, 3))
+    per_leaf = np.zeros((len(directions), n_adjustable, 3))
     fixed = np.zeros((len(directions), skeleton.n_branches, 3))
     for f in range(skeleton.n_leaves):
         if which[f] >= 0:
-            per_addr[:, which[f]] += unit[:, f]
+            per_leaf[:, which[f]] += unit[:, f]
         else:
             fixed[:, skeleton.leaf_branch[f]] += skeleton.leaf_area[f] * unit[:, f]
-    return per_addr, fixed
+    return per_leaf, fixed
 
 
 def _one_leaf_per_branch(tree: Tree) -> Tree:
