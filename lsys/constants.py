@@ -45,12 +45,12 @@ MATCH_DIRECTIONS = 16         # horizontal wind directions the static least-squa
 # turn it, the wind it sees leaves the horizontal; matching the response to winds
 # FIT_ELEVATION rad above and below the horizontal matches that part of the motion.
 MATCH_TILTED_DIRECTIONS = 8   # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION
-REFINE_TILTED_DIRECTIONS = 4  # the same, for the refinement
 FIT_ELEVATION = 0.2           # rad
 MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
 SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
 # Global static refinement of the derived parameters (simplify/closed_form.py):
 REFINE_DIRECTIONS = 8        # horizontal wind directions of the refinement
+REFINE_TILTED_DIRECTIONS = 4  # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION in the refinement
 REFINE_LOG_RANGE = 8.0       # each refined value stays within e^±8 of its sequential value
 REFINE_FLOOR = 0.01          # relative errors are taken against at least this x the largest angle
 REFINE_START_FLOOR = 1e-4    # zero values start at this x the largest of their kind (log scale)

@@ -35,12 +35,17 @@ def chain_depths(parent: np.ndarray) -> np.ndarray:
 
 
 def occurrence_numbers(keys) -> np.ndarray:
-    """(k,) int64: how many earlier entries of ``keys`` (a sequence) equal each one.
+    """(k,) int64: how many earlier entries of ``keys`` (k,) equal each one.
 
-    For the leaves' addresses in drawing order this is each leaf's ordinal
-    among the leaves drawn at its address (the K of an ``area_K`` override).
+    ``keys``: a 1-D sequence of strings or integers (for address rows, pass one
+    code per row). For the leaves' address strings in drawing order this is each
+    leaf's ordinal among the leaves attached at its address (the K of an
+    ``area_K`` override).
     """
-    _, codes = np.unique(np.asarray(keys), return_inverse=True)
+    arr = np.asarray(keys)
+    if arr.ndim != 1:
+        raise ValueError(f"occurrence_numbers takes a 1-D sequence, got shape {arr.shape}")
+    _, codes = np.unique(arr, return_inverse=True)
     codes = codes.reshape(-1)
     order = np.argsort(codes, kind="stable")
     sorted_codes = codes[order]
@@ -49,6 +54,15 @@ def occurrence_numbers(keys) -> np.ndarray:
     out = np.empty(len(codes), dtype=np.int64)
     out[order] = np.arange(len(codes)) - run_start
     return out
+
+
+def leaf_keys(tree: "Tree") -> list[tuple[str, int]]:
+    """(address, K) of every leaf of ``tree``: K its ordinal among the leaves attached there.
+
+    The keys of simplify's leaf areas; K is the K of an ``area_K`` override
+    (docs/lsys-format.md).
+    """
+    return list(zip(tree.leaf_address, occurrence_numbers(tree.leaf_address).tolist()))
 
 
 @dataclass

@@ -529,7 +529,8 @@ def _apply_overrides(system, derived, branches, values, leaves, leaf_area) -> No
 
 
 def _apply_leaf_ordinal_overrides(merged, keys, key_rows, leaf_rows, leaf_area) -> None:
-    """``area_K`` overrides: the area of the K-th leaf (drawing order) at an address.
+    """``area_K`` overrides: the area of the K-th leaf attached at an address (drawing order;
+    leaves dropped for want of a branch do not count).
 
     They are applied after ``area``, so on one line ``area`` sets every leaf
     there and ``area_K`` then sets leaf K. A K beyond the leaves drawn at the
@@ -545,7 +546,7 @@ def _apply_leaf_ordinal_overrides(merged, keys, key_rows, leaf_rows, leaf_area) 
         hit = (which == k) & (ordinal == int(name[len("area_"):]))
         if not hit.any():
             warnings.warn(f"override {name} for address {'.'.join(map(str, keys[k]))} matches no "
-                          f"leaf ({int(np.sum(which == k))} drawn there)", stacklevel=4)
+                          f"leaf ({int(np.sum(which == k))} attached there)", stacklevel=4)
         leaf_area[hit] = value
 
 

@@ -12,7 +12,8 @@ c' = C_d' 2π r' L' and areas A_k of the leaves it carries, turns by
 
 Only the products λ = κ p', u_k = κ p' A_k and μ = κ c' enter θ'_g, and the
 children are fixed first (children have higher indices), so each group is a
-small linear least-squares problem over a set of horizontal directions:
+small linear least-squares problem over a set of wind directions (horizontal,
+and tilted out of the horizontal: docs/simplify.md, "Tilt"):
 
     leaf part:  Θ^L_g ≈ λ G ΣF'^L_c + Σ_k u_k G ℓ_k          (λ, u_k >= 0: NNLS)
     drag part:  Θ^D_g - λ G ΣF'^D_c ≈ μ G |z'×V̂| V̂           (μ >= 0)
@@ -55,7 +56,7 @@ from plantlod.lsys.constants import REFINE_PRIOR as _REFINE_PRIOR
 from plantlod.lsys.constants import REFINE_SKIP as _REFINE_SKIP
 from plantlod.lsys.constants import REFINE_EVALUATIONS as _REFINE_EVALUATIONS
 from plantlod.lsys.constants import REFINE_LSMR_ITERATIONS as _REFINE_LSMR_ITERATIONS
-from plantlod.lsys.tree import Tree, occurrence_numbers
+from plantlod.lsys.tree import Tree, leaf_keys
 from plantlod.sim.kinematics import depth_levels
 
 from .groups import assign_groups, combined_angles, main_paths
@@ -173,15 +174,6 @@ class LevelParameters:
     leaf_areas: dict[tuple[str, int], float]
 
 
-def leaf_keys(tree: Tree) -> list[tuple[str, int]]:
-    """(address, K) of every leaf of ``tree``: K its ordinal among the leaves at that address.
-
-    The keys of `LevelParameters.leaf_areas`; K is the K of an ``area_K``
-    override (docs/lsys-format.md).
-    """
-    return list(zip(tree.leaf_address, occurrence_numbers(tree.leaf_address).tolist()))
-
-
 def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                 directions: np.ndarray | None = None, refine: bool = True,
                 speeds: tuple[float, ...] = SIMPLIFY_WIND_RANGE) -> LevelParameters:
@@ -210,8 +202,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     # every leaf has its own area (area_K overrides), so each is one adjustable value
     names = leaf_keys(skeleton)
     leaf_branch = np.asarray(skeleton.leaf_branch, dtype=np.int64)
-    which = np.arange(skeleton.n_leaves, dtype=np.int64)
-    per_leaf, fixed = _leaf_tables(skeleton, frames, which, len(names), directions)
+    per_leaf = _unit_leaf_forces(skeleton, frames, directions)         # (D, F, 3)
     natural_area = np.asarray(skeleton.leaf_area, dtype=np.float64).copy()
     leaves_of_branch: list[list[int]] = [[] for _ in range(g_count)]
     for k, b in enumerate(leaf_branch.tolist()):
@@ -227,7 +218,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     kfp = np.empty(g_count)
     drag_c = np.empty(g_count)
     areas = np.zeros(len(names))
-    in_leaf = fixed.copy()                                 # Σ children F'^L + fixed leaves
+    in_leaf = np.zeros((d, g_count, 3))                    # Σ children F'^L
     in_drag = np.zeros((d, g_count, 3))
     for g in range(g_count - 1, -1, -1):
         gain = gains[g]                                    # (2, 3)
@@ -261,9 +252,8 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
             in_drag[:, parent] += out_drag
     if refine:
         rdirs = fit_directions(_REFINE_DIRECTIONS, _REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
-        r_per_leaf, r_fixed = _leaf_tables(skeleton, frames, which, len(names), rdirs)
-        model = _StaticModel(skeleton, gains, r_per_leaf, leaf_branch, r_fixed,
-                             own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs),
+        model = _StaticModel(skeleton, gains, _unit_leaf_forces(skeleton, frames, rdirs),
+                             leaf_branch, own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs),
                              np.asarray(speeds, dtype=np.float64))
         surface = 2.0 * math.pi * skeleton.radius * lengths            # (G,) m^2
         refined = model.refine(kfa, kfp, drag_c * surface, areas)
@@ -283,7 +273,7 @@ class _StaticModel:
     simplified branch) and A_k (K leaf areas, one per leaf).
     For speeds v_s and directions V̂_d,
 
-        θ'_g(v, V̂) = κ_g G_g F'_g,   F'_g = p'_g (Σ_k A_k ℓ_k + fixed_g + Σ_c F'_c) v
+        θ'_g(v, V̂) = κ_g G_g F'_g,   F'_g = p'_g (Σ_k A_k ℓ_k + Σ_c F'_c) v
                                             + c'_g s_g v² + p'_g Σ_c F'^D_c v²
 
     and the residual of group g, component c is (θ'_gc - Θ_gc) / max(|Θ_gc|,
@@ -294,16 +284,16 @@ class _StaticModel:
     pairs (a, h) (`_pairs`) and the Jacobian is exact and sparse.
 
     gains (G, 2, 3) per unit κ; per_leaf (D, K, 3) unit-area leaf forces;
-    leaf_branch (K,) the branch of each; fixed (D, G, 3) fixed leaves' forces; drag_shape (D, G, 3);
-    targets: the original's static angles; speeds (S,) m/s.
+    leaf_branch (K,) the branch of each; drag_shape (D, G, 3); targets: the
+    original's static angles; speeds (S,) m/s.
     """
 
-    def __init__(self, tree: Tree, gains, per_leaf, leaf_branch, fixed, drag_shape,
+    def __init__(self, tree: Tree, gains, per_leaf, leaf_branch, drag_shape,
                  targets: StaticTargets, speeds: np.ndarray):
         self.parent = np.asarray(tree.parent, dtype=np.int64)
         self.levels = depth_levels(self.parent)
         self.gains, self.per_leaf, self.leaf_branch = gains, per_leaf, leaf_branch
-        self.fixed, self.drag_shape, self.speeds = fixed, drag_shape, speeds
+        self.drag_shape, self.speeds = drag_shape, speeds
         self.g = len(self.parent)
         v = speeds[:, None, None, None]
         self.target = v * targets.leaf[None] + v * v * targets.drag[None]     # (S, D, G, 2)
@@ -313,8 +303,8 @@ class _StaticModel:
         self.pair_a, self.pair_h = _pairs(self.parent)
         # G_a ℓ_k and G_a s_h per pair, fixed by the geometry: (D, P, 2)
         self.gs = np.einsum("pij,dpj->dpi", gains[self.pair_a], drag_shape[:, self.pair_h])
-        # (leaf k, pair (a, h_k)) for every ancestor-or-self a of leaf k's branch: the pairs
-        # of one h are contiguous in `_pairs`' order
+        # (leaf k, pair (a, h_k)) for every ancestor-or-self a of leaf k's branch; this
+        # relies on `_pairs` listing pairs by ascending h, those of one h together
         count = np.bincount(self.pair_h, minlength=self.g)
         first = np.concatenate([[0], np.cumsum(count)[:-1]])
         n_k = count[leaf_branch]
@@ -332,10 +322,8 @@ class _StaticModel:
 
     def forces(self, p, c, area):
         """(F^L, F^D) (D, G, 3) of every simplified branch at unit speed."""
-        own = self.fixed.copy()
-        for k, b in enumerate(self.leaf_branch.tolist()):
-            own[:, b] += area[k] * self.per_leaf[:, k]
-        leaf = own.copy()
+        leaf = np.zeros((self.per_leaf.shape[0], self.g, 3))
+        np.add.at(leaf, (slice(None), self.leaf_branch), area[None, :, None] * self.per_leaf)
         drag = c[None, :, None] * self.drag_shape
         incoming_l = np.zeros_like(leaf)
         incoming_d = np.zeros_like(drag)
@@ -443,7 +431,7 @@ class _StaticModel:
 
 
 def _pairs(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every (ancestor-or-self a, branch h) pair: two (P,) int64 arrays."""
+    """Every (ancestor-or-self a, branch h) pair: two (P,) int64 arrays, by ascending h."""
     pa, ph = [], []
     for h in range(len(parent)):
         a = h
@@ -473,7 +461,7 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
                 natural_areas: np.ndarray) -> tuple[float, np.ndarray]:
     """λ and u_k of one group's leaf part: Θ^L ≈ λ G·incoming + Σ_k u_k G·ℓ_k, all >= 0.
 
-    gain (2, 3); incoming (D, 3) children's F'^L plus fixed leaves; own (D, K, 3)
+    gain (2, 3); incoming (D, 3) children's F'^L; own (D, K, 3)
     unit-area forces of the group's adjustable leaves; target (D, 2);
     natural_areas (K,) the areas the level-n file gives those leaves.
 
@@ -495,23 +483,10 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
     return float(sol[0]), sol[1:]
 
 
-def _leaf_tables(skeleton: Tree, frames: RestFrames, which: np.ndarray, n_adjustable: int,
-                 directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit-area forces of the adjustable leaves (D, K, 3), and fixed leaves' forces (D, G, 3).
-
-    ``which`` (F,) is each leaf's adjustable entry (-1: the leaf keeps the area
-    the file gives it and counts as fixed).
-    """
-    unit = own_leaf_forces(_one_leaf_per_branch(skeleton), frames_for_leaves(frames, skeleton),
-                           directions, np.ones(skeleton.n_leaves))          # (D, F, 3)
-    per_leaf = np.zeros((len(directions), n_adjustable, 3))
-    fixed = np.zeros((len(directions), skeleton.n_branches, 3))
-    for f in range(skeleton.n_leaves):
-        if which[f] >= 0:
-            per_leaf[:, which[f]] += unit[:, f]
-        else:
-            fixed[:, skeleton.leaf_branch[f]] += skeleton.leaf_area[f] * unit[:, f]
-    return per_leaf, fixed
+def _unit_leaf_forces(skeleton: Tree, frames: RestFrames, directions: np.ndarray) -> np.ndarray:
+    """The force of every leaf of ``skeleton`` at unit area and unit speed: (D, F, 3)."""
+    return own_leaf_forces(_one_leaf_per_branch(skeleton), frames_for_leaves(frames, skeleton),
+                           directions, np.ones(skeleton.n_leaves))
 
 
 def _one_leaf_per_branch(tree: Tree) -> Tree:

@@ -16,9 +16,9 @@ from dataclasses import replace
 import numpy as np
 
 from plantlod.lsys.build import build
-from plantlod.lsys.tree import occurrence_numbers
 from plantlod.lsys.constants import SIMPLIFY_WRITE_DIGITS as WRITE_DIGITS
 from plantlod.lsys.errors import InputError
+from plantlod.lsys.tree import leaf_keys
 from plantlod.lsys.system import (
     TURTLE_SYMBOLS, LSystem, Module, Override, Pattern, Production,
 )
@@ -53,8 +53,8 @@ def level_system(system: LSystem, level: int, equivalent_leaves: bool) -> tuple[
     interpretation rule that draws what X draws now and, in brackets, the leaves
     that X's successor would attach, with the same turns (so with the same
     rest normals), its branches and moves left out (`equivalent_leaf_rules`).
-    `write_parameters` then scales each address's leaves with an ``area``
-    override.
+    `write_parameters` then gives each of those leaves its area (``area`` or
+    ``area_K`` overrides).
     """
     check_level(system, level)
     skeleton = replace(system, derivation_length=system.derivation_length - level, overrides=())
@@ -190,14 +190,14 @@ def _base_address(address: str) -> tuple[int, ...]:
 
 
 def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
-                     leaf_areas: dict[str, float]) -> LSystem:
+                     leaf_areas: dict[tuple[str, int], float]) -> LSystem:
     """``skeleton`` with the given parameters, per symbol where possible, else per address.
 
     branch_values : key of BRANCH_KEYS -> (B,) values for the skeleton tree's
                     branches (in its branch order); keys not given keep the
                     skeleton's values
     leaf_areas    : (leaf address, K) -> area (m^2) of the K-th leaf at that
-                    address (`closed_form.leaf_keys`)
+                    address (`plantlod.lsys.tree.leaf_keys`)
 
     Every value is rounded to WRITE_DIGITS significant digits. A symbol gets the
     most common value of its branches; a branch whose resolved value (module
@@ -223,7 +223,7 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
         mine = [i for i, s in enumerate(tree.symbol) if s == sym.name]
         changes = {key: _mode(values[key][mine].tolist()) for key in values if mine}
         symbols.append(replace(sym, **changes))
-    keys = list(zip(tree.leaf_address, occurrence_numbers(tree.leaf_address).tolist()))
+    keys = leaf_keys(tree)
     missing = sorted(set(leaf_areas) - set(keys))
     if missing:
         raise ValueError(f"no leaf {missing[:3]} (address, K) in the level-n tree")
@@ -236,7 +236,7 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
         wanted[key] = a
     symbol_of = _leaf_symbols(skeleton, built, tree)
     by_symbol: dict[str, list[float]] = {}
-    for key, name in zip(keys, symbol_of):
+    for key, name in zip(keys, symbol_of or ()):
         if key in wanted:
             by_symbol.setdefault(name, []).append(wanted[key])
     leaves = [replace(sym, area=_mode(by_symbol[sym.name])) if sym.name in by_symbol else sym
@@ -279,25 +279,20 @@ def _leaf_overrides(keys: list[tuple[str, int]], have: list[float],
                 line[f"area_{keys[i][1]}"] = w
 
 
-def _leaf_symbols(skeleton: LSystem, built, tree) -> list[str]:
+def _leaf_symbols(skeleton: LSystem, built, tree) -> list[str] | None:
     """The leaf symbol of every leaf of ``tree`` (the built skeleton's), in its order.
 
-    Read from the interpreted string; where the turtle dropped leaves (none on
-    a branch), each leaf gets the symbol of the first leaf read at its address.
+    Read from the interpreted string. None where the turtle dropped leaves (read
+    while no branch was current): which ones is not known here, so the caller
+    leaves the symbols' areas alone and gives every leaf its area by override.
     """
     interpreted = built.interpreted
     names = {leaf.name for leaf in skeleton.leaves}
     alphabet = interpreted.alphabet
     codes = np.asarray(interpreted.codes)
     is_leaf = np.isin(codes, [alphabet.index(n) for n in names if n in alphabet])
-    idx = np.flatnonzero(is_leaf)
-    symbols = [alphabet[c] for c in codes[idx].tolist()]
-    if len(symbols) == tree.n_leaves:
-        return symbols
-    first: dict[str, str] = {}
-    for addr, name in zip(interpreted.address_strings(idx), symbols):
-        first.setdefault(addr, name)
-    return [first[a] for a in tree.leaf_address]
+    symbols = [alphabet[c] for c in codes[np.flatnonzero(is_leaf)].tolist()]
+    return symbols if len(symbols) == tree.n_leaves else None
 
 
 def _name_expr(name: str):

@@ -141,7 +141,7 @@ def simplify(system: LSystem, options: Options,
         out = write_parameters(skeleton, values, params.leaf_areas)
         tree = _read_back(out)
         check_stability(tree, options.dt)
-        notes.append(f"calibration: worst relative error {cal.worst_before:.4f} -> "
+        notes.append(f"calibration: worst weighted error (period errors x5) {cal.worst_before:.4f} -> "
                      f"{cal.worst_after:.4f} in {cal.evaluations} evaluations")
     if progress:
         progress("measuring", 1.0)

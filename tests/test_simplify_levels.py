@@ -11,6 +11,7 @@ from plantlod.formats.lsys_file import format_production, read_lsys, write_lsys
 from plantlod.lsys.build import build
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
+from plantlod.lsys.tree import occurrence_numbers
 from plantlod.simplify.closed_form import group_map
 from plantlod.simplify.levels import (equivalent_leaf_rules, level_system, round_sig,
                                       write_parameters)
@@ -140,7 +141,7 @@ def test_area_k_overrides_apply_after_area_and_by_drawing_order():
   1.1: area_0=0.2
 """
     built = build(parse_lsys(text))
-    assert built.warnings == ["override area_9 for address 0.0 matches no leaf (3 drawn there)"]
+    assert built.warnings == ["override area_9 for address 0.0 matches no leaf (3 attached there)"]
     tree = built.tree
     np.testing.assert_array_equal(tree.leaf_area, [0.5, 0.5, 0.7, 0.2])
     assert "0.0: area=0.5 area_2=0.7 area_9=1" in write_lsys(parse_lsys(text))
@@ -158,3 +159,36 @@ def test_round_sig():
     assert round_sig(0.1 + 0.2) == 0.3
     assert round_sig(1 / 3) == 0.333333333333
     assert round_sig(0.0) == 0.0
+
+
+def test_occurrence_numbers():
+    np.testing.assert_array_equal(occurrence_numbers(["a", "b", "a", "c", "b", "a"]),
+                                  [0, 0, 1, 0, 1, 2])
+    np.testing.assert_array_equal(occurrence_numbers([3, 3, -1, 3]), [0, 1, 0, 2])
+    assert occurrence_numbers([]).shape == (0,)
+    with pytest.raises(ValueError, match="1-D"):
+        occurrence_numbers([[0, 1], [0, 1]])
+
+
+DROPPED_LEAF_SYSTEM = AREA_K_SYSTEM.replace("  Y -> F[+L][-L]L\n", "  Y -> L F[+L]L\n")
+
+
+def test_area_k_counts_only_attached_leaves():
+    # Y (address 0.0) reads L before drawing F: that leaf is dropped, so area_0 is the
+    # second L read (the first one attached)
+    text = DROPPED_LEAF_SYSTEM + """overrides:
+  0.0: area_0=0.3
+"""
+    built = build(parse_lsys(text))
+    assert any("dropped" in w or "no branch" in w for w in built.warnings)
+    assert built.tree.leaf_address == ["0.0", "0.0", "1.1"]
+    np.testing.assert_array_equal(built.tree.leaf_area, [0.3, 0.01, 0.01])
+
+
+def test_write_parameters_with_a_dropped_leaf_sets_every_area_by_override():
+    system = parse_lsys(DROPPED_LEAF_SYSTEM)
+    wanted = {("0.0", 0): 0.02, ("0.0", 1): 0.03, ("1.1", 0): 0.02}
+    out = write_parameters(system, {}, wanted)
+    assert out.leaf_symbol("L").area == 0.01          # which symbol a leaf is is not known here
+    np.testing.assert_array_equal(build(parse_lsys(write_lsys(out))).tree.leaf_area,
+                                  [0.02, 0.03, 0.02])

@@ -23,6 +23,7 @@ from plantlod.simplify.groups import combined_angles
 from plantlod.simplify.levels import level_system, write_parameters
 from plantlod.lsys.constants import (FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS,
                                      REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS)
+from plantlod.lsys.tree import leaf_keys
 from plantlod.simplify.static import fit_directions, static_angles, static_parts
 from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import wind_from_speed
@@ -84,7 +85,7 @@ def test_model_angles_equal_the_static_theory_of_the_written_file(monkeypatch):
                                params.branch["drag_coefficient"] * 2 * np.pi * skel_tree.radius
                                * params.branch["length"],
                                np.maximum([params.leaf_areas[a] for a in
-                                           cf.leaf_keys(skel_tree)], 1e-300)]))
+                                           leaf_keys(skel_tree)], 1e-300)]))
     theta, _, _ = model.angles(x)                                     # (S, D, G, 2)
     # ... and the written file through static.py (the refinement's directions)
     tree = written_tree(skeleton, params)
