@@ -114,8 +114,9 @@ class LeafSymbol:
 class Override:
     """Per-branch parameters for the module at one address (model.md section 5).
 
-    ``values`` maps keys of BRANCH_KEYS (for the branch drawn there) or LEAF_KEYS
-    (for the leaf attached there) to floats, sorted by key.
+    ``values`` maps keys of BRANCH_KEYS (for the branch drawn there), LEAF_KEYS
+    (every leaf attached there) or matching LEAF_ORDINAL_KEY (``area_K``: the K-th
+    leaf attached there) to floats, sorted by key.
     """
 
     address: tuple[int, ...]

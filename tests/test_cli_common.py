@@ -3,6 +3,7 @@ start-up cost, and the golden-file utility itself."""
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 import stat
@@ -225,26 +226,30 @@ def test_subprocess_output_equals_in_process_output():
 
 # --- start-up cost ---------------------------------------------------------------------------
 
-def test_help_does_not_import_heavy_modules():
-    """`plantlod --help` must not pay for numba, numpy, scipy, trimesh or rich."""
+HEAVY_MODULES = ("numba", "numpy", "scipy", "trimesh", "rich")
+
+
+def modules_imported_by(args: list[str]) -> list[str]:
+    """Which of HEAVY_MODULES a fresh interpreter has imported after `plantlod ARGS`."""
     code = ("import sys; from plantlod.cli.main import cli\n"
-            "try:\n    cli(['--help'], prog_name='plantlod')\nexcept SystemExit:\n    pass\n"
-            "heavy = sorted(m for m in ('numba', 'numpy', 'scipy', 'trimesh', 'rich') "
-            "if m in sys.modules)\n"
-            "print('HEAVY', heavy, file=sys.stderr)")
+            f"try:\n    cli({args!r}, prog_name='plantlod')\n"
+            "except SystemExit as e:\n    assert not e.code, e.code\n"
+            f"print('LOADED', sorted(m for m in {HEAVY_MODULES!r} if m in sys.modules), "
+            "file=sys.stderr)")
     done = subprocess.run([PYTHON, "-c", code], cwd=ROOT, capture_output=True, text=True,
                           timeout=60)
-    assert "HEAVY []" in done.stderr, done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.startswith("LOADED ")]
+    assert len(lines) == 1, done.stderr
+    return ast.literal_eval(lines[0][len("LOADED "):])
+
+
+def test_help_does_not_import_heavy_modules():
+    """`plantlod --help` must not pay for numba, numpy, scipy, trimesh or rich."""
+    assert modules_imported_by(["--help"]) == []
 
 
 def test_derive_does_not_import_numba():
-    code = ("import sys; from plantlod.cli.main import cli\n"
-            "try:\n    cli(['derive', 'examples/stalk8.lsys', '-o', '/dev/null'], "
-            "prog_name='plantlod')\nexcept SystemExit as e:\n    assert not e.code, e.code\n"
-            "print('NUMBA', 'numba' in sys.modules, file=sys.stderr)")
-    done = subprocess.run([PYTHON, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                          timeout=60)
-    assert "NUMBA False" in done.stderr, done.stderr
+    assert "numba" not in modules_imported_by(["derive", "examples/stalk8.lsys", "-o", "/dev/null"])
 
 
 # --- the golden-file utility -----------------------------------------------------------------

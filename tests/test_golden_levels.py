@@ -28,7 +28,6 @@ are checked here against independent computations:
 
 from __future__ import annotations
 
-import io
 import math
 import shutil
 

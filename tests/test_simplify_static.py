@@ -16,42 +16,21 @@ import pytest
 from plantlod.formats.lsys_file import read_lsys
 from plantlod.lsys.build import build
 from plantlod.simplify.closed_form import closed_form, group_map
-from plantlod.simplify.groups import combined_angles
 from plantlod.simplify.levels import level_system, write_parameters
 from plantlod.simplify.static import horizontal_directions, static_angles_at, static_parts
 from plantlod.simplify.thesis import thesis_parameters
-from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import wind_from_speed
+from simplify_util import (assert_close_where_counted, level_case, settled, settled_combined,
+                           written_tree)
 
-DT = 0.01
-SETTLE_STEPS = 3000       # damping 0.02 per step: transients fall by ~e^-30
-DAMPING = 0.02
 P = 0.7                   # stalk8's k_fp
 KFA = 0.005               # stalk8's k_FA
 CD = 0.0015               # stalk8's C_d
 
 
-def assert_close_where_counted(got, want, rtol):
-    """Relative agreement on the components that section 6 counts (>= 1 % of the largest);
-    at least 10 of them, so the check cannot pass on an almost empty selection."""
-    counted = np.abs(want) >= 0.01 * np.abs(want).max()
-    assert counted.sum() >= 10
-    assert np.max(np.abs(got - want)[counted] / np.abs(want)[counted]) < rtol
-
-
-def settled(tree, speed, direction):
-    """(bend, rot) (B,) at the end of a damped run: the static angles."""
-    s = simulate_arrays(tree, DT, SETTLE_STEPS, wind_from_speed(speed, direction),
-                        every=SETTLE_STEPS, damping=DAMPING)
-    return s.bend[-1], s.rot[-1]
-
-
 def simplified_stalk(level, system=None):
     system = read_lsys("examples/stalk8.lsys") if system is None else system
-    original = build(system).tree
-    skeleton, _ = level_system(system, level, equivalent_leaves=True)
-    skeleton_tree = build(skeleton).tree
-    gmap = group_map(original, skeleton_tree)
+    original, skeleton, skeleton_tree, gmap = level_case(system, level)
     params = closed_form(original, skeleton_tree, gmap)
     out = write_parameters(skeleton, params.branch, params.leaf_areas)
     return original, build(out).tree, gmap, out
@@ -66,7 +45,7 @@ def test_static_theory_matches_settled_simulation(name, steps, speed):
     parts = static_parts(tree, directions)
     bend, rot = static_angles_at(tree, parts, speed)
     for k in (0, 1, 3):                           # 0, 45 and 135 degrees
-        b, r = settled(tree, speed, 45.0 * k)
+        b, r = settled(tree, wind_from_speed(speed, 45.0 * k))
         scale = max(np.abs(b).max(), np.abs(r).max())
         np.testing.assert_allclose(bend[k], b, atol=1e-3 * scale)
         np.testing.assert_allclose(rot[k], r, atol=1e-3 * scale)
@@ -107,30 +86,24 @@ def test_stalk_groups_settle_at_the_originals_combined_angles(level, leaf_scale,
     system = replace(read_lsys("examples/stalk8.lsys"), leaf_force_scale=leaf_scale)
     original, tree, gmap, _ = simplified_stalk(level, system)
     for direction in (0.0, 90.0, 30.0):
-        ob, orr = settled(original, speed, direction)
-        cb, cr = combined_angles(original, gmap.paths, ob, orr)
-        sb, sr = settled(tree, speed, direction)
-        scale = max(np.abs(cb).max(), np.abs(cr).max())
+        wind = wind_from_speed(speed, direction)
+        want = settled_combined(original, gmap, wind)
+        got = np.stack(settled(tree, wind), axis=-1)
+        scale = np.abs(want).max()
         assert scale > 0
-        np.testing.assert_allclose(sb, cb, atol=2e-3 * scale, rtol=2e-3)
-        np.testing.assert_allclose(sr, cr, atol=2e-3 * scale, rtol=2e-3)
+        np.testing.assert_allclose(got, want, atol=2e-3 * scale, rtol=2e-3)
 
 
 def test_branching_level_1_settles_near_the_original():
     # abop_1_24a at N = 3 (125 branches): level 1 with equivalent leaves. The leaf part
     # is matched exactly; the drag part, tiny at 0.3 m/s, in the least-squares sense.
     system = replace(read_lsys("examples/abop_1_24a.lsys"), derivation_length=3)
-    original = build(system).tree
-    skeleton, expanded = level_system(system, 1, equivalent_leaves=True)
-    assert expanded == ["F"]
-    skeleton_tree = build(skeleton).tree
-    gmap = group_map(original, skeleton_tree)
-    params = closed_form(original, skeleton_tree, gmap)
-    tree = build(write_parameters(skeleton, params.branch, params.leaf_areas)).tree
-    ob, orr = settled(original, 0.3, 0.0)
-    cb, _ = combined_angles(original, gmap.paths, ob, orr)
-    sb, _ = settled(tree, 0.3, 0.0)
-    assert_close_where_counted(sb, cb, 0.01)
+    assert level_system(system, 1, equivalent_leaves=True)[1] == ["F"]
+    original, skeleton, skeleton_tree, gmap = level_case(system)
+    tree = written_tree(skeleton, closed_form(original, skeleton_tree, gmap))
+    wind = wind_from_speed(0.3, 0.0)
+    assert_close_where_counted(settled(tree, wind)[0], settled_combined(original, gmap, wind)[:, 0],
+                               0.01)
 
 
 @pytest.mark.parametrize("level", [1, 2])
@@ -141,8 +114,8 @@ def test_thesis_rules_by_hand(level):
     original = build(system).tree
     skeleton, _ = level_system(system, level, equivalent_leaves=False)
     skeleton_tree = build(skeleton).tree
-    gmap = group_map(original, skeleton_tree)
-    params, scale = thesis_parameters(original, skeleton_tree, gmap, level)
+    params, scale = thesis_parameters(original, skeleton_tree, group_map(original, skeleton_tree),
+                                      level)
     m = 2 ** level
     np.testing.assert_allclose(params.branch["length"], m)
     np.testing.assert_allclose(params.branch["force_propagated"], P ** (level + 1), rtol=1e-12)

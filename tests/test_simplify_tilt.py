@@ -27,8 +27,8 @@ from plantlod.simplify.measures import amplitude
 from plantlod.simplify.static import (fit_directions, static_angles, static_angles_at,
                                       static_parts, tilted_directions)
 
-from test_simplify_refine import small_case, written_tree
-from test_simplify_static import DAMPING, DT, SETTLE_STEPS, simplified_stalk
+from simplify_util import DT, settled, settled_combined, small_case, written_tree
+from test_simplify_static import simplified_stalk
 
 
 def generalised_forces(tree, bend, rot, wind):
@@ -109,11 +109,9 @@ def test_static_theory_holds_for_tilted_winds(name, steps):
     speed = 0.5
     bend, rot = static_angles_at(tree, parts, speed)
     for k in range(len(directions)):
-        s = simulate_arrays(tree, DT, SETTLE_STEPS, ConstantWind(speed * directions[k]),
-                            every=SETTLE_STEPS, damping=DAMPING)
-        scale = max(np.abs(s.bend[-1]).max(), np.abs(s.rot[-1]).max())
-        np.testing.assert_allclose(bend[k], s.bend[-1], atol=1e-3 * scale)
-        np.testing.assert_allclose(rot[k], s.rot[-1], atol=1e-3 * scale)
+        want = np.stack(settled(tree, ConstantWind(speed * directions[k])), axis=-1)
+        np.testing.assert_allclose(np.stack([bend[k], rot[k]], axis=-1), want,
+                                   atol=1e-3 * np.abs(want).max())
 
 
 @pytest.mark.parametrize("level", [1, 2])
@@ -123,14 +121,9 @@ def test_stalk_groups_settle_right_in_tilted_winds(level):
     for elevation, azimuth in ((0.3, 0.0), (-0.4, 2.0)):
         v = 4.0 * np.array([math.cos(elevation) * math.cos(azimuth),
                             math.cos(elevation) * math.sin(azimuth), math.sin(elevation)])
-        o = simulate_arrays(original, DT, SETTLE_STEPS, ConstantWind(v), every=SETTLE_STEPS,
-                            damping=DAMPING)
-        cb, cr = combined_angles(original, gmap.paths, o.bend, o.rot)
-        s = simulate_arrays(tree, DT, SETTLE_STEPS, ConstantWind(v), every=SETTLE_STEPS,
-                            damping=DAMPING)
-        scale = max(np.abs(cb).max(), np.abs(cr).max())
-        np.testing.assert_allclose(s.bend[-1], cb[-1], atol=2e-3 * scale, rtol=2e-3)
-        np.testing.assert_allclose(s.rot[-1], cr[-1], atol=2e-3 * scale, rtol=2e-3)
+        want = settled_combined(original, gmap, ConstantWind(v))
+        got = np.stack(settled(tree, ConstantWind(v)), axis=-1)
+        np.testing.assert_allclose(got, want, atol=2e-3 * np.abs(want).max(), rtol=2e-3)
 
 
 @pytest.mark.parametrize("name, steps", [("abop_1_24a", 4), ("abop_1_24c", 3)])
