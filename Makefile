@@ -14,7 +14,7 @@ STAMP  := $(VENV)/.installed
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,plot]'
+	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,all]'
 	touch $(STAMP)
 
 # make demo: the short version of the thesis' experiment (examples/Makefile, QUICK=1):

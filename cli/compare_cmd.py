@@ -15,7 +15,7 @@ import sys
 
 import click
 
-from plantlod.lsys.constants import DEFAULT_PLOT_TIME
+from plantlod.simplify.constants import DEFAULT_PLOT_TIME
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .io import display_name, open_output, read_text, say, warn

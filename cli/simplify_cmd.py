@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from plantlod.lsys.constants import (
+from plantlod.simplify.constants import (
     CALIBRATION_EVALUATIONS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
 )
 

@@ -14,7 +14,7 @@ from typing import TextIO
 
 import numpy as np
 
-from plantlod.lsys.constants import CSV_FLOAT_FORMAT
+from .constants import CSV_FLOAT_FORMAT
 from plantlod.lsys.errors import InputError
 
 BEND_PREFIX = "b:"

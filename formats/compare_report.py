@@ -21,7 +21,7 @@ import numpy as np
 from plantlod.simplify.compare import AngleDifference, Comparison, Violation
 from plantlod.simplify.measures import COMPONENTS
 
-from plantlod.lsys.constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
+from .constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
 
 UNDEFINED = "-"
 

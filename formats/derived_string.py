@@ -17,7 +17,7 @@ from typing import Iterator
 
 import numpy as np
 
-from plantlod.lsys.constants import DERIVED_TEXT_CHUNK_MODULES as CHUNK_MODULES
+from .constants import DERIVED_TEXT_CHUNK_MODULES
 from plantlod.lsys.derived import DerivedString, ragged_arange
 from plantlod.lsys.expr import format_number
 
@@ -59,8 +59,8 @@ def format_derived(d: DerivedString) -> Iterator[str]:
         values, value_ids_all = np.unique(d.params, return_inverse=True)
         table = np.array(list(d.alphabet) + ["(", ",", ")"]
                          + [format_number(v) for v in values.tolist()], dtype=object)
-    for lo in range(0, n, CHUNK_MODULES):
-        hi = min(n, lo + CHUNK_MODULES)
+    for lo in range(0, n, DERIVED_TEXT_CHUNK_MODULES):
+        hi = min(n, lo + DERIVED_TEXT_CHUNK_MODULES)
         codes = d.codes[lo:hi]
         p_lo, p_hi = int(d.param_start[lo]), int(d.param_start[hi])
         if p_lo == p_hi:

@@ -31,10 +31,9 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import Pose, pose
 
-from plantlod.lsys.constants import OBJ_DIGITS, OBJ_SIDES
-from plantlod.lsys.constants import OBJ_LAYOUT_MARGIN as LAYOUT_MARGIN
-from plantlod.lsys.constants import OBJ_TIP_TAPER as TIP_TAPER
-
+from .constants import OBJ_DIGITS, OBJ_SIDES
+from .constants import OBJ_LAYOUT_MARGIN
+from .constants import OBJ_TIP_TAPER
 _PARALLEL_TOL = 1e-12     # leaf normal along the branch axis: choose another in-plane direction
 
 
@@ -55,10 +54,10 @@ def top_radius(tree: Tree) -> np.ndarray:
     """Radius at the top of every branch, (B,) m.
 
     The largest radius of the branch's children, but never more than its own
-    radius; a branch without children narrows to TIP_TAPER times its radius.
+    radius; a branch without children narrows to OBJ_TIP_TAPER times its radius.
     """
     radius = np.asarray(tree.radius, dtype=np.float64)
-    top = TIP_TAPER * radius
+    top = OBJ_TIP_TAPER * radius
     widest_child = np.full(len(radius), -np.inf)
     parent = np.asarray(tree.parent, dtype=np.int64)
     kids = parent >= 0
@@ -145,11 +144,11 @@ def side_by_side_offsets(rest_meshes: list[Mesh], heights: list[float]) -> list[
     """x translations (m) that put trees next to each other, left to right.
 
     The first tree stays where it is; each next one is moved so that its rest
-    mesh's smallest x lies LAYOUT_MARGIN x the tallest rest height to the right
+    mesh's smallest x lies OBJ_LAYOUT_MARGIN x the tallest rest height to the right
     of the previous tree's largest rest x. Rest extents, so that the trees stay
     put from frame to frame of an animation.
     """
-    margin = LAYOUT_MARGIN * max([h for h in heights if h > 0], default=1.0)
+    margin = OBJ_LAYOUT_MARGIN * max([h for h in heights if h > 0], default=1.0)
     offsets: list[float] = []
     right = 0.0
     for i, mesh in enumerate(rest_meshes):

@@ -24,7 +24,7 @@ from typing import Iterator, TextIO
 
 import numpy as np
 
-from plantlod.lsys.constants import NORMAL_UNIT_TOL
+from .constants import NORMAL_UNIT_TOL
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths
 

@@ -1,6 +1,9 @@
-"""The one place for model defaults, tolerances and output formatting.
+"""Constants of the L-system language: model defaults and geometric tolerances.
 
-Every package imports its numbers from here; nothing else hard-codes them.
+One place per domain: `plantlod.lsys.constants` (the language),
+`plantlod.sim.constants` (the dynamics), `plantlod.simplify.constants` (levels of
+detail and their measures), `plantlod.formats.constants` (bytes in and out).
+Import a constant under its own name, never an alias.
 """
 
 # --- model defaults (model.md sections 2 and 4; the thesis) -------------------
@@ -10,84 +13,9 @@ DEFAULT_SEED = 0
 DEFAULT_MOVE_LENGTH = 1.0           # f without a parameter
 DEFAULT_MAX_MODULES = 20_000_000    # derive --max-modules
 
+
 # --- tolerances ------------------------------------------------------------------
 ZYZ_DEGENERATE_TOL = 1e-9     # h below this: alpha is exactly 0 or pi (model.md 2)
-NORMAL_UNIT_TOL = 1e-6        # tree files: leaf normals must be unit length within this
-ALPHA_TIE_TOL = 1e-9          # main path: alphas this close are tied (model.md 5)
 PROBABILITY_SUM_TOL = 1e-9    # stochastic alternatives must sum to 1 within this
-COUNTED_AMPLITUDE_FRACTION = 0.01  # error measures count components >= 1 % (model.md 6)
 
 DOLLAR_VERTICAL_TOL = 1e-9    # `$` leaves M unchanged when |world z x heading| < this
-
-# --- gusts (docs/model.md, "Gusts") -------------------------------------------------
-GUST_COMPONENTS = 8           # number of seeded sinusoids
-GUST_MIN_FREQUENCY = 0.05     # Hz
-GUST_MAX_FREQUENCY = 1.0      # Hz
-
-# --- memory bounds of streaming work -----------------------------------------------
-SIM_CHUNK_VALUES = 1 << 20    # angle values per yielded simulation chunk (8 MB float64)
-SIM_STEPS_PER_CALL = 1 << 16  # kernel steps per call at most (bounds wind samples held)
-DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format string`
-
-# --- compare -------------------------------------------------------------------------
-# Two runs' times agree when they differ by at most this much, relative to
-# max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
-TIME_MATCH_RTOL = 1e-9
-# `pose` needs about 200 bytes per branch and sample; tips are computed in
-# blocks of about this many branch-samples (~50 MB).
-POSE_BLOCK_BRANCH_SAMPLES = 1 << 18
-DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)
-
-# --- simplify (docs/simplify.md) ------------------------------------------------------
-SIMPLIFY_WRITE_DIGITS = 12    # significant digits of every computed value simplify writes
-MATCH_DIRECTIONS = 16         # horizontal wind directions the static least-squares matches use
-# Tilted winds matched too (docs/simplify.md, "Tilt"): when the branches below a group
-# turn it, the wind it sees leaves the horizontal; matching the response to winds
-# FIT_ELEVATION rad above and below the horizontal matches that part of the motion.
-MATCH_TILTED_DIRECTIONS = 8   # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION
-FIT_ELEVATION = 0.2           # rad
-MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
-SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
-# Global static refinement of the derived parameters (simplify/closed_form.py):
-REFINE_DIRECTIONS = 8        # horizontal wind directions of the refinement
-REFINE_TILTED_DIRECTIONS = 4  # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION in the refinement
-REFINE_LOG_RANGE = 8.0       # each refined value stays within e^±8 of its sequential value
-REFINE_FLOOR = 0.01          # relative errors are taken against at least this x the largest angle
-REFINE_START_FLOOR = 1e-4    # zero values start at this x the largest of their kind (log scale)
-REFINE_PRIOR = 0.3           # pull of every log-value toward its sequential value (one residual each)
-REFINE_SKIP = 1e-9           # no refinement where the sequential solution is already this close
-REFINE_EVALUATIONS = 30      # residual evaluations of the least-squares refinement
-REFINE_LSMR_ITERATIONS = 50  # inner iterations of each trust-region step (scipy lsmr)
-# Measurement and calibration winds: directions (deg) along x, 15 deg off x (hardest
-# for a stalk whose leaf faces x), the diagonal and y; speeds low, sqrt(low*high),
-# HIGH_SPEED_FRACTION of the way to high, and high.
-MEASURE_WIND_DIRECTIONS = (0.0, 15.0, 45.0, 90.0)
-HIGH_SPEED_FRACTION = 0.75
-SIMPLIFY_DT = 0.01            # s, measurement runs (periods are 2.5 to 4.5 s)
-SIMPLIFY_DURATION = 20.0      # s, at least four periods
-SIMPLIFY_WIND_RANGE = (0.5, 20.0)   # m/s
-SIMPLIFY_EVERY = 4            # keep every 4th step when measuring
-CALIBRATION_EVALUATIONS = 40  # candidate trees simulated by --calibrate (each at every wind)
-CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_FA, C_d, strengths
-CALIBRATION_STABILITY_MARGIN = 0.9  # largest fraction of the stability limit a strength may reach
-CALIBRATION_ROUNDS = 6        # re-weighting rounds toward the worst error
-CALIBRATION_WEIGHT_FLOOR = 0.1  # weight every residual keeps
-# A period error counts this many times an amplitude error of the same size (the
-# branching targets: amplitude 10 %, period 2 %); without it calibration trades
-# periods for amplitudes (abop_1_24f: 43 % -> 29 % amplitude for 0.3 % -> 3.7 % period).
-CALIBRATION_PERIOD_WEIGHT = 5.0
-
-# --- OBJ frames (formats/obj.py) ---------------------------------------------------------
-OBJ_SIDES = 8                 # sides of a branch tube
-OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without children
-OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
-OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)
-
-# --- output formatting ------------------------------------------------------------
-# Angles and other floats in CSV output: fixed significant digits, so that a
-# last-bit difference in a libm routine on another machine does not change bytes.
-CSV_FLOAT_FORMAT = "%.10g"
-JSON_SIGNIFICANT_DIGITS = 10  # compare --json rounds floats to this many digits
-TABLE_FLOAT_FORMAT = "%.4g"   # compare's table
-# Tree files store floats exactly (shortest repr round-trips), so that
-# `derive | simulate -` and `simulate x.lsys` see identical numbers.

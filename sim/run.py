@@ -16,8 +16,8 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
-from plantlod.lsys.constants import SIM_CHUNK_VALUES as CHUNK_VALUES
-from plantlod.lsys.constants import SIM_STEPS_PER_CALL as STEPS_PER_CALL
+from .constants import SIM_CHUNK_VALUES
+from .constants import SIM_STEPS_PER_CALL
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
@@ -34,8 +34,8 @@ class Samples(NamedTuple):
 
 
 def default_chunk(n_branches: int) -> int:
-    """Rows per chunk for a tree of ``n_branches``: about CHUNK_VALUES values per array."""
-    return max(1, CHUNK_VALUES // max(n_branches, 1))
+    """Rows per chunk for a tree of ``n_branches``: about SIM_CHUNK_VALUES values per array."""
+    return max(1, SIM_CHUNK_VALUES // max(n_branches, 1))
 
 
 def _check_counts(steps: int, every: int, chunk: int) -> None:
@@ -83,7 +83,7 @@ def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: 
             filled = 1
         while filled < rows:
             # steps to the row after the next `rows - filled` multiples of every
-            n = min((rows - filled) * every - step % every, STEPS_PER_CALL)
+            n = min((rows - filled) * every - step % every, SIM_STEPS_PER_CALL)
             ks = np.arange(step, step + n, dtype=np.float64)   # step k uses V(t_{k-1})
             wind_samples = np.asarray(wind.sample(ks * dt), dtype=np.float64)
             if wind_samples.shape != (n, 3):

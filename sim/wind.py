@@ -22,7 +22,7 @@ from typing import Protocol, TextIO
 
 import numpy as np
 
-from plantlod.lsys.constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY
+from .constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY
 from plantlod.lsys.errors import InputError
 
 

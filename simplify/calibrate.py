@@ -34,11 +34,11 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
-from plantlod.lsys.constants import CALIBRATION_BOUNDS as _BOUNDS
-from plantlod.lsys.constants import CALIBRATION_PERIOD_WEIGHT as _PERIOD_WEIGHT
-from plantlod.lsys.constants import CALIBRATION_ROUNDS
-from plantlod.lsys.constants import CALIBRATION_STABILITY_MARGIN as _STABILITY_MARGIN
-from plantlod.lsys.constants import CALIBRATION_WEIGHT_FLOOR as _WEIGHT_FLOOR
+from .constants import CALIBRATION_BOUNDS
+from .constants import CALIBRATION_PERIOD_WEIGHT
+from .constants import CALIBRATION_ROUNDS
+from .constants import CALIBRATION_STABILITY_MARGIN
+from .constants import CALIBRATION_WEIGHT_FLOOR
 from plantlod.lsys.tree import Tree
 from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import wind_from_speed
@@ -108,7 +108,7 @@ class _Residuals:
         self.amp_x = amp_x                                               # (2, G) per wind
         self.per_x = [np.stack([period(r.times, r.combined_b), period(r.times, r.combined_r)])
                       for r in runs.runs]
-        from plantlod.lsys.constants import COUNTED_AMPLITUDE_FRACTION
+        from .constants import COUNTED_AMPLITUDE_FRACTION
         self.counted = [a >= COUNTED_AMPLITUDE_FRACTION * a.max() if a.max() > 0
                         else np.zeros_like(a, bool) for a in amp_x]
 
@@ -135,7 +135,7 @@ class _Residuals:
             cnt = self.counted[w]
             ea = np.where(cnt & np.isfinite(ea), ea, 0.0)
             ep = np.where(cnt & np.isfinite(ep), ep, 0.0)
-            out[w] = np.concatenate([ea.T, _PERIOD_WEIGHT * ep.T], axis=1)
+            out[w] = np.concatenate([ea.T, CALIBRATION_PERIOD_WEIGHT * ep.T], axis=1)
         worst = float(np.max(np.abs(out)))
         if worst < self.best[1]:
             self.best = (np.array(x, copy=True), worst)
@@ -161,9 +161,9 @@ def calibrate(runs: Runs, tree: Tree, max_evaluations: int = 40,
             ("force_absorbed", "drag_coefficient", "bend_strength", "rotation_strength")}
     res = _Residuals(runs, tree, base, max_evaluations + 1)
     k_max = np.maximum(base["bend_strength"], base["rotation_strength"])
-    stable = _STABILITY_MARGIN * 4.0 * 1000.0 / (runs.dt * k_max)
-    lo = np.tile([b[0] for b in _BOUNDS], g)
-    hi = np.tile([b[1] for b in _BOUNDS], g)
+    stable = CALIBRATION_STABILITY_MARGIN * 4.0 * 1000.0 / (runs.dt * k_max)
+    lo = np.tile([b[0] for b in CALIBRATION_BOUNDS], g)
+    hi = np.tile([b[1] for b in CALIBRATION_BOUNDS], g)
     hi[2::3] = np.maximum(np.minimum(hi[2::3], np.log(stable)), 1e-6)
     x = np.zeros(3 * g)
     sparsity = _sparsity(tree, 4, len(runs.runs))
@@ -185,7 +185,7 @@ def calibrate(runs: Runs, tree: Tree, max_evaluations: int = 40,
         if err.max() <= 0:
             break
         # iteratively re-weighted least squares toward the largest error (a minimax)
-        res.weights = res.weights * (err / err.max() + _WEIGHT_FLOOR)
+        res.weights = res.weights * (err / err.max() + CALIBRATION_WEIGHT_FLOOR)
     best_x, after = res.best
     if best_x is None or after >= before:
         best_x, after = np.zeros(3 * g), before

@@ -43,19 +43,19 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear, nnls
 from scipy.sparse import coo_matrix
 
-from plantlod.lsys.constants import FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS
-from plantlod.lsys.constants import SIMPLIFY_WIND_RANGE
-from plantlod.lsys.constants import MIN_LENGTH_FRACTION as _MIN_LENGTH_FRACTION
-from plantlod.lsys.constants import SPLIT_REGULARISATION as _SPLIT_REGULARISATION
-from plantlod.lsys.constants import REFINE_DIRECTIONS as _REFINE_DIRECTIONS
-from plantlod.lsys.constants import REFINE_TILTED_DIRECTIONS as _REFINE_TILTED_DIRECTIONS
-from plantlod.lsys.constants import REFINE_LOG_RANGE as _REFINE_LOG_RANGE
-from plantlod.lsys.constants import REFINE_FLOOR as _REFINE_FLOOR
-from plantlod.lsys.constants import REFINE_START_FLOOR as _REFINE_START_FLOOR
-from plantlod.lsys.constants import REFINE_PRIOR as _REFINE_PRIOR
-from plantlod.lsys.constants import REFINE_SKIP as _REFINE_SKIP
-from plantlod.lsys.constants import REFINE_EVALUATIONS as _REFINE_EVALUATIONS
-from plantlod.lsys.constants import REFINE_LSMR_ITERATIONS as _REFINE_LSMR_ITERATIONS
+from .constants import FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS
+from .constants import SIMPLIFY_WIND_RANGE
+from .constants import MIN_LENGTH_FRACTION
+from .constants import SPLIT_REGULARISATION
+from .constants import REFINE_DIRECTIONS
+from .constants import REFINE_TILTED_DIRECTIONS
+from .constants import REFINE_LOG_RANGE
+from .constants import REFINE_FLOOR
+from .constants import REFINE_START_FLOOR
+from .constants import REFINE_PRIOR
+from .constants import REFINE_SKIP
+from .constants import REFINE_EVALUATIONS
+from .constants import REFINE_LSMR_ITERATIONS
 from plantlod.lsys.tree import Tree, leaf_keys
 from plantlod.sim.kinematics import depth_levels
 
@@ -136,7 +136,7 @@ def fit_lengths(original: Tree, simplified: Tree, frames: RestFrames, gmap: Grou
     lengths) this is linear in the lengths, so all lengths are fitted at once
     (bounded linear least squares, `scipy.optimize.lsq_linear`): one group's
     miss does not push every group above it. Each length stays at least
-    `_MIN_LENGTH_FRACTION` of its group's summed main-path length.
+    `MIN_LENGTH_FRACTION` of its group's summed main-path length.
     """
     orig_tips = rest_frames(original).tip[gmap.tips]                    # (G, 3)
     summed = np.array([original.length[p].sum() for p in gmap.paths])
@@ -157,7 +157,7 @@ def fit_lengths(original: Tree, simplified: Tree, frames: RestFrames, gmap: Grou
                 vals.append(frames.axis[a, k])
             a = int(parent[a])
     matrix = coo_matrix((vals, (rows, cols)), shape=(3 * g, g)).tocsr()
-    lower = _MIN_LENGTH_FRACTION * summed
+    lower = MIN_LENGTH_FRACTION * summed
     fit = lsq_linear(matrix, (orig_tips - shift).reshape(-1), bounds=(lower, np.inf),
                      method="trf", lsmr_tol="auto", tol=1e-12)
     return np.maximum(fit.x, lower)
@@ -251,7 +251,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
             in_leaf[:, parent] += out_leaf
             in_drag[:, parent] += out_drag
     if refine:
-        rdirs = fit_directions(_REFINE_DIRECTIONS, _REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
+        rdirs = fit_directions(REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
         model = _StaticModel(skeleton, gains, _unit_leaf_forces(skeleton, frames, rdirs),
                              leaf_branch, own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs),
                              np.asarray(speeds, dtype=np.float64))
@@ -277,7 +277,7 @@ class _StaticModel:
                                             + c'_g s_g v² + p'_g Σ_c F'^D_c v²
 
     and the residual of group g, component c is (θ'_gc - Θ_gc) / max(|Θ_gc|,
-    `_REFINE_FLOOR` · largest), the section-6 relative amplitude error at small
+    `REFINE_FLOOR` · largest), the section-6 relative amplitude error at small
     angles (floored where a component does not count). A force entering branch
     h reaches its ancestor a multiplied by T(a, h), the product of p' over the
     path from h's parent to a, so every derivative is a sum over ancestor
@@ -298,7 +298,7 @@ class _StaticModel:
         v = speeds[:, None, None, None]
         self.target = v * targets.leaf[None] + v * v * targets.drag[None]     # (S, D, G, 2)
         largest = np.abs(self.target).max(axis=(2, 3), keepdims=True)
-        self.weight = 1.0 / np.maximum(np.abs(self.target), _REFINE_FLOOR * largest
+        self.weight = 1.0 / np.maximum(np.abs(self.target), REFINE_FLOOR * largest
                                        + np.finfo(float).tiny)
         self.pair_a, self.pair_h = _pairs(self.parent)
         # G_a ℓ_k and G_a s_h per pair, fixed by the geometry: (D, P, 2)
@@ -413,17 +413,17 @@ class _StaticModel:
         def start(vals):
             vals = np.asarray(vals, dtype=np.float64)
             pos = vals[vals > 0]
-            lo = _REFINE_START_FLOOR * (pos.max() if len(pos) else 1.0)
+            lo = REFINE_START_FLOOR * (pos.max() if len(pos) else 1.0)
             return np.log(np.maximum(vals, lo))
         x0 = np.concatenate([start(kappa), start(p), start(c), start(area)])
         self.x0 = x0
-        self.prior = _REFINE_PRIOR
-        if self.target.size == 0 or self.worst(x0) < _REFINE_SKIP:
+        self.prior = REFINE_PRIOR
+        if self.target.size == 0 or self.worst(x0) < REFINE_SKIP:
             return None
         fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
-                            bounds=(x0 - _REFINE_LOG_RANGE, x0 + _REFINE_LOG_RANGE),
-                            x_scale="jac", max_nfev=_REFINE_EVALUATIONS,
-                            tr_options={"maxiter": _REFINE_LSMR_ITERATIONS})
+                            bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
+                            x_scale="jac", max_nfev=REFINE_EVALUATIONS,
+                            tr_options={"maxiter": REFINE_LSMR_ITERATIONS})
         x = fit.x
         if self.worst(x) >= self.worst(x0):
             return None
@@ -467,7 +467,7 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
 
     Where several splits fit equally well (a planar tree: children and own
     leaves push the same way), the fit is pulled, with a small weight
-    (`_SPLIT_REGULARISATION`, relative to the column norms), toward the natural
+    (`SPLIT_REGULARISATION`, relative to the column norms), toward the natural
     split: children passed through and leaves at their natural areas, in the
     ratio 1 : A_k, scaled to fit.
     """
@@ -478,7 +478,7 @@ def _leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target:
     guess = a @ shape
     gg = float(guess @ guess)
     x0 = shape * max(0.0, float(guess @ b) / gg) if gg > 0 else np.zeros_like(shape)
-    reg = _SPLIT_REGULARISATION * np.diag(np.linalg.norm(a, axis=0))
+    reg = SPLIT_REGULARISATION * np.diag(np.linalg.norm(a, axis=0))
     sol = _nnls(np.vstack([a, reg]), np.concatenate([b, reg @ x0]))
     return float(sol[0]), sol[1:]
 

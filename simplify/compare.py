@@ -25,7 +25,7 @@ from plantlod.sim.kinematics import pose, rest_height
 from plantlod.simplify.groups import assign_groups, combined_angles, main_paths
 from plantlod.simplify.measures import Report, Worst, compare_groups, window
 
-from plantlod.lsys.constants import POSE_BLOCK_BRANCH_SAMPLES, TIME_MATCH_RTOL
+from .constants import POSE_BLOCK_BRANCH_SAMPLES, TIME_MATCH_RTOL
 
 
 @dataclass

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantlod.lsys.constants import HIGH_SPEED_FRACTION as _HIGH_FRACTION
-from plantlod.lsys.constants import MEASURE_WIND_DIRECTIONS as WIND_DIRECTIONS
-from plantlod.lsys.constants import POSE_BLOCK_BRANCH_SAMPLES as _POSE_BLOCK
+from .constants import HIGH_SPEED_FRACTION
+from .constants import MEASURE_WIND_DIRECTIONS
+from .constants import POSE_BLOCK_BRANCH_SAMPLES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose, rest_height
@@ -41,12 +41,12 @@ class WindCase:
 
 
 def wind_cases(low: float, high: float,
-               directions: tuple[float, ...] = WIND_DIRECTIONS) -> list[WindCase]:
+               directions: tuple[float, ...] = MEASURE_WIND_DIRECTIONS) -> list[WindCase]:
     """Steady winds: speeds low, sqrt(low high), 0.75 high, high (duplicates once), each direction."""
     if not (0 < low <= high and math.isfinite(high)):
         raise InputError(f"wind range {low:g} to {high:g} m/s: expected 0 < low <= high")
     values = []
-    for v in (low, math.sqrt(low * high), max(low, _HIGH_FRACTION * high), high):
+    for v in (low, math.sqrt(low * high), max(low, HIGH_SPEED_FRACTION * high), high):
         v = float(f"{v:.6g}")
         if v not in values:
             values.append(v)
@@ -57,7 +57,7 @@ def tips_of(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) ->
     """Tips (K, len(which), 3) m of branches ``which`` over samples bend, rot (K, B)."""
     k = bend.shape[0]
     out = np.empty((k, len(which), 3))
-    rows = max(1, _POSE_BLOCK // max(tree.n_branches, 1))
+    rows = max(1, POSE_BLOCK_BRANCH_SAMPLES // max(tree.n_branches, 1))
     for lo in range(0, k, rows):
         out[lo:lo + rows] = pose(tree, bend[lo:lo + rows], rot[lo:lo + rows]).tip[:, which]
     return out

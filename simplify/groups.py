@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantlod.lsys.constants import ALPHA_TIE_TOL
+from .constants import ALPHA_TIE_TOL
 from plantlod.lsys.derived import ragged_arange
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.rotation import rot_y, rot_z

@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from plantlod.lsys.build import build
-from plantlod.lsys.constants import SIMPLIFY_WRITE_DIGITS as WRITE_DIGITS
+from .constants import SIMPLIFY_WRITE_DIGITS
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import leaf_keys
 from plantlod.lsys.system import (
@@ -25,7 +25,7 @@ from plantlod.lsys.system import (
 
 
 
-def round_sig(x: float, digits: int = WRITE_DIGITS) -> float:
+def round_sig(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:
     """``x`` rounded to ``digits`` significant digits (0 and non-finite values unchanged)."""
     x = float(x)
     if x == 0.0 or not math.isfinite(x):
@@ -199,7 +199,7 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
     leaf_areas    : (leaf address, K) -> area (m^2) of the K-th leaf at that
                     address (`plantlod.lsys.tree.leaf_keys`)
 
-    Every value is rounded to WRITE_DIGITS significant digits. A symbol gets the
+    Every value is rounded to SIMPLIFY_WRITE_DIGITS significant digits. A symbol gets the
     most common value of its branches; a branch whose resolved value (module
     parameter or symbol) then differs gets an override. Raises InputError when
     a value is not finite or not positive where the model needs it.

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantlod.lsys.constants import COUNTED_AMPLITUDE_FRACTION
+from .constants import COUNTED_AMPLITUDE_FRACTION
 from plantlod.lsys.errors import InputError
 
 COMPONENTS = ("bend", "rotation")

@@ -18,11 +18,11 @@ import numpy as np
 
 from plantlod.formats.lsys_file import write_lsys
 from plantlod.lsys.build import build
-from plantlod.lsys.constants import CALIBRATION_EVALUATIONS as DEFAULT_CALIBRATION_EVALUATIONS
-from plantlod.lsys.constants import SIMPLIFY_DT as DEFAULT_DT
-from plantlod.lsys.constants import SIMPLIFY_DURATION as DEFAULT_DURATION
-from plantlod.lsys.constants import SIMPLIFY_EVERY as DEFAULT_EVERY
-from plantlod.lsys.constants import SIMPLIFY_WIND_RANGE as DEFAULT_WIND_RANGE
+from .constants import CALIBRATION_EVALUATIONS
+from .constants import SIMPLIFY_DT
+from .constants import SIMPLIFY_DURATION
+from .constants import SIMPLIFY_EVERY
+from .constants import SIMPLIFY_WIND_RANGE
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
@@ -55,11 +55,11 @@ class Options:
     level: int
     method: str = "derived"
     calibrate: bool = False
-    wind_range: tuple[float, float] = DEFAULT_WIND_RANGE
-    dt: float = DEFAULT_DT
-    duration: float = DEFAULT_DURATION
-    every: int = DEFAULT_EVERY
-    max_evaluations: int = DEFAULT_CALIBRATION_EVALUATIONS
+    wind_range: tuple[float, float] = SIMPLIFY_WIND_RANGE
+    dt: float = SIMPLIFY_DT
+    duration: float = SIMPLIFY_DURATION
+    every: int = SIMPLIFY_EVERY
+    max_evaluations: int = CALIBRATION_EVALUATIONS
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)

@@ -463,7 +463,7 @@ def test_format_derived_by_hand():
 
 
 def test_format_derived_across_chunks_matches_literal_formatting(monkeypatch):
-    monkeypatch.setattr(derived_string, "CHUNK_MODULES", 7)
+    monkeypatch.setattr(derived_string, "DERIVED_TEXT_CHUNK_MODULES", 7)
     system = make_system("A(1)", ["A(x) -> F(x)[+(x*3)A(x/3)][B]A(x+1)", "B -> éF"])
     d = derive(system, 4)
     assert "".join(format_derived(d)) == text_of(d) + "\n"

@@ -16,7 +16,7 @@ import pytest
 
 from plantlod.cli.main import cli
 from plantlod.formats.obj import (
-    LAYOUT_MARGIN, OBJ_SIDES, TIP_TAPER, Mesh, obj_text, rest_layout, top_radius, tree_mesh,
+    OBJ_LAYOUT_MARGIN, OBJ_SIDES, OBJ_TIP_TAPER, Mesh, obj_text, rest_layout, top_radius, tree_mesh,
 )
 from treegen import make_tree, stalk
 
@@ -36,7 +36,7 @@ def test_straight_stalk_at_rest_lies_on_known_circles():
     assert mesh.vertices.shape == (3 * 2 * S + 4, 3) and mesh.faces.shape == (3 * 2 * S + 2, 3)
     for i in range(3):
         base, top = rings(mesh, i)
-        top_r = 0.02 if i < 2 else 0.02 * TIP_TAPER          # the top branch narrows
+        top_r = 0.02 if i < 2 else 0.02 * OBJ_TIP_TAPER          # the top branch narrows
         np.testing.assert_allclose(np.hypot(base[:, 0], base[:, 1]), 0.02, rtol=1e-12)
         np.testing.assert_allclose(np.hypot(top[:, 0], top[:, 1]), top_r, rtol=1e-12)
         np.testing.assert_allclose(base[:, 2], 1.5 * i, atol=1e-12)
@@ -61,7 +61,7 @@ def test_one_bent_branch_tip_and_leaf_by_hand():
     np.testing.assert_allclose(top.mean(axis=0), tip, atol=1e-12)        # ring centred on the tip
     np.testing.assert_allclose(base.mean(axis=0), 0.0, atol=1e-12)
     np.testing.assert_allclose((top - tip) @ axis, 0.0, atol=1e-12)       # ring across the axis
-    np.testing.assert_allclose(np.linalg.norm(top - tip, axis=1), 0.05 * TIP_TAPER, rtol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(top - tip, axis=1), 0.05 * OBJ_TIP_TAPER, rtol=1e-12)
     # ring vertex 0 lies along the bent branch's x axis (cos t, 0, -sin t)
     np.testing.assert_allclose(base[0], 0.05 * np.array([math.cos(theta), 0, -math.sin(theta)]),
                                atol=1e-12)
@@ -97,16 +97,16 @@ def test_top_radius_follows_the_widest_child():
     # branch 0 (r 0.1) has children of radius 0.04 and 0.06; branch 1 (r 0.04) has a child of
     # radius 0.08, wider than itself; branches 2 and 3 have no children
     tree = make_tree([-1, 0, 0, 1], radius=np.array([0.1, 0.04, 0.06, 0.08]))
-    np.testing.assert_allclose(top_radius(tree), [0.06, 0.04, 0.06 * TIP_TAPER, 0.08 * TIP_TAPER])
+    np.testing.assert_allclose(top_radius(tree), [0.06, 0.04, 0.06 * OBJ_TIP_TAPER, 0.08 * OBJ_TIP_TAPER])
 
 
 def test_side_by_side_layout():
     a, b = stalk(2), stalk(1, length=2.0, radius=0.05)
     offsets = rest_layout([a, b], [2.0, 2.0])
     # a spans x in [-0.02, 0.02] (and its leaf, in the plane x = 0); b's rest mesh starts
-    # at x = -0.05: moved so that it starts LAYOUT_MARGIN * 2 m to the right of 0.02
+    # at x = -0.05: moved so that it starts OBJ_LAYOUT_MARGIN * 2 m to the right of 0.02
     assert offsets[0] == 0.0
-    assert offsets[1] == pytest.approx(0.02 + LAYOUT_MARGIN * 2.0 + 0.05, abs=1e-12)
+    assert offsets[1] == pytest.approx(0.02 + OBJ_LAYOUT_MARGIN * 2.0 + 0.05, abs=1e-12)
 
 
 def test_obj_text_is_deterministic_and_has_no_negative_zero():

@@ -106,7 +106,7 @@ def test_chunking_does_not_change_results(monkeypatch, chunk, every, cap):
     tree = abop_124a(1)
     wind = GustyWind(ConstantWind((4.0, 2.0, 0.0)), seed=3, strength=0.4)
     whole = simulate_arrays(tree, DT, 41, wind, every=every)
-    monkeypatch.setattr(sim_run, "STEPS_PER_CALL", cap)
+    monkeypatch.setattr(sim_run, "SIM_STEPS_PER_CALL", cap)
     parts = list(simulate(tree, DT, 41, wind, every=every, chunk=chunk))
     assert all(1 <= len(p.times) <= chunk for p in parts)
     assert sum(len(p.times) for p in parts) == 41 // every + 1

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from plantlod.formats.lsys_file import read_lsys
-from plantlod.lsys.constants import (FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS,
+from plantlod.simplify.constants import (FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS,
                                      REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS)
 from plantlod.lsys.tree import leaf_keys
 from plantlod.simplify import closed_form as cf

@@ -1,0 +1,10 @@
+"""Constants of the dynamics: gusts and the memory bounds of streaming runs."""
+
+# --- gusts (docs/model.md, "Gusts") -------------------------------------------------
+GUST_COMPONENTS = 8           # number of seeded sinusoids
+GUST_MIN_FREQUENCY = 0.05     # Hz
+GUST_MAX_FREQUENCY = 1.0      # Hz
+
+# --- memory bounds of streaming work -----------------------------------------------
+SIM_CHUNK_VALUES = 1 << 20    # angle values per yielded simulation chunk (8 MB float64)
+SIM_STEPS_PER_CALL = 1 << 16  # kernel steps per call at most (bounds wind samples held)

@@ -1,0 +1,53 @@
+"""Constants of levels of detail: simplification, error measures, comparison."""
+
+# --- groups and error measures (model.md 5 and 6) ---------------------------------
+ALPHA_TIE_TOL = 1e-9          # main path: alphas this close are tied (model.md 5)
+COUNTED_AMPLITUDE_FRACTION = 0.01  # error measures count components >= 1 % (model.md 6)
+
+# --- compare -------------------------------------------------------------------------
+# Two runs' times agree when they differ by at most this much, relative to
+# max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
+TIME_MATCH_RTOL = 1e-9
+# `pose` needs about 200 bytes per branch and sample; tips are computed in
+# blocks of about this many branch-samples (~50 MB).
+POSE_BLOCK_BRANCH_SAMPLES = 1 << 18
+DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)
+
+# --- simplify (docs/simplify.md) ------------------------------------------------------
+SIMPLIFY_WRITE_DIGITS = 12    # significant digits of every computed value simplify writes
+MATCH_DIRECTIONS = 16         # horizontal wind directions the static least-squares matches use
+# Tilted winds matched too (docs/simplify.md, "Tilt"): when the branches below a group
+# turn it, the wind it sees leaves the horizontal; matching the response to winds
+# FIT_ELEVATION rad above and below the horizontal matches that part of the motion.
+MATCH_TILTED_DIRECTIONS = 8   # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION
+FIT_ELEVATION = 0.2           # rad
+MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
+SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
+# Global static refinement of the derived parameters (simplify/closed_form.py):
+REFINE_DIRECTIONS = 8        # horizontal wind directions of the refinement
+REFINE_TILTED_DIRECTIONS = 4  # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION in the refinement
+REFINE_LOG_RANGE = 8.0       # each refined value stays within e^±8 of its sequential value
+REFINE_FLOOR = 0.01          # relative errors are taken against at least this x the largest angle
+REFINE_START_FLOOR = 1e-4    # zero values start at this x the largest of their kind (log scale)
+REFINE_PRIOR = 0.3           # pull of every log-value toward its sequential value (one residual each)
+REFINE_SKIP = 1e-9           # no refinement where the sequential solution is already this close
+REFINE_EVALUATIONS = 30      # residual evaluations of the least-squares refinement
+REFINE_LSMR_ITERATIONS = 50  # inner iterations of each trust-region step (scipy lsmr)
+# Measurement and calibration winds: directions (deg) along x, 15 deg off x (hardest
+# for a stalk whose leaf faces x), the diagonal and y; speeds low, sqrt(low*high),
+# HIGH_SPEED_FRACTION of the way to high, and high.
+MEASURE_WIND_DIRECTIONS = (0.0, 15.0, 45.0, 90.0)
+HIGH_SPEED_FRACTION = 0.75
+SIMPLIFY_DT = 0.01            # s, measurement runs (periods are 2.5 to 4.5 s)
+SIMPLIFY_DURATION = 20.0      # s, at least four periods
+SIMPLIFY_WIND_RANGE = (0.5, 20.0)   # m/s
+SIMPLIFY_EVERY = 4            # keep every 4th step when measuring
+CALIBRATION_EVALUATIONS = 40  # candidate trees simulated by --calibrate (each at every wind)
+CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_FA, C_d, strengths
+CALIBRATION_STABILITY_MARGIN = 0.9  # largest fraction of the stability limit a strength may reach
+CALIBRATION_ROUNDS = 6        # re-weighting rounds toward the worst error
+CALIBRATION_WEIGHT_FLOOR = 0.1  # weight every residual keeps
+# A period error counts this many times an amplitude error of the same size (the
+# branching targets: amplitude 10 %, period 2 %); without it calibration trades
+# periods for amplitudes (abop_1_24f: 43 % -> 29 % amplitude for 0.3 % -> 3.7 % period).
+CALIBRATION_PERIOD_WEIGHT = 5.0
