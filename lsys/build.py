@@ -38,7 +38,7 @@ def build(system: LSystem, steps: int | None = None,
     """Derive ``steps`` steps (default: the file's derivation length) and build the tree."""
     n = system.derivation_length if steps is None else steps
     derived = derive(system, n, max_modules=max_modules)
-    interpreted = interpret(system, derived)
+    interpreted = interpret(system, derived, max_modules=max_modules)
     tree, warnings = build_tree_with_warnings(system, interpreted)
     return Built(derived, interpreted, tree, n, warnings)
 

@@ -11,7 +11,9 @@ DEFAULT_DRAG_COEFFICIENT = 0.0015   # C_d, "set to 0.0015" in the thesis
 DEFAULT_LEAF_FORCE_SCALE = 1.0      # s_L
 DEFAULT_SEED = 0
 DEFAULT_MOVE_LENGTH = 1.0           # f without a parameter
-DEFAULT_MAX_MODULES = 20_000_000    # derive --max-modules
+# --max-modules: the turtle needs about 650 bytes per module at its peak (ABOP 1.24a at
+# n = 8: 1.17 M modules, 750 MB), so 5 M modules stay near 3.5 GB.
+DEFAULT_MAX_MODULES = 5_000_000
 
 
 # --- tolerances ------------------------------------------------------------------
@@ -19,3 +21,12 @@ ZYZ_DEGENERATE_TOL = 1e-9     # h below this: alpha is exactly 0 or pi (model.md
 PROBABILITY_SUM_TOL = 1e-9    # stochastic alternatives must sum to 1 within this
 
 DOLLAR_VERTICAL_TOL = 1e-9    # `$` leaves M unchanged when |world z x heading| < this
+
+
+# --- limits on input (docs/errors.md, "Limits") ----------------------------------
+MAX_DERIVATION_STEPS = 10_000       # derivation_length / -n above this: exit 2
+# The derivation history keeps two int64 per module per step (the addresses);
+# its total over all steps may be at most this many times --max-modules.
+DERIVATION_HISTORY_FACTOR = 8
+MAX_LINE_CHARS = 1_000_000          # one line of an .lsys file
+MAX_EXPRESSION_DEPTH = 100          # nesting of an expression (operators, parentheses, calls)

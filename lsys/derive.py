@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constants import DEFAULT_MAX_MODULES
+from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR, MAX_DERIVATION_STEPS
+from .cut import CUT_SYMBOL, cut_keep_mask, keep_modules
 from .derived import DerivedString
 from .errors import InputError
 from .expr import evaluate
@@ -76,7 +77,32 @@ def axiom_string(system: LSystem, alphabet: list[str]) -> DerivedString:
     np.cumsum(counts, out=starts[1:])
     params = np.array([float(evaluate(a, env)) for m in system.axiom for a in m.args],
                       dtype=np.float64)
+    keep = _cut_mask(alphabet, codes)
+    if keep is not None:
+        codes, starts, params = keep_modules(keep, codes, starts, params)
     return DerivedString(list(alphabet), codes, starts, params)
+
+
+def _cut_mask(alphabet: list[str], codes: np.ndarray) -> np.ndarray | None:
+    """The modules the cut symbol `%` keeps (lsys.cut), None if there is no `%`."""
+    code_of = {ch: i for i, ch in enumerate(alphabet)}
+    return cut_keep_mask(codes, code_of.get(CUT_SYMBOL), code_of.get("["), code_of.get("]"))
+
+
+def _apply_cut(alphabet, codes, starts, params, parent, local):
+    """One rewriting result with the cut applied (parent/local filtered alike)."""
+    keep = _cut_mask(alphabet, codes)
+    if keep is None:
+        return codes, starts, params, parent, local
+    codes, starts, params = keep_modules(keep, codes, starts, params)
+    return codes, starts, params, parent[keep], local[keep]
+
+
+def _unchanged(ds: DerivedString, codes, starts, params, parent) -> bool:
+    """True when a step gave back the same string, each module its own only successor."""
+    return (len(codes) == len(ds) and np.array_equal(parent, np.arange(len(ds)))
+            and np.array_equal(codes, ds.codes) and np.array_equal(starts, ds.param_start)
+            and np.array_equal(params, ds.params))
 
 
 def _rewriter(system: LSystem, rules: tuple[Production, ...], alphabet: list[str],
@@ -99,24 +125,49 @@ def derive(system: LSystem, steps: int | None = None,
     k = system.derivation_length if steps is None else steps
     if k < 0:
         raise InputError(f"the number of derivation steps must be >= 0, got {k}")
+    if k > MAX_DERIVATION_STEPS:
+        raise InputError(f"derivation length {k:,} is more than the limit of "
+                         f"{MAX_DERIVATION_STEPS:,} steps; expected a smaller derivation_length "
+                         "or -n", system.source or None)
     _check_system(system)
     alphabet = system_alphabet(system)
     ds = axiom_string(system, alphabet)
     if len(ds) > max_modules:
         raise InputError(f"the axiom has {len(ds):,} modules, more than --max-modules {max_modules:,}")
     rewriter = _rewriter(system, system.productions, alphabet, ds.params.size > 0, fast)
+    # A step that gives the string back unchanged is a fixed point when no choice
+    # depends on the address (no stochastic productions): every later step is the
+    # same copy, so its history rows are shared instead of recomputed.
+    can_settle = all(p.probability is None for p in system.productions)
+    history_budget = DERIVATION_HISTORY_FACTOR * max_modules
+    held = 0
     for j in range(1, k + 1):
-        codes, starts, params, parent, local = rewriter.apply(ds, j, max_modules)
+        codes, starts, params, parent, local = _apply_cut(
+            alphabet, *rewriter.apply(ds, j, max_modules))
+        settled = can_settle and _unchanged(ds, codes, starts, params, parent)
+        held += len(codes) * (k - j + 1 if settled else 1)
+        if held > history_budget:
+            raise InputError(f"{k} steps would make the derivation history (the addresses) hold "
+                             f"{held:,} module-steps or more, more than {DERIVATION_HISTORY_FACTOR} "
+                             f"x --max-modules {max_modules:,}; expected fewer steps",
+                             system.source or None)
+        if settled:
+            copy = (parent, local)
+            history = ds.history + [copy] * (k - j + 1)
+            return DerivedString(ds.alphabet, ds.codes, ds.param_start, ds.params, history)
         ds = DerivedString(ds.alphabet, codes, starts, params, ds.history + [(parent, local)])
     return ds
 
 
-def interpret(system: LSystem, derived: DerivedString, *, fast: bool = True) -> DerivedString:
+def interpret(system: LSystem, derived: DerivedString, *, fast: bool = True,
+              max_modules: int = DEFAULT_MAX_MODULES) -> DerivedString:
     """Apply the interpretation rules once (a homomorphism for the turtle).
 
     The modules a rule produces keep, through ``origin``, the address of the
     module they replace; rules are not applied to their own output. Without
     interpretation rules the result has the same arrays and ``origin = arange(n)``.
+    Raises `InputError` when the result would exceed ``max_modules`` (checked
+    before it is built).
     """
     prior = derived.origin if derived.origin is not None else np.arange(len(derived), dtype=np.int64)
     if not system.interpretation:
@@ -130,5 +181,6 @@ def interpret(system: LSystem, derived: DerivedString, *, fast: bool = True) -> 
     ds = derived if len(alphabet) == len(derived.alphabet) else DerivedString(
         alphabet, derived.codes, derived.param_start, derived.params, derived.history, derived.origin)
     rewriter = _rewriter(system, system.interpretation, alphabet, ds.params.size > 0, fast)
-    codes, starts, params, parent, _local = rewriter.apply(ds, None, None)
+    codes, starts, params, parent, _local = _apply_cut(
+        alphabet, *rewriter.apply(ds, None, max_modules))
     return DerivedString(alphabet, codes, starts, params, derived.history, prior[parent])

@@ -186,7 +186,7 @@ def compile_expr(expr: Expr) -> Compiled:
                     raise _err(pos, "division by zero")
                 return _checked(fn, pos, op, a, b)
             return divide
-        if op in ("^", "*"):
+        if op in ("^", "*", "+", "-"):    # may overflow to inf (1e308 + 1e308)
             return lambda env: _checked(fn, pos, op, left(env), right(env))
         return lambda env: fn(left(env), right(env))
     if isinstance(expr, Call):
@@ -209,6 +209,24 @@ def compile_expr(expr: Expr) -> Compiled:
 def evaluate(expr: Expr, env: Mapping[str, object] | None = None):
     """Evaluate an expression once (see `compile_expr`)."""
     return _scalarise(compile_expr(expr)(env or {}))
+
+
+def expression_depth(expr: Expr) -> int:
+    """The number of nodes on the longest path from the root to a leaf (a number: 1).
+
+    Iterative, so that a tree too deep for Python's recursion can still be measured.
+    """
+    deepest, stack = 0, [(expr, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        if isinstance(node, Unary):
+            stack.append((node.operand, depth + 1))
+        elif isinstance(node, Binary):
+            stack += [(node.left, depth + 1), (node.right, depth + 1)]
+        elif isinstance(node, Call):
+            stack += [(a, depth + 1) for a in node.args]
+    return deepest
 
 
 def free_names(expr: Expr) -> set[str]:

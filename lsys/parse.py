@@ -24,15 +24,16 @@ import math
 import re
 from typing import Iterable, Iterator, NamedTuple
 
-from .constants import PROBABILITY_SUM_TOL
+from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
 from .errors import InputError
 from .expr import (
     FUNCTIONS, PRECEDENCE, RIGHT_ASSOCIATIVE, UNARY_OPS, UNARY_PRECEDENCE,
-    Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, format_number, free_names,
+    Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, expression_depth, format_number,
+    free_names,
 )
 from .system import (
-    BRACKETS, BRANCH_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, TURTLE_NO_ARG,
-    TURTLE_OPTIONAL_ARG, TURTLE_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
+    BRACKETS, BRANCH_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, STRUCTURE_SYMBOLS,
+    TURTLE_NO_ARG, TURTLE_OPTIONAL_ARG, TURTLE_SYMBOLS, UNSUPPORTED_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
 # Header keys in the order the writer uses; name and ignore are not numbers.
@@ -55,7 +56,7 @@ _STATEMENTS_HELP = ("a header key, define, branch, leaf, axiom:, productions:, "
 _TOKEN = re.compile(r"""(\s*)(?:
       (?P<num>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)
     | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
-    | (?P<op>\|\||&&|==|!=|<=|>=|->|[<>+\-*/%^!])
+    | (?P<op>\|\||&&|==|!=|<=|>=|-->|->|→|[<>+\-*/%^!])
     | (?P<punct>[(),])
     )?""", re.VERBOSE)
 _NUMBER_TAIL = re.compile(r"[A-Za-z0-9_.]+")       # glued to a number: a bad number
@@ -63,6 +64,12 @@ _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
 _ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
+# The production arrow as ABOP prints it, as L-Py and cpfg write it, and plantlod's own;
+# longest first. docs/notation.md.
+ARROWS = ("-->", "->", "→")
+# Values that are amounts of something and cannot be negative.
+NON_NEGATIVE_KEYS = frozenset({"length", "radius", "area", "force_absorbed", "force_propagated",
+                               "drag_coefficient", "leaf_force_scale"})
 
 
 # --- the cursor and the tokenizer ------------------------------------------------------
@@ -70,11 +77,12 @@ _ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
 class _Cursor:
     """A read position in one line of text (no newline); columns start at ``col0``."""
 
-    __slots__ = ("text", "i", "source", "line", "col0", "tok_at", "tok")
+    __slots__ = ("text", "i", "source", "line", "col0", "tok_at", "tok", "nest")
 
     def __init__(self, text: str, source: str, line: int, col0: int = 1, start: int = 0):
         self.text, self.i, self.source, self.line, self.col0 = text, start, source, line, col0
         self.tok_at, self.tok = -1, None    # the last token read by _token, and where
+        self.nest = 0                       # expressions being parsed inside each other
 
     def pos(self, i: int | None = None) -> Pos:
         return Pos(self.source, self.line, self.col0 + (self.i if i is None else i))
@@ -100,6 +108,18 @@ class _Cursor:
     def describe(self) -> str:
         c = self.char()
         return f"'{c}'" if c else "end of line"
+
+    def arrow(self) -> int:
+        """The length of the production arrow at the cursor (after white space), 0 if none."""
+        self.skip_ws()
+        for arrow in ARROWS:
+            if self.text.startswith(arrow, self.i):
+                return len(arrow)
+        return 0
+
+
+def _has_arrow(line: str) -> bool:
+    return any(arrow in line for arrow in ARROWS)
 
 
 class _Tok(NamedTuple):
@@ -163,31 +183,57 @@ def _plural(n: int, noun: str) -> str:
 
 # --- expressions ---------------------------------------------------------------------
 
-def _expression(cur: _Cursor, min_prec: int = 0) -> Expr:
+def _expression(cur: _Cursor) -> Expr:
+    """A whole expression, no deeper than MAX_EXPRESSION_DEPTH (docs/errors.md, "Limits")."""
+    cur.skip_ws()
+    start = cur.i
+    expr = _subexpression(cur)
+    _check_depth(expr, cur, start)
+    return expr
+
+
+def _check_depth(expr: Expr, cur: _Cursor, start: int) -> None:
+    if expression_depth(expr) > MAX_EXPRESSION_DEPTH:
+        raise _too_deep(cur, start)
+
+
+def _too_deep(cur: _Cursor, at: int) -> InputError:
+    return cur.error(f"expression nested too deeply (more than {MAX_EXPRESSION_DEPTH} levels of "
+                     "operators, parentheses and calls); expected a simpler expression, with "
+                     "defines for its parts", at)
+
+
+def _subexpression(cur: _Cursor, min_prec: int = 0) -> Expr:
     """Precedence climbing: an operand, then binary operators binding at least min_prec."""
-    left = _unary(cur)
-    while True:
-        tok = _token(cur)
-        prec = PRECEDENCE.get(tok.text) if tok.kind == "op" else None
-        if prec is None or prec < min_prec:
-            return left
-        cur.i = tok.end
-        right = _expression(cur, prec if tok.text in RIGHT_ASSOCIATIVE else prec + 1)
-        left = Binary(tok.text, left, right, cur.pos(tok.start))
+    cur.nest += 1
+    if cur.nest > MAX_EXPRESSION_DEPTH:
+        raise _too_deep(cur, cur.i)
+    try:
+        left = _unary(cur)
+        while True:
+            tok = _token(cur)
+            prec = PRECEDENCE.get(tok.text) if tok.kind == "op" else None
+            if prec is None or prec < min_prec:
+                return left
+            cur.i = tok.end
+            right = _subexpression(cur, prec if tok.text in RIGHT_ASSOCIATIVE else prec + 1)
+            left = Binary(tok.text, left, right, cur.pos(tok.start))
+    finally:
+        cur.nest -= 1
 
 
 def _unary(cur: _Cursor) -> Expr:
     tok = _token(cur)
     if tok.kind == "op" and tok.text in UNARY_OPS:
         cur.i = tok.end
-        return Unary(tok.text, _expression(cur, UNARY_PRECEDENCE), cur.pos(tok.start))
+        return Unary(tok.text, _subexpression(cur, UNARY_PRECEDENCE), cur.pos(tok.start))
     return _primary(cur)
 
 
 def _parenthesised(cur, opened: int, what: str) -> Expr:
     """The expression after the '(' at offset ``opened``, up to its ')'."""
     cur.i = opened + 1
-    inner = _expression(cur)
+    inner = _subexpression(cur)
     close = _token(cur)
     if close.kind != ")":
         raise cur.error(f"expected ')' to close the {what} opened at "
@@ -230,12 +276,12 @@ def _primary(cur: _Cursor) -> Expr:
 
 def _arguments(cur: _Cursor, open_index: int) -> tuple[Expr, ...]:
     """Comma-separated expressions after an opening '(' (consumed), up to its ')'."""
-    args = [_expression(cur)]
+    args = [_subexpression(cur)]
     while True:
         tok = _token(cur)
         if tok.kind == ",":
             cur.i = tok.end
-            args.append(_expression(cur))
+            args.append(_subexpression(cur))
         elif tok.kind == ")":
             cur.i = tok.end
             return tuple(args)
@@ -320,6 +366,8 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
         if c == "(":
             raise cur.error("unexpected '('; a module's arguments follow its character "
                             "directly, as in F(1)")
+        if c in UNSUPPORTED_SYMBOLS:
+            raise cur.error(UNSUPPORTED_SYMBOLS[c])
         if c in RESERVED_CHARS:
             raise cur.error(f"unexpected character '{c}'; expected a module")
         cur.i += 1
@@ -327,6 +375,8 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
         if cur.i < n and text[cur.i] == "(":
             cur.i += 1
             args = _arguments(cur, start + 1)
+            for arg in args:
+                _check_depth(arg, cur, start + 2)
         out.append(Module(c, args, cur.pos(start)))
 
 
@@ -353,13 +403,15 @@ def _patterns(cur: _Cursor) -> list[tuple[Pattern, list[tuple[str, Pos]]]]:
     text, n = cur.text, len(cur.text)
     while True:
         c = cur.char()
-        if not c or c in "<>:" or cur.at("->"):
+        if not c or c in "<>:" or cur.arrow():
             return out
         start = cur.i
+        if c in UNSUPPORTED_SYMBOLS:
+            raise cur.error(UNSUPPORTED_SYMBOLS[c])
         if c in RESERVED_CHARS:
             raise cur.error(f"unexpected character '{c}'; expected a module pattern, "
                             "'<', '>', ':' or '->'")
-        if c in BRACKETS:
+        if c in STRUCTURE_SYMBOLS:
             raise cur.error(f"'{c}' cannot be a predecessor or a context pattern; "
                             "expected a module such as A or A(x)")
         cur.i += 1
@@ -430,22 +482,25 @@ def _production(cur: _Cursor, defines: dict[str, float]) -> Production:
         cur.i += 1
         if cur.char() == "*":
             cur.i += 1
-            if not (cur.at("->") or not cur.char()):
+            if not (cur.arrow() or not cur.char()):
                 raise cur.error(f"expected '->' after the condition '*', found {cur.describe()}")
         else:
-            if cur.at("->") or not cur.char():
+            if cur.arrow() or not cur.char():
                 raise cur.error("expected a condition or '*' after ':'")
             condition = _expression(cur)
             _check_names(condition, params_set, defines, where)
             _check_constant_parts(condition, params_set, defines)
-    if not cur.at("->"):
+    arrow = cur.arrow()
+    if not arrow:
         expected = "'>', ':' or '->'" if not right and condition is None else "'->'"
         raise cur.error(f"expected {expected}, found {cur.describe()}")
-    cur.i += 2
+    cur.i += arrow
 
     probability = None
     if cur.char() == "(":
-        probability = _parenthesised(cur, cur.i, "probability")
+        opened = cur.i
+        probability = _parenthesised(cur, opened, "probability")
+        _check_depth(probability, cur, opened + 1)
         for node in _name_nodes(probability):
             if node.name in params_set:
                 raise _error(node.pos, f"a probability must be constant; '{node.name}' is a "
@@ -488,6 +543,10 @@ class _FileParser:
 
     def run(self) -> LSystem:
         for number, raw in enumerate(self.text.split("\n"), start=1):
+            if len(raw) > MAX_LINE_CHARS:
+                raise _error(Pos(self.source, number, MAX_LINE_CHARS + 1),
+                             f"line longer than {MAX_LINE_CHARS:,} characters; expected "
+                             "shorter lines (split a long axiom with productions)")
             line = raw.split("#", 1)[0].rstrip()
             if not line:
                 continue
@@ -530,16 +589,16 @@ class _FileParser:
             return self._declaration(cur, m.group(1))
         m = _FIRST_WORD.match(line)
         word = m.group(1) if m else ""
-        hint = _suggest(word, _STATEMENT_WORDS) if len(word) > 2 and "->" not in line else ""
+        hint = _suggest(word, _STATEMENT_WORDS) if len(word) > 2 and not _has_arrow(line) else ""
         if self.section is not None and not hint:
             if self.section == "overrides":
                 return self._override(cur)
             self.rules[self.section].append(_production(cur, self.defines))
             return None
         cur.skip_ws()
-        if len(word) > 1 and "->" not in line:     # a misspelled statement keyword
+        if len(word) > 1 and not _has_arrow(line):     # a misspelled statement keyword
             raise cur.error(f"unknown statement '{word}'{hint}; expected {_STATEMENTS_HELP}")
-        if "->" in line:
+        if _has_arrow(line):
             raise cur.error("production outside a section; expected a 'productions:' or "
                             "'interpretation:' line before it")
         raise cur.error(f"unexpected {cur.describe()} outside a section; expected {_STATEMENTS_HELP}")

@@ -20,16 +20,31 @@ from .expr import Expr, Pos
 
 _NOPOS = Pos()
 
-# Turtle symbols of model.md section 2, plus two ABOP extensions:
-#   !(r)  set the radius of the branches drawn after it (no parameter: no-op)
+# Turtle symbols of model.md section 2, plus three ABOP extensions:
+#   !(r)  set the radius of the branches drawn after it (no parameter: no-op, warned)
 #   $     roll about the heading so that the local x axis is horizontal (ABOP's $)
-TURTLE_SYMBOLS = frozenset("f+-&^/\\|[]!$")
+#   %     cut: remove the rest of the branch from the string (lsys/cut.py)
+TURTLE_SYMBOLS = frozenset("f+-&^/\\|[]!$%")
 # Parameter counts the turtle accepts (docs/lsys-format.md, "Symbols").
 TURTLE_OPTIONAL_ARG = frozenset("+-&^/\\f!")   # 0 or 1 parameter
-TURTLE_NO_ARG = frozenset("|[]$")              # no parameter
+TURTLE_NO_ARG = frozenset("|[]$%")             # no parameter
 BRACKETS = frozenset("[]")
+# Symbols that cannot be a predecessor or a context pattern: they structure the string.
+STRUCTURE_SYMBOLS = frozenset("[]%")
 # Characters that are syntax, never module names.
-RESERVED_CHARS = frozenset("(),:;#<>=\"'{}") | frozenset(" \t\r\n")
+RESERVED_CHARS = frozenset("(),:;#<>=\"'{}~") | frozenset(" \t\r\n")
+# Symbols of ABOP (chapter 1 and 5) and L-Py that plantlod does not draw, with what to
+# write instead; the parser rejects them with this advice (docs/notation.md).
+UNSUPPORTED_SYMBOLS = {
+    "{": "'{' (ABOP: start a polygon) is not supported; leaves are declared symbols "
+         "('leaf L: area=...'), write L where the polygon stands",
+    "}": "'}' (ABOP: complete a polygon) is not supported; leaves are declared symbols "
+         "('leaf L: area=...'), write L where the polygon stands",
+    "~": "'~' (ABOP: incorporate a predefined surface) is not supported; declare a leaf "
+         "symbol ('leaf L: area=...') and write L instead",
+    "'": "\"'\" (ABOP: increment the colour index) is not supported; colours do not "
+         "matter to the wind model, delete it",
+}
 
 # Keyword parameters of a branch symbol declaration and of a branch override:
 # name -> (required in a declaration?)

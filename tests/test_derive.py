@@ -406,7 +406,7 @@ def test_max_modules_guard_message():
 def test_max_modules_guard_checks_before_building(fast):
     system = make_system("F", ["F -> " + "F" * 125])
     with pytest.raises(InputError, match=r"^step 4 would produce 244,140,625 modules, "
-                                         r"more than --max-modules 20,000,000$"):
+                                         r"more than --max-modules 5,000,000$"):
         derive(system, 6, fast=fast)
 
 
