@@ -1,6 +1,14 @@
 """Constants of the file formats: number formatting, tolerances of readers, OBJ frames."""
 
 # --- readers ----------------------------------------------------------------------
+# Limits that bound what a reader holds (docs/errors.md, "Limits"): a longer line
+# stops the reading at once with exit 2 at file:line.
+MAX_LINE_BYTES = 1_000_000          # .lsys lines, tree-file records, wind keyframe rows
+# An angle CSV row holds 2 B + 1 numbers of up to ~17 characters: this cap allows
+# ~2.9 M branches (more than --max-modules lets a tree have).
+MAX_CSV_LINE_BYTES = 100_000_000
+MAX_JSON_DEPTH = 8                  # nesting of arrays/objects in one tree-file record
+READ_CHUNK_BYTES = 1 << 20          # read inputs a MiB at a time
 NORMAL_UNIT_TOL = 1e-6        # tree files: leaf normals must be unit length within this
 DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format string`
 

@@ -8,8 +8,11 @@ whichever command read them. A UTF-8 byte-order mark is accepted and dropped.
 from __future__ import annotations
 
 import sys
+from typing import BinaryIO
 
 from plantlod.lsys.errors import InputError
+
+from .constants import MAX_LINE_BYTES, READ_CHUNK_BYTES
 
 _BOM = b"\xef\xbb\xbf"
 
@@ -19,15 +22,19 @@ def source_name(path: str) -> str:
     return "<stdin>" if path == "-" else path
 
 
-def read_text(path: str) -> str:
-    """The whole text of ``path`` (``-``: stdin), decoded as UTF-8."""
+def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES) -> str:
+    """The whole text of ``path`` (``-``: stdin), decoded as UTF-8.
+
+    Read in chunks; a line longer than ``max_line_bytes`` stops the reading at
+    once (`InputError` at file:line), so a hostile input is never held whole.
+    """
     name = source_name(path)
     try:
         if path == "-":
-            data = sys.stdin.buffer.read()
+            data = _read_capped(sys.stdin.buffer, name, max_line_bytes)
         else:
             with open(path, "rb") as handle:
-                data = handle.read()
+                data = _read_capped(handle, name, max_line_bytes)
     except FileNotFoundError:
         raise InputError("no such file", name) from None
     except IsADirectoryError:
@@ -46,3 +53,29 @@ def read_text(path: str) -> str:
         col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
         raise InputError(f"not UTF-8 text (byte {offset}), 0x{data[offset]:02x} cannot be "
                          "decoded; expected a UTF-8 file", name, line, col) from None
+
+
+def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int) -> bytes:
+    """All bytes of ``handle``, refusing a line longer than ``max_line_bytes``.
+
+    Chunks are no longer than the cap, so only the line running across a chunk
+    boundary (the run before a chunk's first newline plus the carry) can exceed it.
+    """
+    chunk_size = max(1, min(max_line_bytes, READ_CHUNK_BYTES))
+    chunks: list[bytes] = []
+    run = 0           # bytes since the last newline
+    lines = 0         # newlines read so far
+    while chunk := handle.read(chunk_size):
+        first = chunk.find(b"\n")
+        if first < 0:
+            run += len(chunk)
+        else:
+            run += first
+            if run <= max_line_bytes:
+                run = len(chunk) - chunk.rfind(b"\n") - 1
+        if run > max_line_bytes:
+            raise InputError(f"line longer than {max_line_bytes:,} bytes; expected shorter "
+                             "lines (docs/errors.md, \"Limits\")", name, lines + 1)
+        lines += chunk.count(b"\n")
+        chunks.append(chunk)
+    return b"".join(chunks)

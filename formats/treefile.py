@@ -24,7 +24,7 @@ from typing import Iterator, TextIO
 
 import numpy as np
 
-from .constants import NORMAL_UNIT_TOL
+from .constants import MAX_JSON_DEPTH, NORMAL_UNIT_TOL
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths
 
@@ -45,6 +45,9 @@ _LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
 _BRANCH_ADDRESSES = re.compile(rf"(?:{_ADDRESS}(?::[0-9]+)?\n)*\Z")
 _LEAF_ADDRESSES = re.compile(rf"(?:{_ADDRESS}\n)*\Z")
 _LINES_PER_WRITE = 4096
+# Amounts that cannot be negative (strengths must be > 0: checked before simulating).
+NON_NEGATIVE_FIELDS = frozenset({"length", "radius", "force_absorbed", "force_propagated",
+                                 "drag_coefficient", "area", "leaf_force_scale"})
 
 
 # --- writing ------------------------------------------------------------------------
@@ -149,8 +152,12 @@ class _Line:
         return v
 
     def number(self, key: str) -> float:
-        """A finite number (JSON integer or float), as a float."""
-        return _finite(self, key, self.record[key])
+        """A finite number (JSON integer or float), as a float; >= 0 for an amount."""
+        v = _finite(self, key, self.record[key])
+        if key in NON_NEGATIVE_FIELDS and v < 0:
+            raise self.error(f'"{key}" must not be negative, got {v!r}; expected a number >= 0',
+                             key)
+        return v
 
     def vector(self, key: str) -> tuple[float, float, float]:
         """A list of three finite numbers."""
@@ -220,6 +227,8 @@ def _parse(source: str, number: int, text: str, kind: str) -> _Line:
     indent = len(stripped) - len(body)
     if not body.strip():
         raise InputError(f"blank line; expected a {kind} record", source, number, 1)
+    if body.count("[") + body.count("{") > MAX_JSON_DEPTH:
+        _check_depth(source, number, indent, body)
     try:
         record, end = _DECODER.raw_decode(body)    # no whitespace regexes: ~2x faster
     except json.JSONDecodeError as exc:
@@ -235,6 +244,22 @@ def _parse(source: str, number: int, text: str, kind: str) -> _Line:
         raise InputError(f"expected a JSON object {{...}} ({kind} record), got "
                          f"{_json_type(record)}", source, number, 1)
     return _Line(source, number, stripped, record, kind)
+
+
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+_JSON_NESTING = re.compile(r"[\[\]{}]")
+
+
+def _check_depth(source: str, number: int, indent: int, body: str) -> None:
+    """Refuse a record nested deeper than MAX_JSON_DEPTH before the decoder recurses into it."""
+    depth = 0
+    blanked = _JSON_STRING.sub(lambda m: " " * len(m.group()), body)   # brackets in strings
+    for m in _JSON_NESTING.finditer(blanked):
+        depth += 1 if m.group() in "[{" else -1
+        if depth > MAX_JSON_DEPTH:
+            raise InputError(f"JSON nested more than {MAX_JSON_DEPTH} deep; expected a "
+                             "tree-file record (docs/tree-format.md)", source, number,
+                             indent + m.start() + 1)
 
 
 def _expect_type(line: _Line, kind: str, index: int, counts: str) -> None:
@@ -413,9 +438,12 @@ def _array(values: list, dtype) -> np.ndarray:
     return arr
 
 
-def _floats(values: list) -> np.ndarray:
-    """(n,) float64 from JSON numbers, all finite."""
-    return _array(_typed(values, {float, int}), np.float64)
+def _floats(values: list, non_negative: bool = False) -> np.ndarray:
+    """(n,) float64 from JSON numbers, all finite (and >= 0 if ``non_negative``)."""
+    arr = _array(_typed(values, {float, int}), np.float64)
+    if non_negative and np.any(arr < 0):
+        raise _Reject
+    return arr
 
 
 def _integers(values: list) -> np.ndarray:
@@ -458,7 +486,8 @@ class _Branches:
         parent = _integers(cols["parent"])
         if np.any((parent < -1) | (parent >= np.arange(start, start + len(parent)))):
             raise _Reject
-        out = {name: _floats(cols[name]) for name in BRANCH_FLOAT_FIELDS}
+        out = {name: _floats(cols[name], name in NON_NEGATIVE_FIELDS)
+               for name in BRANCH_FLOAT_FIELDS}
         angles = [_floats(cols[name]) for name in ("phi", "alpha", "psi")]
         out.update(address=address, symbol=symbol, parent=parent,
                    euler=np.stack(angles, axis=1).reshape(len(parent), 3),
@@ -512,7 +541,7 @@ class _Leaves:
         normal = _vectors(cols["normal"])
         if np.any(np.abs(np.sqrt((normal * normal).sum(axis=1)) - 1.0) > NORMAL_UNIT_TOL):
             raise _Reject
-        return dict(leaf_address=address, leaf_branch=branch, leaf_area=_floats(cols["area"]),
+        return dict(leaf_address=address, leaf_branch=branch, leaf_area=_floats(cols["area"], True),
                     leaf_normal=normal)
 
     def checked(self, block: list[_Line], start: int) -> dict:

@@ -352,6 +352,13 @@ def _constant(cur: _Cursor, defines: dict[str, float]) -> tuple[Expr, float]:
     return expr, _evaluate_constant(expr, defines)
 
 
+def _check_not_negative(cur: _Cursor, key: str, value: float, at: int) -> None:
+    """Lengths, radii, areas and force coefficients are amounts: refuse a negative one."""
+    if key in NON_NEGATIVE_KEYS and value < 0:
+        raise cur.error(f"{key} must not be negative, got {format_number(value)}; "
+                        "expected a number >= 0", at)
+
+
 # --- modules and patterns ----------------------------------------------------------
 
 def _modules(cur: _Cursor) -> tuple[Module, ...]:
@@ -629,6 +636,7 @@ class _FileParser:
             else:
                 _, value = _constant(cur, self.defines)
                 self._expect_end(cur, f"the value of '{key}'")
+                _check_not_negative(cur, key, value, value_start)
                 if key in _INTEGER_KEYS:
                     if not float(value).is_integer() or value < 0:
                         raise cur.error(f"{key} must be a non-negative integer, got "
@@ -731,7 +739,10 @@ class _FileParser:
             cur.i = eq.end
             if _token(cur).kind == "end":
                 raise cur.error(f"expected a value after '{tok.text}='")
+            value_start = _token(cur).start
             out[tok.text] = _constant(cur, self.defines)[1]
+            key = "area" if pattern and pattern.fullmatch(tok.text) else tok.text
+            _check_not_negative(cur, key, out[tok.text], value_start)
 
     def _axiom(self, cur: _Cursor, after: int) -> None:
         if self.axiom is not None:

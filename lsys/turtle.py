@@ -92,7 +92,12 @@ def build_tree(system: LSystem, derived: DerivedString) -> Tree:
     value[has_param] = derived.params[derived.param_start[:-1][has_param]]
 
     kind = _kind_table(system, derived.alphabet)[codes]
-    kind[(kind == RADIUS) & ~has_param] = PLAIN   # `!` alone does nothing
+    bare = (kind == RADIUS) & ~has_param
+    if bare.any():
+        warnings.warn(f"{int(bare.sum()):,} '!' without a parameter (ABOP: decrement the "
+                      "diameter) do nothing here; write !(r) to set the radius of the "
+                      "branches after it", stacklevel=2)
+        kind[bare] = PLAIN
     _check_finite(system, derived, kind, has_param, value)
 
     scopes = _Scopes(kind, system, derived)
@@ -121,7 +126,8 @@ def _kind_table(system: LSystem, alphabet: list[str]) -> np.ndarray:
 
 
 def _check_finite(system, derived, kind, has_param, value) -> None:
-    """Raise InputError if a turtle module's parameter is infinite or NaN."""
+    """Raise InputError if a turtle module's parameter is infinite or NaN, or if a
+    length (branch), area (leaf) or radius (`!`) is negative."""
     used = has_param & np.isin(kind, (TURN, MOVE, RADIUS, BRANCH, LEAF))
     bad = np.flatnonzero(used & ~np.isfinite(value))
     if bad.size:
@@ -129,6 +135,14 @@ def _check_finite(system, derived, kind, has_param, value) -> None:
         address = derived.address_strings([i])[0]
         raise InputError(f"module {derived.module_text(i)} at address {address} has a "
                          "non-finite parameter; expected a finite number", system.source)
+    amount = has_param & np.isin(kind, (RADIUS, BRANCH, LEAF))
+    bad = np.flatnonzero(amount & (value < 0))
+    if bad.size:
+        i = int(bad[0])
+        address = derived.address_strings([i])[0]
+        what = {RADIUS: "radius", BRANCH: "length", LEAF: "area"}[int(kind[i])]
+        raise InputError(f"module {derived.module_text(i)} at address {address} has a negative "
+                         f"{what}; expected a number >= 0", system.source)
 
 
 def _turn_rotations(system, alphabet, codes, kind, value,

@@ -198,6 +198,7 @@ _SAFE_FUNCTIONS = ["abs", "sin", "cos", "atan", "floor", "ceil", "min", "max", "
 _PARAM_NAMES = ["l", "w", "x", "y", "t_2", "ang", "u", "v"]   # >= 4 patterns x 2
 _DEFINE_NAMES = ["a", "b", "len_unit", "e", "min", "r1"]
 _FINITE = st.floats(allow_nan=False, allow_infinity=False)
+_AMOUNT = st.floats(min_value=0, allow_nan=False, allow_infinity=False)   # lengths, areas, ...
 _SMALL = st.floats(min_value=0, max_value=1e6, allow_nan=False)
 
 
@@ -281,13 +282,13 @@ def systems(draw) -> LSystem:
     define_names = draw(st.lists(st.sampled_from(_DEFINE_NAMES), unique=True, max_size=4))
     defines = tuple((n, draw(st.floats(-1e6, 1e6))) for n in define_names)
     branches = tuple(
-        BranchSymbol(c, *(draw(_FINITE) for _ in range(4)),
-                     **{k: draw(st.none() | _FINITE)
+        BranchSymbol(c, draw(_AMOUNT), draw(_AMOUNT), draw(_FINITE), draw(_FINITE),
+                     **{k: draw(st.none() | _AMOUNT)
                         for k in ("force_absorbed", "force_propagated", "drag_coefficient")})
         for c in _BRANCH if draw(st.booleans()))
-    leaves = tuple(LeafSymbol(c, draw(_FINITE)) for c in _LEAF if draw(st.booleans()))
+    leaves = tuple(LeafSymbol(c, draw(_AMOUNT)) for c in _LEAF if draw(st.booleans()))
     overrides = tuple(
-        Override(address, tuple(sorted((k, draw(_FINITE)) for k in draw(
+        Override(address, tuple(sorted((k, draw(_AMOUNT)) for k in draw(
             st.lists(st.sampled_from(sorted(OVERRIDE_KEYS)), min_size=1, max_size=3, unique=True)))))
         for address in draw(st.lists(st.lists(st.integers(0, 10**6), min_size=1, max_size=5)
                                      .map(tuple), unique=True, max_size=3)))
@@ -297,8 +298,8 @@ def systems(draw) -> LSystem:
         derivation_length=draw(st.integers(0, 10**20)),
         branching_angle=draw(_FINITE), rotation_angle=draw(_FINITE),
         seed=draw(st.integers(0, 2**80)),
-        force_absorbed=draw(_FINITE), force_propagated=draw(_FINITE),
-        drag_coefficient=draw(_FINITE), leaf_force_scale=draw(_FINITE),
+        force_absorbed=draw(_AMOUNT), force_propagated=draw(_AMOUNT),
+        drag_coefficient=draw(_AMOUNT), leaf_force_scale=draw(_AMOUNT),
         ignore=tuple(draw(st.lists(st.sampled_from(_PLAIN + _OPTIONAL_TURTLE), unique=True, max_size=4))),
         defines=defines, branches=branches, leaves=leaves,
         axiom=draw(_module_sequence(arity, define_names, min_size=1)),

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from plantlod.formats import treefile
-from plantlod.formats.treefile import iter_tree_lines, read_tree, write_tree
+from plantlod.formats.treefile import NON_NEGATIVE_FIELDS, iter_tree_lines, read_tree, write_tree
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
 
@@ -272,6 +272,7 @@ def unit_vectors(n, draw):
 
 
 FLOATS = st.floats(allow_nan=False, allow_infinity=False)   # with -0.0, subnormals, 1e308
+AMOUNTS = st.floats(min_value=0, allow_nan=False, allow_infinity=False)   # lengths, areas
 SYMBOLS = st.characters(blacklist_categories=("Cs",))       # any character, quotes included
 ADDRESSES = st.builds(lambda parts, rep: ".".join(map(str, parts)) + (f":{rep}" if rep else ""),
                       st.lists(st.integers(0, 10**6), min_size=1, max_size=6),
@@ -284,22 +285,23 @@ def trees(draw):
     f = draw(st.integers(0, 6)) if b else 0
     parent = np.array([draw(st.integers(-1, i - 1)) for i in range(b)], dtype=np.int64)
 
-    def floats(*shape):
+    def floats(*shape, values=FLOATS):
         n = int(np.prod(shape))
-        return np.array(draw(st.lists(FLOATS, min_size=n, max_size=n)),
+        return np.array(draw(st.lists(values, min_size=n, max_size=n)),
                         dtype=np.float64).reshape(shape)
 
     return Tree(
         address=draw(st.lists(ADDRESSES, min_size=b, max_size=b, unique=True)),
         symbol=draw(st.lists(SYMBOLS, min_size=b, max_size=b)),
         parent=parent,
-        **{name: floats(b) for name in BRANCH_FLOAT_FIELDS},
+        **{name: floats(b, values=AMOUNTS if name in NON_NEGATIVE_FIELDS else FLOATS)
+           for name in BRANCH_FLOAT_FIELDS},
         euler=floats(b, 3), offset=floats(b, 3),
         leaf_branch=np.array([draw(st.integers(0, b - 1)) for _ in range(f)], dtype=np.int64),
-        leaf_area=floats(f),
+        leaf_area=floats(f, values=AMOUNTS),
         leaf_normal=unit_vectors(f, draw),
         leaf_address=[a.split(":")[0] for a in draw(st.lists(ADDRESSES, min_size=f, max_size=f))],
-        leaf_force_scale=draw(FLOATS),
+        leaf_force_scale=draw(AMOUNTS),
         source=draw(st.text()),
     )
 
