@@ -109,7 +109,7 @@ def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = F
             raise InputError(f"expected {width} fields like the header, got {len(parts)}",
                              source, line_no, 1)
         try:
-            values = [float(p) for p in parts]
+            values = None if "_" in line else [float(p) for p in parts]   # float("1_0") is 10
         except ValueError:
             values = None
         if values is None or not all(map(math.isfinite, values)):
@@ -150,7 +150,7 @@ def _field_starts(fields: list[str]) -> list[int]:
 def _raise_bad_field(parts: list[str], source: str | None, line_no: int) -> None:
     for text, col in zip(parts, _field_starts(parts)):
         try:
-            value = float(text)
+            value = math.nan if "_" in text else float(text)
         except ValueError:
             value = math.nan
         if not math.isfinite(value):

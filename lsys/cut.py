@@ -51,10 +51,12 @@ def cut_keep_mask(codes: np.ndarray, cut_code: int | None, open_code: int | None
     key = level[opens] * (n + 1) + opens               # increasing by (level, position)
     order = np.argsort(key, kind="stable")
     sorted_key, sorted_opens = key[order], opens[order]
-    probe = np.searchsorted(sorted_key, (cut_level - 1) * (n + 1) + cuts) - 1
-    found = (cut_level > 0) & (probe >= 0)
-    found[found] = level[sorted_opens[probe[found]]] == cut_level[found] - 1
-    end = np.where(found, closer[sorted_opens[np.maximum(probe, 0)]], n)
+    end = np.full(len(cuts), n, dtype=np.int64)        # top level: to the end
+    if len(opens):
+        probe = np.searchsorted(sorted_key, (cut_level - 1) * (n + 1) + cuts) - 1
+        found = (cut_level > 0) & (probe >= 0)
+        found[found] = level[sorted_opens[probe[found]]] == cut_level[found] - 1
+        end[found] = closer[sorted_opens[probe[found]]]
     marks = np.zeros(n + 1, dtype=np.int64)
     np.add.at(marks, cuts, 1)
     np.add.at(marks, end, -1)

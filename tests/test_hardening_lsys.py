@@ -1,0 +1,337 @@
+"""Hardening of the language and the readers (issue 16): bounded resources, no silent
+misreading, ABOP / L-Py notation, and random input that may only ever raise InputError.
+
+Each listed failure has its own test; the hypothesis tests throw random text at the
+parser, the expression evaluator and the readers (max_examples keeps them short).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from plantlod.formats.angles_csv import read_angles_csv
+from plantlod.formats.constants import MAX_JSON_DEPTH
+from plantlod.formats.text_input import _read_capped, read_text
+from plantlod.formats.treefile import read_tree
+from plantlod.lsys.build import build
+from plantlod.lsys.constants import (
+    DERIVATION_HISTORY_FACTOR, MAX_DERIVATION_STEPS, MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS,
+)
+from plantlod.lsys.cut import cut_keep_mask
+from plantlod.lsys.derive import derive, interpret
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.expr import evaluate
+from plantlod.lsys.parse import parse_expr, parse_lsys
+from plantlod.sim.wind import KeyframeWind
+
+HEAD = """derivation_length: {n}
+branching_angle: 30
+force_absorbed: 0.005
+force_propagated: 0.7
+branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20
+leaf L: area=0.01
+"""
+HEAD_LINES = HEAD.count("\n")
+FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+def system(body: str, n: int = 1):
+    return parse_lsys(HEAD.format(n=n) + body, "t.lsys")
+
+
+def error(body: str, n: int = 1) -> InputError:
+    with pytest.raises(InputError) as info:
+        build(system(body, n))
+    return info.value
+
+
+def derived_text(ds) -> str:
+    return "".join(ds.alphabet[c] for c in ds.codes)
+
+
+# --- bounded derivation ----------------------------------------------------------------
+
+def test_fixed_point_derivation_is_fast_and_keeps_every_address_part():
+    start = time.perf_counter()
+    ds = derive(system("axiom: F\nproductions:\n  F -> F\n"), MAX_DERIVATION_STEPS)
+    assert time.perf_counter() - start < 5
+    assert ds.address_strings([0]) == ["0" + ".0" * MAX_DERIVATION_STEPS]
+
+
+def test_fixed_point_after_growth_matches_hand_addresses():
+    s = system("axiom: A\nproductions:\n  A -> F[B]\n  B -> L\n")
+    ds = derive(s, 5)          # F[L] from step 2 on; steps 3..5 only copy
+    assert derived_text(ds) == "F[L]"
+    assert ds.address_strings(range(4)) == ["0.0.0.0.0.0", "0.1.0.0.0.0", "0.2.0.0.0.0",
+                                            "0.3.0.0.0.0"]
+
+
+def test_derivation_length_above_the_cap_is_refused_at_once():
+    start = time.perf_counter()
+    with pytest.raises(InputError, match="derivation length 1,000,000,000 is more than"):
+        derive(system("axiom: F\nproductions:\n  F -> F\n"), 10**9)
+    assert time.perf_counter() - start < 1
+
+
+def test_stochastic_rules_never_settle():
+    # The choice hashes the address, which every step lengthens: no fixed point.
+    s = system("seed: 3\naxiom: A\nproductions:\n  A -> (0.5) A\n  A -> (0.5) B\n")
+    ds, slow = derive(s, 40), derive(s, 40, fast=False)
+    assert derived_text(ds) == derived_text(slow)
+
+
+def test_history_cap_bounds_slow_growth():
+    s = system("axiom: A\nproductions:\n  A -> FA\n")
+    with pytest.raises(InputError, match="derivation history"):
+        derive(s, 2000, max_modules=10_000)
+    # within the budget: the strings after steps 1..100 hold 2 + 3 + ... + 101 modules
+    held = sum(range(2, 102))
+    assert len(derive(s, 100, max_modules=-(-held // DERIVATION_HISTORY_FACTOR))) == 101
+    with pytest.raises(InputError, match="derivation history"):
+        derive(s, 100, max_modules=(held - 1) // DERIVATION_HISTORY_FACTOR)
+
+
+def test_max_modules_applies_to_interpretation():
+    s = system("axiom: F\nproductions:\n  F -> FF\ninterpretation:\n  F -> FFFFFFFFFF\n")
+    with pytest.raises(InputError, match="^interpretation would produce 80 modules, more than "
+                                         "--max-modules 50$"):
+        build(s, 3, max_modules=50)
+    assert len(interpret(s, derive(s, 3), max_modules=80)) == 80
+
+
+# --- numbers that must not reach the tree -------------------------------------------------
+
+@pytest.mark.parametrize("axiom, successor", [("A(big)", "A(x+x)F"), ("A(-big)", "A(x-big)F")])
+def test_overflowing_sum_is_located(axiom, successor):
+    exc = error(f"define big = 1e308\naxiom: {axiom}\nproductions:\n  A(x) -> {successor}\n", n=2)
+    assert (exc.line, exc.col) == (HEAD_LINES + 4, 14) and "not a finite" in exc.message
+
+
+def test_constant_overflow_in_a_define():
+    with pytest.raises(InputError, match="'\\+' gives a result that is not a finite"):
+        system("define a = 1e308 + 1e308\naxiom: F\n")
+
+
+@pytest.mark.parametrize("body, what", [
+    ("branch G: length=-1 radius=0.02 bend_strength=20 rotation_strength=20\naxiom: G\n", "length"),
+    ("branch G: length=1 radius=-0.02 bend_strength=20 rotation_strength=20\naxiom: G\n", "radius"),
+    ("leaf K: area=-0.01\naxiom: F K\n", "area"),
+    ("axiom: F\noverrides:\n  0: length=-2\n", "length"),
+    ("axiom: F L\noverrides:\n  1: area_1=-2\n", "area"),
+    ("leaf_force_scale: -1\naxiom: F\n", "leaf_force_scale"),
+])
+def test_negative_amounts_rejected_where_written(body, what):
+    with pytest.raises(InputError, match=f"{what} must not be negative") as info:
+        system(body)
+    assert info.value.line is not None and info.value.col is not None
+
+
+@pytest.mark.parametrize("axiom, what", [("F(-1)", "length"), ("F L(-0.5)", "area"),
+                                         ("!(-0.1) F", "radius")])
+def test_negative_turtle_parameters_rejected(axiom, what):
+    exc = error(f"axiom: {axiom}\n")
+    assert f"negative {what}" in exc.message and exc.file == "t.lsys"
+
+
+def test_negative_move_is_allowed():
+    assert build(system("axiom: f(-1) F\n")).tree.n_branches == 1
+
+
+# --- notation of ABOP and L-Py -------------------------------------------------------------
+
+@pytest.mark.parametrize("arrow", ["->", "-->", "→"])
+def test_arrows_are_equivalent(arrow):
+    s = system(f"axiom: A(1)\nproductions:\n  A(x) : x > 0 {arrow} F[-A(x-1)]F\n  B {arrow}\n", n=3)
+    ref = system("axiom: A(1)\nproductions:\n  A(x) : x > 0 -> F[-A(x-1)]F\n  B ->\n", n=3)
+    assert s == ref
+
+
+def cut_by_hand(text: str) -> str:
+    """The cut, literally: skip from each % to the ] closing its bracket."""
+    out, i = [], 0
+    while i < len(text):
+        if text[i] == "%":
+            depth = 0
+            while i < len(text) and not (text[i] == "]" and depth == 0):
+                depth += {"[": 1, "]": -1}.get(text[i], 0)
+                i += 1
+            continue
+        out.append(text[i])
+        i += 1
+    return "".join(out)
+
+
+def test_cut_in_the_axiom_and_in_successors():
+    s = system("axiom: F[+F%F[F]F]F%F[F]\nproductions:\n  A -> F[+F%A]F%A\n", n=0)
+    assert derived_text(derive(s, 0)) == "F[+F]F"
+    s = system("axiom: A\nproductions:\n  A -> F[+F%A]A\n", n=3)
+    text = derived_text(derive(s, 3))
+    assert text == "F[+F]F[+F]F[+F]A" and "%" not in text
+
+
+@FAST
+@given(st.text(alphabet="FA[]%", max_size=60))
+def test_cut_matches_a_literal_cut(raw):
+    # balance the brackets: drop unmatched ']' and close open '['
+    depth, text = 0, []
+    for c in raw:
+        if c == "]" and depth == 0:
+            continue
+        depth += {"[": 1, "]": -1}.get(c, 0)
+        text.append(c)
+    text = "".join(text) + "]" * depth
+    alphabet = sorted(set(text) | set("[]%"))
+    codes = np.array([alphabet.index(c) for c in text], dtype=np.int32)
+    keep = cut_keep_mask(codes, alphabet.index("%"), alphabet.index("["), alphabet.index("]"))
+    got = text if keep is None else "".join(c for c, k in zip(text, keep) if k)
+    assert got == cut_by_hand(text)
+
+
+@pytest.mark.parametrize("symbol, advice", [
+    ("{", "polygon"), ("}", "polygon"), ("~", "predefined surface"), ("'", "colour"),
+])
+def test_unsupported_abop_symbols_say_what_to_write(symbol, advice):
+    with pytest.raises(InputError, match=advice) as info:
+        system(f"axiom: F{symbol}F\n")
+    assert (info.value.line, info.value.col) == (HEAD_LINES + 1, 9)
+
+
+@pytest.mark.parametrize("line", ["  % -> F", "  A < % -> F", "  %(1) -> F"])
+def test_cut_cannot_be_a_pattern(line):
+    with pytest.raises(InputError, match="cannot be a predecessor"):
+        system(f"axiom: F\nproductions:\n{line}\n")
+
+
+def test_cut_takes_no_parameter():
+    with pytest.raises(InputError, match="'%' takes no parameters"):
+        system("axiom: F %(1)\n")
+
+
+def test_bare_exclamation_mark_warns():
+    built = build(system("axiom: F ! F\n"))
+    assert any("'!' without a parameter" in w and "!(r)" in w for w in built.warnings)
+
+
+# --- limits of the readers -------------------------------------------------------------------
+
+def test_long_line_stops_reading_early():
+    data = io.BytesIO(b"axiom: " + b"F" * 5_000_000 + b"\n")
+    with pytest.raises(InputError, match="line longer than 1,000 bytes") as info:
+        _read_capped(data, "x.lsys", 1000)
+    assert info.value.line == 1 and data.tell() <= 2000     # read at most two chunks
+
+
+def test_long_line_cap_names_the_line(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_bytes(b"t\n0\n" + b"1" * 300 + b"\n")
+    with pytest.raises(InputError) as info:
+        read_text(str(path), max_line_bytes=100)
+    assert (info.value.file, info.value.line) == (str(path), 3)
+    assert read_text(str(path), max_line_bytes=300).endswith("1\n")
+
+
+def test_parser_line_cap():
+    with pytest.raises(InputError, match="line longer than") as info:
+        system("axiom: " + "F" * MAX_LINE_CHARS + "\n")
+    assert info.value.line == HEAD_LINES + 1
+
+
+def test_deep_json_is_an_input_error():
+    text = '{"format": ' + "[" * 100_000 + "]" * 100_000 + "}\n"
+    with pytest.raises(InputError, match=f"nested more than {MAX_JSON_DEPTH} deep"):
+        read_tree(io.StringIO(text), "t.jsonl")
+
+
+@pytest.mark.parametrize("expr", ["1" + "+1" * 150, "2" + "^2" * 150, "-" * 150 + "1",
+                                  "(" * 150 + "1" + ")" * 150, "abs(" * 150 + "1" + ")" * 150])
+def test_expression_depth_cap(expr):
+    with pytest.raises(InputError, match="nested too deeply"):
+        parse_expr(expr)
+    with pytest.raises(InputError, match="nested too deeply"):
+        system(f"axiom: F({expr})\n")
+
+
+def test_expression_within_the_cap_parses():
+    assert evaluate(parse_expr("1" + "+1" * (MAX_EXPRESSION_DEPTH - 2))) == MAX_EXPRESSION_DEPTH - 1
+
+
+def test_csv_number_with_underscore_is_not_read_as_a_number():
+    with pytest.raises(InputError, match="'1_0'") as info:
+        read_angles_csv(io.StringIO("t,b:0,r:0\n0,1_0,0\n"), "a.csv")
+    assert (info.value.line, info.value.col) == (2, 3)
+
+
+# --- random input: only InputError, never anything else ------------------------------------
+
+LSYS_CHARS = st.sampled_from(list("FALf+-&^/\\|[]!$%(){}~'<>:*=,.#0123456789ex xy\n→") +
+                             ["->", "-->", "axiom:", "productions:", "interpretation:",
+                              "overrides:", "define ", "branch ", "leaf ", "1e308", "/0",
+                              "derivation_length:", "ignore:", "0.1:", "area_1=", "length="])
+
+
+@FAST
+@given(st.lists(LSYS_CHARS, max_size=80).map("".join))
+def test_random_lsys_text_raises_only_input_error(body):
+    try:
+        build(system(body, n=2), max_modules=10_000)
+    except InputError as exc:
+        assert "\n" not in str(exc)
+
+
+@FAST
+@given(st.text(max_size=200))
+def test_random_unicode_raises_only_input_error(text):
+    try:
+        parse_lsys(text, "r.lsys")
+    except InputError as exc:
+        assert "\n" not in str(exc)
+
+
+EXPR_TOKENS = st.sampled_from(["1", "0", "2.5", "1e308", "-", "+", "*", "/", "%", "^", "(", ")",
+                               "x", ",", "sqrt(", "log(", "atan2(", "max(", "==", "&&", "||",
+                               "!", "<", "1e-320", "exp("])
+
+
+@FAST
+@given(st.lists(EXPR_TOKENS, max_size=30).map("".join), st.floats(allow_nan=False))
+def test_random_expressions_raise_only_input_error(text, x):
+    try:
+        value = evaluate(parse_expr(text), {"x": x})
+    except InputError:
+        return
+    assert math.isfinite(value) or not math.isfinite(x)
+
+
+CSV_FIELDS = st.sampled_from(["t", "b:0", "r:0", "b:1", "r:1", "0", "1", "-1", "nan", "inf",
+                              "1e999", "1_0", " ", "", "x", "0x1", "1e-320", "2"])
+
+
+@FAST
+@given(st.lists(st.lists(CSV_FIELDS, max_size=6).map(",".join), max_size=6).map("\n".join))
+def test_random_csv_rows_raise_only_input_error(text):
+    for reader in (lambda s: read_angles_csv(s, "a.csv"), lambda s: KeyframeWind.from_csv(s, "w.csv")):
+        try:
+            reader(io.StringIO(text))
+        except InputError as exc:
+            assert "\n" not in str(exc)
+
+
+JSON_PARTS = st.sampled_from(['{', '}', '[', ']', '"format"', '"plantlod-tree"', ':', ',', '1',
+                              '-1', '1e999', 'NaN', '"version"', '"branches"', '"leaves"', '0',
+                              '"type"', '"branch"', 'true', 'null', '"x"', '\n', '"a":"a"'])
+
+
+@FAST
+@given(st.lists(JSON_PARTS, max_size=50).map("".join))
+def test_random_json_rows_raise_only_input_error(text):
+    try:
+        read_tree(io.StringIO(text), "t.jsonl")
+    except InputError as exc:
+        assert "\n" not in str(exc)
