@@ -19,7 +19,7 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
 
@@ -40,6 +40,26 @@ def say(message: str) -> None:
 
 def warn(message: str) -> None:
     say(f"warning: {message}")
+
+
+_pending: list[str] = []
+
+
+def warn_once_running(message: str) -> None:
+    """A warning that only matters if the command goes on: printed when it starts writing
+    its output (`open_output`) or ends well, dropped when it fails, so that a refused
+    run still ends in exactly one line."""
+    if message not in _pending:
+        _pending.append(message)
+
+
+def flush_pending_warnings() -> None:
+    while _pending:
+        warn(_pending.pop(0))
+
+
+def drop_pending_warnings() -> None:
+    _pending.clear()
 
 
 _PLURALS = {"branch": "branches", "leaf": "leaves"}
@@ -78,32 +98,53 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
 
     A regular file appears (by rename of a temporary file beside it, with the
     usual permissions) only if the block finishes without an exception, so a
-    failed run never leaves a partial file. A target that exists and is not a
-    regular file (``/dev/null``, a named pipe) is written in place. Text
-    streams are UTF-8 with ``\\n`` line ends; ``binary=True`` gives a bytes stream.
+    failed run never leaves a partial file; the temporary file is removed on
+    every way out, signals included (`cli.discipline` turns SIGTERM and SIGHUP
+    into exceptions). A target that exists and is not a regular file
+    (``/dev/null``, a named pipe) is written in place. Text streams are UTF-8
+    with ``\\n`` line ends; ``binary=True`` gives a bytes stream. An output that
+    cannot be written (disk full, read-only, closed stdout) is a `RunFailure`.
     """
+    flush_pending_warnings()
     if path is None or path == "-":
+        if sys.stdout is None:
+            raise RunFailure("standard output is closed; give -o FILE or redirect it")
         out = sys.stdout.buffer if binary else sys.stdout
-        yield out
-        out.flush()
+        with _write_errors("standard output"):
+            yield out
+            out.flush()
         return
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise InputError("output directory does not exist", path)
     if _special_target(path):
-        with _open_stream(path, binary) as out:
+        with _write_errors(path), _open_stream(path, binary) as out:
             yield out
         return
-    fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=directory)
+    with _write_errors(path):
+        fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=directory)
     try:
-        with _open_stream(fd, binary) as out:
-            yield out
-        os.chmod(tmp, _usual_file_mode())
-        os.replace(tmp, path)
+        with _write_errors(path):
+            with _open_stream(fd, binary) as out:
+                yield out
+            os.chmod(tmp, _usual_file_mode())
+            os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+@contextlib.contextmanager
+def _write_errors(name: str) -> Iterator[None]:
+    """OSError while writing ``name`` -> RunFailure naming it (a broken pipe passes: quiet)."""
+    try:
+        yield
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        raise RunFailure(f"cannot write {name}: {reason}") from None
 
 
 def _open_stream(target, binary: bool) -> IO:

@@ -11,8 +11,7 @@ import sys
 
 import click
 
-from plantlod.lsys.errors import InputError, PlantlodError
-
+from .discipline import Terminated, harden_params, install_signal_handlers, run_guarded
 from .compare_cmd import compare
 from .derive_cmd import derive
 from .simplify_cmd import simplify
@@ -20,35 +19,38 @@ from .simulate_cmd import simulate
 
 
 class PlantlodGroup(click.Group):
-    """Turns every `PlantlodError` into one line on stderr and its exit code."""
+    """The group every command hangs on; it applies the error discipline of
+    `cli.discipline` to all of them (exit codes, one-line messages, signals,
+    bounded numeric options), so a new command inherits it by being added."""
+
+    def resolve_command(self, ctx, args):
+        name, command, rest = super().resolve_command(ctx, args)
+        return name, (harden_params(command) if command is not None else None), rest
 
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
-        except PlantlodError as exc:
-            click.echo(f"{format_error(exc, ctx)}", err=True)
-            ctx.exit(exc.exit_code)
-        except BrokenPipeError:
-            _quiet_broken_pipe()
+        except KeyboardInterrupt:
+            # as a signal, past click's Abort (which would print a blank line first)
+            raise _named(Terminated(signal.SIGINT), ctx) from None
+        except BaseException as exc:
+            raise _named(exc, ctx)
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True,
+             **extra):
+        code = run_guarded(lambda: super(PlantlodGroup, self).main(
+            args, prog_name, complete_var, standalone_mode=False, **extra),
+            prog_name or "plantlod")
+        if standalone_mode:
+            sys.exit(code)
+        return code
 
 
-def format_error(exc: PlantlodError, ctx) -> str:
-    """One line: ``file:line:col: error: message`` (compiler style, so editors can
-    jump to it) when the error has a place, else ``plantlod CMD: error: message``."""
-    if isinstance(exc, InputError) and exc.file:
-        loc = ":".join(str(p) for p in (exc.file, exc.line, exc.col) if p is not None)
-        return f"{loc}: error: {exc.message}"
-    name = ctx.invoked_subcommand or ctx.info_name or "plantlod"
-    return f"plantlod {name}: error: {exc}"
-
-
-def _quiet_broken_pipe() -> None:
-    """The reader went away (``| head``): stop quietly, as other Unix tools do."""
-    try:
-        sys.stdout.close()
-    except Exception:
-        pass
-    sys.exit(0)
+def _named(exc: BaseException, ctx) -> BaseException:
+    """Tag an exception with the subcommand it ended, for its one-line message."""
+    if getattr(exc, "plantlod_command", None) is None:
+        exc.plantlod_command = ctx.invoked_subcommand
+    return exc
 
 
 @click.group(cls=PlantlodGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -76,9 +78,7 @@ for command in (derive, simulate, simplify, compare):
 
 
 def main() -> None:
-    # Writing into a closed pipe ends the process quietly instead of raising.
-    if hasattr(signal, "SIGPIPE"):
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    install_signal_handlers()
     cli(prog_name="plantlod")
 
 

@@ -58,9 +58,9 @@ def simulation_options(func=None, *, dt_required: bool = True):
                      callback=_wind_vector, help="Constant wind vector in m/s (world frame, z up)."),
         click.option("--wind-speed", type=click.FloatRange(min=0), default=None,
                      callback=_finite, help="Constant wind speed in m/s ..."),
-        click.option("--wind-direction", type=float, default=0.0, show_default=True,
-                     callback=_finite,
-                     help="... blowing toward this azimuth in degrees (0 = +x, 90 = +y)."),
+        click.option("--wind-direction", type=float, default=None, callback=_finite,
+                     help="... blowing toward this azimuth in degrees (0 = +x, 90 = +y; "
+                          "default 0)."),
         click.option("--wind-file", type=str, default=None, metavar="KEYS.csv",
                      help="Wind over time: rows t,vx,vy,vz, linearly interpolated, "
                           "held beyond the ends."),
@@ -93,13 +93,31 @@ class SimulationSettings:
                      wind_file, gust_strength, gust_seed, damping) -> "SimulationSettings":
         if (duration is None) == (steps is None):
             raise click.UsageError("give exactly one of --duration and --steps")
+        from plantlod.sim.constants import MAX_TIME_STEPS, MIN_TIME_STEP
+
+        if dt is not None and dt < MIN_TIME_STEP:
+            raise click.BadParameter(f"{dt:g} s is below the smallest time step, "
+                                     f"{MIN_TIME_STEP:g} s", param_hint="--dt")
         if steps is None:
-            steps = int(round(duration / dt))
+            count = duration / dt
+            if not count <= MAX_TIME_STEPS:
+                raise click.UsageError(f"--duration {duration:g} / --dt {dt:g} gives more than "
+                                       f"{MAX_TIME_STEPS:,} steps, the limit of one run")
+            steps = int(round(count))
+        elif steps > MAX_TIME_STEPS:
+            raise click.BadParameter(f"{steps:,} is more than {MAX_TIME_STEPS:,} steps, the limit "
+                                     "of one run", param_hint="--steps")
         from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, wind_from_speed
 
         given = [w for w in (wind_vector, wind_speed, wind_file) if w is not None]
         if len(given) > 1:
             raise click.UsageError("give at most one of --wind, --wind-speed and --wind-file")
+        if wind_direction is not None and wind_speed is None:
+            raise click.UsageError("--wind-direction applies to --wind-speed; give a speed too "
+                                   "(or the whole vector with --wind VX,VY,VZ)")
+        if gust_seed and not gust_strength:
+            raise click.UsageError("--gust-seed applies to gusts; give --gust-strength G > 0 too")
+        wind_direction = 0.0 if wind_direction is None else wind_direction
         if wind_file is not None:
             import io
 
@@ -121,6 +139,10 @@ class SimulationSettings:
         if gust_strength > 0:
             wind = GustyWind(wind, seed=gust_seed, strength=gust_strength)
             description += f", gusts {gust_strength:g} (seed {gust_seed})"
+        if wind_file is None and not any(wind.sample([0.0])[0]):
+            from .io import warn_once_running
+            warn_once_running("the wind is zero, so the tree stays at rest; give --wind-speed S, "
+                 "--wind VX,VY,VZ or --wind-file")
         return cls(dt=dt, steps=steps, wind=wind, damping=damping, description=description)
 
 

@@ -8,3 +8,7 @@ GUST_MAX_FREQUENCY = 1.0      # Hz
 # --- memory bounds of streaming work -----------------------------------------------
 SIM_CHUNK_VALUES = 1 << 20    # angle values per yielded simulation chunk (8 MB float64)
 SIM_STEPS_PER_CALL = 1 << 16  # kernel steps per call at most (bounds wind samples held)
+
+# --- limits of a run (docs/errors.md, "Limits") --------------------------------------
+MIN_TIME_STEP = 1e-9          # s; a smaller --dt is refused (1e-320 overflowed the step count)
+MAX_TIME_STEPS = 10**10       # steps of one run, --steps or round(--duration / --dt)

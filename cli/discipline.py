@@ -1,0 +1,204 @@
+"""One error discipline for every command (docs/errors.md), applied by the `plantlod` group.
+
+Every command registered on the group inherits it without code of its own:
+
+- exit 2 and one line for bad input: `InputError` (``file:line:col: error: ...``) and
+  click's usage errors (``plantlod CMD: error: ...``, never click's 4-line block);
+- exit 1 and one line for a failure at run time: `RunFailure`, an output that cannot
+  be written (disk full, read-only, ``/dev/full``, a closed standard output), out of
+  memory, and anything unexpected ("internal error", traceback only with
+  ``PLANTLOD_DEBUG=1``);
+- 128 + the signal's number for SIGINT (130), SIGTERM (143) and SIGHUP (129): the
+  handlers raise `Terminated`, so every ``finally`` runs and `cli.io.open_output`
+  removes its temporary file before the process ends;
+- a reader that goes away (``| head``) ends the command quietly.
+
+Numeric options are bounded here too (`harden_params`): a float option refuses NaN and
+infinities, an integer option anything beyond int64, whatever command declares them.
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import os
+import signal
+import sys
+from typing import Callable
+
+import click
+
+from plantlod.lsys.errors import InputError, PlantlodError
+
+# Signals that end a command through `Terminated` (SIGINT comes as KeyboardInterrupt).
+CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP")
+                       if hasattr(signal, name))
+INT64_MAX = 2**63 - 1
+DEBUG_VARIABLE = "PLANTLOD_DEBUG"
+
+
+class Terminated(BaseException):
+    """A signal asked the process to end; a BaseException, so `except Exception` lets it pass."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_terminated(signum, _frame):
+    raise Terminated(signum)
+
+
+def install_signal_handlers() -> None:
+    """SIGTERM and SIGHUP raise `Terminated`; a broken pipe ends the process quietly."""
+    for signum in CAUGHT_SIGNALS:
+        signal.signal(signum, _raise_terminated)
+    if hasattr(signal, "SIGPIPE"):
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+
+
+# --- numeric options ---------------------------------------------------------------
+
+class _Bounded(click.ParamType):
+    """Wraps a float or int option type: the same conversion, then a bound check."""
+
+    def __init__(self, base: click.ParamType):
+        self.base = base
+        self.name = base.name
+
+    def convert(self, value, param, ctx):
+        out = self.base.convert(value, param, ctx)
+        if isinstance(out, float) and not math.isfinite(out):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if isinstance(out, int) and not isinstance(out, bool) and abs(out) > INT64_MAX:
+            self.fail(f"{value!r} is too large; expected at most {INT64_MAX:,}", param, ctx)
+        return out
+
+    def get_metavar(self, param, ctx=None):
+        return self.base.get_metavar(param, ctx) if ctx is not None else None
+
+    def __repr__(self) -> str:
+        return repr(self.base)
+
+
+def harden_params(command: click.Command) -> click.Command:
+    """Bound every float and int option of ``command`` (and of its subcommands), once."""
+    if getattr(command, "_plantlod_hardened", False):
+        return command
+    for param in command.params:
+        if isinstance(param.type, (click.types.FloatParamType, click.types.IntParamType)):
+            param.type = _Bounded(param.type)
+    command._plantlod_hardened = True
+    return command
+
+
+# --- the exit codes ------------------------------------------------------------------
+
+def _command_name(exc: BaseException, fallback: str) -> str:
+    ctx = getattr(exc, "ctx", None)
+    if ctx is not None:
+        return ctx.command_path
+    name = getattr(exc, "plantlod_command", None)
+    return f"{fallback} {name}" if name else fallback
+
+
+def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, str | None]:
+    """The exit code and the one line (None: quiet) for an exception that ended a command."""
+    where = _command_name(exc, prog)
+    if isinstance(exc, click.exceptions.Exit):
+        return exc.exit_code, None
+    if isinstance(exc, click.UsageError):
+        message = " ".join(exc.format_message().split())
+        return 2, f"{where}: error: {message} (see '{where} --help')"
+    if isinstance(exc, click.exceptions.Abort):
+        return 128 + signal.SIGINT, f"{where}: interrupted"
+    if isinstance(exc, InputError) and exc.file:
+        loc = ":".join(str(p) for p in (exc.file, exc.line, exc.col) if p is not None)
+        return 2, f"{loc}: error: {_one_line(exc.message)}"
+    if isinstance(exc, PlantlodError):
+        return exc.exit_code, f"{where}: error: {_one_line(str(exc))}"
+    if isinstance(exc, KeyboardInterrupt):
+        return 128 + signal.SIGINT, f"{where}: interrupted"
+    if isinstance(exc, Terminated):
+        if exc.signum == signal.SIGINT:
+            return 128 + exc.signum, f"{where}: interrupted"
+        return 128 + exc.signum, f"{where}: ended by {signal.Signals(exc.signum).name}"
+    if isinstance(exc, BrokenPipeError):
+        return 128 + getattr(signal, "SIGPIPE", 13), None
+    if isinstance(exc, OSError):
+        target = f"{exc.filename}: " if exc.filename else ""
+        reason = exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
+        return 1, f"{where}: error: {target}{reason}"
+    if isinstance(exc, MemoryError):
+        return 1, (f"{where}: error: out of memory; expected a smaller run "
+                   "(lower --max-modules, fewer steps or branches)")
+    if isinstance(exc, RecursionError):
+        return 2, f"{where}: error: input nested too deeply"
+    return 1, (f"{where}: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
+               f"(set {DEBUG_VARIABLE}=1 for the traceback)")
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
+    """Run ``call`` (a click main in non-standalone mode); map its end to an exit code."""
+    from .io import drop_pending_warnings, flush_pending_warnings
+
+    drop_pending_warnings()
+    try:
+        result = call()
+        flush_pending_warnings()
+        _flush_stdout()
+        return result if isinstance(result, int) else 0
+    except BaseException as exc:     # noqa: BLE001 -- the one place every failure ends
+        if isinstance(exc, SystemExit):
+            raise
+        drop_pending_warnings()
+        code, line = describe_failure(exc, prog)
+        if code != 0 and os.environ.get(DEBUG_VARIABLE) and not isinstance(exc, click.exceptions.Exit):
+            import traceback
+            traceback.print_exc()
+        if line:
+            _say(line)
+        try:
+            _flush_stdout()          # what was written before the failure (compare's JSON)
+        except (OSError, ValueError):
+            pass
+        _discard_stdout()
+        return code
+
+
+def _flush_stdout() -> None:
+    """Flush stdout now, so that a full disk is reported instead of lost at exit."""
+    if sys.stdout is not None:
+        sys.stdout.flush()
+
+
+def _discard_stdout() -> None:
+    """After a failure, drop what stdout still buffers (it cannot be written, or must not be)."""
+    if sys.stdout is not None and not isinstance(sys.stdout, _NullOut):
+        sys.stdout = _NullOut()
+
+
+class _NullOut:
+    """A stdout that writes nothing (keeps the exit-time flush from failing again)."""
+
+    def write(self, text):
+        return len(text)
+
+    def flush(self):
+        pass
+
+    def isatty(self):
+        return False
+
+
+def _say(line: str) -> None:
+    try:
+        if sys.stderr is not None:
+            sys.stderr.write(line + "\n")
+            sys.stderr.flush()
+    except OSError:
+        pass
