@@ -9,8 +9,11 @@ Every command registered on the group inherits it without code of its own:
   memory, and anything unexpected ("internal error", traceback only with
   ``PLANTLOD_DEBUG=1``);
 - 128 + the signal's number for SIGINT (130), SIGTERM (143) and SIGHUP (129): the
-  handlers raise `Terminated`, so every ``finally`` runs and `cli.io.open_output`
-  removes its temporary file before the process ends;
+  handler removes every temporary file `cli.io.open_output` holds, prints one line and
+  ends the process at once (``os._exit``). It does not raise: an exception raised by a
+  signal handler can land in a ``__del__`` or a finaliser, where Python prints and
+  drops it, and the run would go on. A signal the parent set to be ignored (``nohup``)
+  stays ignored;
 - a reader that goes away (``| head``) ends the command quietly.
 
 Numeric options are bounded here too (`harden_params`): a float option refuses NaN and
@@ -30,8 +33,8 @@ import click
 
 from plantlod.lsys.errors import InputError, PlantlodError
 
-# Signals that end a command through `Terminated` (SIGINT comes as KeyboardInterrupt).
-CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP")
+# Signals that end a command: temporary files removed, exit 128 + n.
+CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
                        if hasattr(signal, name))
 INT64_MAX = 2**63 - 1
 DEBUG_VARIABLE = "PLANTLOD_DEBUG"
@@ -45,14 +48,33 @@ class Terminated(BaseException):
         self.signum = signum
 
 
-def _raise_terminated(signum, _frame):
-    raise Terminated(signum)
+_current = {"command": None}     # the subcommand running, for the signal handler's line
+
+
+def set_current_command(name: str | None) -> None:
+    _current["command"] = name
+
+
+def _end_on_signal(signum, _frame):
+    from .io import remove_temporary_files
+
+    remove_temporary_files()
+    code, line = describe_failure(_named(Terminated(signum), _current["command"]))
+    _say(line)
+    os._exit(code)
+
+
+def _named(exc: BaseException, command: str | None) -> BaseException:
+    exc.plantlod_command = command
+    return exc
 
 
 def install_signal_handlers() -> None:
-    """SIGTERM and SIGHUP raise `Terminated`; a broken pipe ends the process quietly."""
+    """SIGINT, SIGTERM and SIGHUP end the command cleanly (unless ignored by the parent);
+    a broken pipe ends the process quietly."""
     for signum in CAUGHT_SIGNALS:
-        signal.signal(signum, _raise_terminated)
+        if signal.getsignal(signum) != signal.SIG_IGN:
+            signal.signal(signum, _end_on_signal)
     if hasattr(signal, "SIGPIPE"):
         signal.signal(signal.SIGPIPE, signal.SIG_DFL)
 

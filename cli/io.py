@@ -123,6 +123,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
         return
     with _write_errors(path):
         fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=directory)
+    _temporary.add(tmp)
     try:
         with _write_errors(path):
             with _open_stream(fd, binary) as out:
@@ -133,6 +134,18 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+    finally:
+        _temporary.discard(tmp)
+
+
+_temporary: set[str] = set()     # temporary files open_output holds right now
+
+
+def remove_temporary_files() -> None:
+    """Remove every temporary file of `open_output` (the signal handler calls this)."""
+    for tmp in list(_temporary):
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
 
 
 @contextlib.contextmanager

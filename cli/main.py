@@ -11,7 +11,9 @@ import sys
 
 import click
 
-from .discipline import Terminated, harden_params, install_signal_handlers, run_guarded
+from .discipline import (
+    Terminated, harden_params, install_signal_handlers, run_guarded, set_current_command,
+)
 from .compare_cmd import compare
 from .derive_cmd import derive
 from .simplify_cmd import simplify
@@ -25,6 +27,7 @@ class PlantlodGroup(click.Group):
 
     def resolve_command(self, ctx, args):
         name, command, rest = super().resolve_command(ctx, args)
+        set_current_command(name)
         return name, (harden_params(command) if command is not None else None), rest
 
     def invoke(self, ctx):

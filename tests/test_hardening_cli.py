@@ -1,0 +1,210 @@
+"""The CLI's error discipline (issue 16), for every command: exit 2 and one line for bad
+input and usage, exit 1 and one line for run-time failures (output that cannot be
+written included), 128 + n for signals, and nothing partial left behind.
+
+Signal tests run the real executable (subprocess); everything else runs in-process.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from golden_util import ROOT, run_cli
+
+PLANTLOD = str(ROOT / ".venv" / "bin" / "plantlod")
+STALK8 = "examples/stalk8.lsys"
+SIM = ("--dt", "0.01", "--steps", "3", "--wind-speed", "2")
+
+
+def commands() -> list[str]:
+    from plantlod.cli.main import cli
+
+    return sorted(cli.commands)
+
+
+def one_line(result, code: int, *fragments: str) -> str:
+    """The result ended with ``code`` and exactly one stderr line holding ``fragments``."""
+    assert result.exit_code == code, (result.exit_code, result.stderr, result.exception)
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+def no_temporary_files(directory) -> None:
+    assert not [p for p in os.listdir(directory) if p.startswith(".plantlod-")]
+
+
+# --- usage errors: one line, exit 2, for every command ----------------------------------
+
+@pytest.mark.parametrize("name", commands())
+def test_unknown_option_is_one_line(name):
+    line = one_line(run_cli(name, "--no-such-option", exit_code=None), 2, f"plantlod {name}: error:")
+    assert "--no-such-option" in line and f"'plantlod {name} --help'" in line
+
+
+@pytest.mark.parametrize("name", commands())
+def test_missing_argument_is_one_line(name):
+    result = run_cli(name, exit_code=None)
+    one_line(result, 2, f"plantlod {name}: error:")
+
+
+def test_unknown_command_is_one_line():
+    one_line(run_cli("nosuch", exit_code=None), 2, "plantlod: error: No such command")
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (("simulate", STALK8, "--dt", "nan", "--steps", "3"), "'--dt': 'nan' is not a finite"),
+    (("simulate", STALK8, "--dt", "inf", "--steps", "3"), "not a finite"),
+    (("simulate", STALK8, "--dt", "1e-320", "--duration", "10"), "smallest time step"),
+    (("simulate", STALK8, "--dt", "1e-9", "--duration", "1e308"), "the limit of one run"),
+    (("simulate", STALK8, "--dt", "0.01", "--steps", "1" + "0" * 30), "too large"),
+    (("simulate", STALK8, "--dt", "0.01", "--steps", "3", "--wind-direction", "45"),
+     "--wind-direction applies to --wind-speed"),
+    (("simulate", STALK8, "--dt", "0.01", "--steps", "3", "--gust-seed", "4"),
+     "--gust-seed applies to gusts"),
+    (("compare", STALK8, STALK8, *SIM, "--max-amplitude-error", "nan"), "not a finite"),
+    (("compare", STALK8, STALK8, *SIM, "--max-tip-error", "inf"), "not a finite"),
+    (("derive", STALK8, "-n", "99999999999999999999999"), "too large"),
+    (("derive", STALK8, "-n", "10001"), "more than the limit of 10,000 steps"),
+])
+def test_bad_option_values(args, fragment):
+    one_line(run_cli(*args, exit_code=None), 2, fragment)
+
+
+def test_zero_wind_warns_but_runs():
+    result = run_cli("simulate", STALK8, "--dt", "0.01", "--steps", "3")
+    assert "warning: the wind is zero" in result.stderr
+    assert run_cli("simulate", STALK8, "--dt", "0.01", "--steps", "3", "--wind-speed", "0"
+                   ).stderr.count("warning: the wind is zero") == 1
+    assert "wind is zero" not in run_cli("simulate", STALK8, *SIM).stderr
+
+
+def test_refused_run_prints_no_pending_warning():
+    # zero wind (a warning) and an unstable dt (the error): one line, the error
+    one_line(run_cli("simulate", STALK8, "--dt", "250", "--steps", "3", exit_code=None), 2,
+             "time step too large")
+
+
+# --- output that cannot be written: exit 1, one line, nothing left ----------------------
+
+def test_dev_full_as_output():
+    one_line(run_cli("derive", STALK8, "-o", "/dev/full", exit_code=None), 1,
+             "cannot write /dev/full: No space left on device")
+
+
+@pytest.mark.parametrize("code, reason", [(errno.EROFS, "Read-only file system"),
+                                          (errno.EACCES, "Permission denied")])
+def test_unwritable_directory(tmp_path, monkeypatch, code, reason):
+    import tempfile
+
+    def refuse(*args, **kwargs):
+        raise OSError(code, os.strerror(code))
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    one_line(run_cli("derive", STALK8, "-o", str(tmp_path / "t.jsonl"), exit_code=None), 1,
+             f"t.jsonl: {reason}")
+    assert os.listdir(tmp_path) == []
+
+
+def test_disk_full_while_writing_leaves_nothing(tmp_path, monkeypatch):
+    import plantlod.cli.io as cli_io
+
+    real = cli_io._open_stream
+
+    class Full:
+        def __init__(self, stream):
+            self.stream = stream
+
+        def write(self, text):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.stream.close()
+
+    monkeypatch.setattr(cli_io, "_open_stream", lambda target, binary: Full(real(target, binary)))
+    for args in (("derive", STALK8), ("simulate", STALK8, *SIM)):
+        one_line(run_cli(*args, "-o", str(tmp_path / "out"), exit_code=None), 1,
+                 "No space left on device")
+    assert os.listdir(tmp_path) == []
+
+
+def test_internal_error_is_one_line(monkeypatch):
+    import plantlod.lsys.build as build
+
+    def broken(*args, **kwargs):
+        raise ValueError("boom\nsecond line")
+    monkeypatch.setattr(build, "build", broken)
+    line = one_line(run_cli("derive", STALK8, exit_code=None), 1, "internal error: ValueError")
+    assert "boom second line" in line and "PLANTLOD_DEBUG" in line
+    monkeypatch.setenv("PLANTLOD_DEBUG", "1")
+    assert "Traceback" in run_cli("derive", STALK8, exit_code=None).stderr
+
+
+def test_closed_and_full_stdout_exit_1():
+    for redirect, reason in ((">&-", "standard output is closed"),
+                             ("> /dev/full", "cannot write standard output: No space left")):
+        done = subprocess.run(["bash", "-c", f"{PLANTLOD} derive {STALK8} {redirect}"], cwd=ROOT,
+                              capture_output=True, text=True, timeout=120)
+        assert done.returncode == 1, done.stderr
+        assert done.stderr.splitlines() == [f"plantlod derive: error: {reason}"
+                                            + ("; give -o FILE or redirect it" if "closed" in reason
+                                               else " on device")]
+
+
+# --- signals: 128 + n, and the temporary file removed -------------------------------------
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
+def test_signal_mid_run_removes_the_temporary_file(tmp_path, signum):
+    out = tmp_path / "big.csv"
+    proc = subprocess.Popen([PLANTLOD, "simulate", str(ROOT / STALK8), "--dt", "0.01",
+                             "--steps", "100000000", "--wind-speed", "5", "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    proc.send_signal(signum)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signum, stderr
+    assert "Traceback" not in stderr and len(stderr.splitlines()) == 1
+    assert os.listdir(tmp_path) == []
+
+
+# --- random argument lists ---------------------------------------------------------------
+
+TOKENS = st.sampled_from([
+    "derive", "simulate", "simplify", "compare", STALK8, "examples", "no-such.lsys", "-",
+    "--dt", "0.01", "-1", "nan", "1e-320", "1e400", "--steps", "2", "0", "--duration", "0.02",
+    "--wind", "1,0,0", "1,nan,0", "--wind-speed", "3", "--wind-direction", "90", "--every",
+    "--gust-strength", "0.3", "--gust-seed", "-o", "/dev/null", "--format", "string", "-n",
+    "--max-modules", "1", "--level", "1", "--json", "--window", "0,", "--at", "--obj",
+    "--plot-at", "--angles", "--atol", "--damping", "1.5", "--degrees", "x", "",
+])
+
+
+@settings(max_examples=120, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.lists(TOKENS, min_size=1, max_size=9))
+def test_random_arguments_follow_the_discipline(args):
+    if "simplify" in args and "--dt" not in args:
+        args = args + ["--dt", "0.05"]          # keep simplify's own runs short
+    args += ["--duration", "0.02"] if "simplify" in args else []
+    result = run_cli(*args, exit_code=None)
+    assert result.exit_code in (0, 1, 2), (args, result.exit_code, result.stderr)
+    assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
+    if result.exit_code:
+        assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
