@@ -208,3 +208,29 @@ def test_random_arguments_follow_the_discipline(args):
     assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
     if result.exit_code:
         assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
+
+
+OPTION_VALUES = st.sampled_from([
+    ("--dt", "0.01"), ("--dt", "1e-320"), ("--dt", "nan"), ("--steps", "2"), ("--steps", "-1"),
+    ("--duration", "0.02"), ("--duration", "inf"), ("--wind", "1,0,0"), ("--wind", "1,2"),
+    ("--wind-speed", "3"), ("--wind-speed", "0"), ("--wind-direction", "90"), ("--every", "2"),
+    ("--gust-strength", "0.3"), ("--gust-seed", "7"), ("--damping", "1.5"), ("--damping", "2"),
+    ("-o", "/dev/full"), ("-o", "/dev/null"), ("-o", "no/such/dir/x"), ("--format", "string"),
+    ("-n", "2"), ("-n", "20000"), ("--max-modules", "3"), ("--level", "1"), ("--level", "9"),
+    ("--json",), ("--window", "0,"), ("--window", "nan,1"), ("--at", "0.01"), ("--at", "99"),
+    ("--obj", "/dev/null"), ("--plot-at", "0"), ("--atol", "1e-9"), ("--degrees",),
+    ("--max-amplitude-error", "0"), ("--wind-file", "no-such.csv"), ("--wind-file", STALK8),
+])
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.sampled_from(["derive", "simulate", "compare"]), st.lists(OPTION_VALUES, max_size=5))
+def test_random_options_of_a_real_command_follow_the_discipline(command, options):
+    args = [command, STALK8] + ([STALK8] if command == "compare" else [])
+    args += [token for option in options for token in option]
+    result = run_cli(*args, exit_code=None)
+    assert result.exit_code in (0, 1, 2), (args, result.exit_code, result.stderr)
+    assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
+    if result.exit_code:
+        assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
