@@ -203,8 +203,10 @@ def _check_angles_mode(ctx, simplified) -> None:
 
 def _read_csv(path: str, degrees: bool):
     from plantlod.formats.angles_csv import read_angles_csv
+    from plantlod.formats.constants import MAX_CSV_LINE_BYTES
 
-    return read_angles_csv(io.StringIO(read_text(path)), display_name(path), degrees=degrees)
+    return read_angles_csv(io.StringIO(read_text(path, MAX_CSV_LINE_BYTES)), display_name(path),
+                           degrees=degrees)
 
 
 def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):

@@ -584,6 +584,9 @@ class _FileParser:
             if word in _DECLARATIONS:
                 raise cur.error(f"'{word}' is not a header key; expected '{word} ' followed by "
                                 f"{'a name' if word == 'define' else 'a symbol'}")
+            if _has_arrow(line[after:]):
+                raise cur.error(f"'{word}:' before a production looks like ABOP's production "
+                                "label; expected the production alone (delete the label)")
             raise cur.error(f"unknown header key '{word}'"
                             f"{_suggest(word, HEADER_KEYS + ('axiom',) + SECTIONS)}; "
                             f"expected one of {', '.join(HEADER_KEYS)}")

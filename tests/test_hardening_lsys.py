@@ -335,3 +335,9 @@ def test_random_json_rows_raise_only_input_error(text):
         read_tree(io.StringIO(text), "t.jsonl")
     except InputError as exc:
         assert "\n" not in str(exc)
+
+
+def test_abop_production_label_is_named():
+    with pytest.raises(InputError, match="production label") as info:
+        system("axiom: F\nproductions:\n  p1: F -> FF\n")
+    assert (info.value.line, info.value.col) == (HEAD_LINES + 3, 3)
