@@ -18,7 +18,7 @@ import click
 from plantlod.simplify.constants import DEFAULT_PLOT_TIME
 from plantlod.lsys.errors import InputError, RunFailure
 
-from .io import display_name, open_output, read_text, say, warn
+from .io import check_output_path, display_name, open_output, read_text, say, warn
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
@@ -133,6 +133,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
+    for path in (output, plot_path):
+        check_output_path(path)
 
     sides = [(original, original_angles, original_n)]
     sides += [(s, simplified_angles[i] if simplified_angles else None,
@@ -148,9 +150,13 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
               "tip_error": max_tip_error}
     violations = [check_bounds(c.report, bounds) for c in comparisons]
 
+    # Everything that can still refuse the run (times outside it, the picture) comes
+    # before the first output is written.
+    pictures = (_prepare_pictures(runs, at_times, plot_path, plot_at, comparisons)
+                if obj_dir is not None or plot_path is not None else None)
     _write_report(comparisons, bounds, violations, as_json, output)
-    if obj_dir is not None or plot_path is not None:
-        _write_pictures(runs, obj_dir, at_times, every, plot_path, plot_at, comparisons)
+    if pictures is not None:
+        _write_pictures(runs, obj_dir, every, plot_path, pictures)
     for comp in comparisons:
         _summarise(comp)
     broken = [v.describe(c.simplified.name) for c, vs in zip(comparisons, violations) for v in vs]
@@ -272,34 +278,19 @@ def _sample_index(times, t: float, option: str) -> int:
     return k
 
 
-def _write_pictures(runs, obj_dir, at_times, every, plot_path, plot_at, comparisons) -> None:
-    from plantlod.formats.obj import obj_text, posed_meshes, rest_layout
+def _prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
+    """Check every picture time against the run and render the PNG, before anything is written.
+
+    Returns (offsets, [(t, sample index)] for --at, the PNG bytes or None).
+    """
+    from plantlod.formats.obj import rest_layout
     from plantlod.sim.kinematics import rest_height
 
     trees = [r.tree for r in runs]
-    names = ["original"] + [f"simplified_{i}" for i in range(1, len(runs))]
     offsets = rest_layout(trees, [rest_height(t) for t in trees])
     times = runs[0].times
-
-    def frame(k: int) -> str:
-        meshes = posed_meshes(trees, names, [r.bend[k] for r in runs], [r.rot[k] for r in runs],
-                              offsets)
-        return obj_text(meshes)
-
-    written = 0
-    if obj_dir is not None:
-        os.makedirs(obj_dir, exist_ok=True)    # created only once every run succeeded
-    for t in at_times:
-        with open_output(os.path.join(obj_dir, f"frame_t{t:g}.obj")) as out:
-            out.write(frame(_sample_index(times, t, "--at")))
-        written += 1
-    if every is not None:
-        for number, k in enumerate(range(0, len(times), every)):
-            with open_output(os.path.join(obj_dir, f"frame_{number:05d}.obj")) as out:
-                out.write(frame(k))
-            written += 1
-    if obj_dir is not None:
-        say(f"compare: wrote {written} OBJ file(s) to {obj_dir}")
+    at_frames = [(t, _sample_index(times, t, "--at")) for t in at_times]
+    png = None
     if plot_path is not None:
         from plantlod.formats.plot import plot_comparison
 
@@ -311,10 +302,40 @@ def _write_pictures(runs, obj_dir, at_times, every, plot_path, plot_at, comparis
         png = plot_comparison(comparisons, trees, [os.path.basename(r.name) for r in runs],
                               [r.bend[k] for r in runs], [r.rot[k] for r in runs], offsets,
                               float(times[k]))
+    return offsets, at_frames, png
+
+
+def _write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
+    from plantlod.formats.obj import obj_text, posed_meshes
+
+    offsets, at_frames, png = pictures
+    trees = [r.tree for r in runs]
+    names = ["original"] + [f"simplified_{i}" for i in range(1, len(runs))]
+    times = runs[0].times
+
+    def frame(k: int) -> str:
+        meshes = posed_meshes(trees, names, [r.bend[k] for r in runs], [r.rot[k] for r in runs],
+                              offsets)
+        return obj_text(meshes)
+
+    written = 0
+    if obj_dir is not None:
+        os.makedirs(obj_dir, exist_ok=True)    # created only once every run succeeded
+    for t, k in at_frames:
+        with open_output(os.path.join(obj_dir, f"frame_t{t:g}.obj")) as out:
+            out.write(frame(k))
+        written += 1
+    if every is not None:
+        for number, k in enumerate(range(0, len(times), every)):
+            with open_output(os.path.join(obj_dir, f"frame_{number:05d}.obj")) as out:
+                out.write(frame(k))
+            written += 1
+    if obj_dir is not None:
+        say(f"compare: wrote {written} OBJ file(s) to {obj_dir}")
+    if png is not None:
         with open_output(plot_path, binary=True) as out:
             out.write(png)
         say(f"compare: wrote {plot_path}")
-
 
 
 def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, as_json: bool,

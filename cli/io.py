@@ -92,6 +92,16 @@ def _usual_file_mode() -> int:
     return 0o666 & ~umask
 
 
+def check_output_path(path: str | None) -> None:
+    """Refuse now what `open_output` would refuse later (a missing directory, a directory
+    as the target), so that a command can check every output before writing the first."""
+    if path is None or path == "-":
+        return
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise InputError("output directory does not exist", path)
+    _special_target(path)
+
+
 @contextlib.contextmanager
 def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
     """A stream for ``path``: stdout for None or ``-``, else an atomic file.
@@ -114,9 +124,8 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             yield out
             out.flush()
         return
+    check_output_path(path)
     directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise InputError("output directory does not exist", path)
     if _special_target(path):
         with _write_errors(path), _open_stream(path, binary) as out:
             yield out

@@ -234,3 +234,18 @@ def test_random_options_of_a_real_command_follow_the_discipline(command, options
     assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
     if result.exit_code:
         assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    (("--obj", "{tmp}/frames", "--at", "99"), "--at 99 s is outside the run"),
+    (("--plot", "{tmp}/p.png", "--plot-at", "99"), "--plot-at 99 s is outside the run"),
+    (("--plot", "{tmp}/no/such/p.png"), "output directory does not exist"),
+    (("--obj", "{tmp}/frames", "--at", "0.01,99"), "--at 99 s is outside the run"),
+])
+def test_compare_validates_everything_before_writing(tmp_path, extra, fragment):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "report.txt"
+    args = ["compare", STALK8, STALK8, *SIM, "-o", str(out)]
+    args += [a.format(tmp=tmp_path) for a in extra]
+    one_line(run_cli(*args, exit_code=None), 2, fragment)
+    assert os.listdir(tmp_path) == []
