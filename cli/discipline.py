@@ -136,7 +136,7 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
         return 128 + signal.SIGINT, f"{where}: interrupted"
     if isinstance(exc, InputError) and exc.file:
         loc = ":".join(str(p) for p in (exc.file, exc.line, exc.col) if p is not None)
-        return 2, f"{loc}: error: {_one_line(exc.message)}"
+        return 2, f"{_one_line(loc)}: error: {_one_line(exc.message)}"
     if isinstance(exc, PlantlodError):
         return exc.exit_code, f"{where}: error: {_one_line(str(exc))}"
     if isinstance(exc, KeyboardInterrupt):
@@ -161,7 +161,9 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
 
 
 def _one_line(text: str) -> str:
-    return " ".join(text.split())
+    """``text`` on one line, control characters (a NUL read from a file) escaped."""
+    text = " ".join(str(text).split())
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:

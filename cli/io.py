@@ -97,6 +97,8 @@ def check_output_path(path: str | None) -> None:
     as the target), so that a command can check every output before writing the first."""
     if path is None or path == "-":
         return
+    if not path:
+        raise InputError("the output file name is empty; expected -o FILE or -o - for stdout")
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
     _special_target(path)

@@ -451,6 +451,12 @@ def _assemble(system, derived, codes, kind, value, has_param, scopes, turns, rol
     q_rel, offset, current = state_before(query_parent[:len(branches)])
     parent_branch = np.where(current >= 0, branch_number[np.maximum(current, 0)], -1)
     euler = np.stack(zyz_from_matrix(q_rel), axis=-1).reshape(len(branches), 3)
+    unplaced = ~(np.isfinite(euler).all(axis=1) & np.isfinite(offset).all(axis=1))
+    if unplaced.any():
+        address = derived.address_strings([branches[int(np.flatnonzero(unplaced)[0])]])[0]
+        raise InputError(f"the branch at address {address} has a position or orientation that "
+                         "is not a finite number (moves or lengths too large); expected "
+                         "smaller f(l) and lengths", system.source)
 
     leaf_rel, _, leaf_current = state_before(query_parent[len(branches):])
     kept = leaf_current >= 0

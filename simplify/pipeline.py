@@ -61,6 +61,17 @@ class Options:
     every: int = SIMPLIFY_EVERY
     max_evaluations: int = CALIBRATION_EVALUATIONS
 
+    def __post_init__(self) -> None:
+        from plantlod.lsys.errors import InputError
+        from plantlod.sim.constants import MAX_TIME_STEPS, MIN_TIME_STEP
+
+        if not MIN_TIME_STEP <= self.dt < math.inf:
+            raise InputError(f"--dt {self.dt:g} s: expected a time step of at least "
+                             f"{MIN_TIME_STEP:g} s")
+        if not 0 <= self.duration / self.dt <= MAX_TIME_STEPS:
+            raise InputError(f"--duration {self.duration:g} / --dt {self.dt:g} gives more than "
+                             f"{MAX_TIME_STEPS:,} steps, the limit of one run")
+
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
 
