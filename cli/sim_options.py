@@ -136,13 +136,14 @@ class SimulationSettings:
                 vector = tuple(wind_vector)
             wind = ConstantWind(vector)
             description = "wind ({:g}, {:g}, {:g}) m/s".format(*vector)
-        if gust_strength > 0:
-            wind = GustyWind(wind, seed=gust_seed, strength=gust_strength)
-            description += f", gusts {gust_strength:g} (seed {gust_seed})"
-        if wind_file is None and not any(wind.sample([0.0])[0]):
+        keys = wind.vectors if isinstance(wind, KeyframeWind) else wind.sample([0.0])
+        if not keys.any():
             from .io import warn_once_running
             warn_once_running("the wind is zero, so the tree stays at rest; give --wind-speed S, "
                  "--wind VX,VY,VZ or --wind-file")
+        if gust_strength > 0:
+            wind = GustyWind(wind, seed=gust_seed, strength=gust_strength)
+            description += f", gusts {gust_strength:g} (seed {gust_seed})"
         return cls(dt=dt, steps=steps, wind=wind, damping=damping, description=description)
 
 
