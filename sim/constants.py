@@ -12,3 +12,6 @@ SIM_STEPS_PER_CALL = 1 << 16  # kernel steps per call at most (bounds wind sampl
 # --- limits of a run (docs/errors.md, "Limits") --------------------------------------
 MIN_TIME_STEP = 1e-9          # s; a smaller --dt is refused (1e-320 overflowed the step count)
 MAX_TIME_STEPS = 10**10       # steps of one run, --steps or round(--duration / --dt)
+
+# --- the lanes engine (sim/lanes.py, docs/engine.md) --------------------------------
+THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine (default: all cores)
