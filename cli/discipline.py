@@ -37,6 +37,7 @@ from plantlod.lsys.errors import InputError, PlantlodError
 CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
                        if hasattr(signal, name))
 INT64_MAX = 2**63 - 1
+MAX_ERROR_CHARS = 1000       # an error message longer than this is cut
 DEBUG_VARIABLE = "PLANTLOD_DEBUG"
 
 
@@ -161,25 +162,29 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
 
 
 def _one_line(text: str) -> str:
-    """``text`` on one line, control characters (a NUL read from a file) escaped."""
+    """``text`` on one line, control characters (a NUL read from a file) escaped, cut
+    to MAX_ERROR_CHARS."""
     text = " ".join(str(text).split())
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return text if len(text) <= MAX_ERROR_CHARS else text[:MAX_ERROR_CHARS - 1] + "…"
 
 
 def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
     """Run ``call`` (a click main in non-standalone mode); map its end to an exit code."""
-    from .io import drop_pending_warnings, flush_pending_warnings
+    from .io import drop_pending_warnings, end_warnings, flush_pending_warnings
 
     drop_pending_warnings()
     try:
         result = call()
         flush_pending_warnings()
+        end_warnings()
         _flush_stdout()
         return result if isinstance(result, int) else 0
     except BaseException as exc:     # noqa: BLE001 -- the one place every failure ends
         if isinstance(exc, SystemExit):
             raise
         drop_pending_warnings()
+        end_warnings()
         code, line = describe_failure(exc, prog)
         if code != 0 and os.environ.get(DEBUG_VARIABLE) and not isinstance(exc, click.exceptions.Exit):
             import traceback

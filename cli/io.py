@@ -38,8 +38,28 @@ def say(message: str) -> None:
     console().print(message, markup=False)
 
 
+MAX_WARNINGS = 20            # warnings shown per command; the rest are counted
+MAX_MESSAGE_CHARS = 400      # a longer warning is cut (an address of 400,000 parts)
+_shown = {"warnings": 0, "hidden": 0}
+
+
 def warn(message: str) -> None:
-    say(f"warning: {message}")
+    """One warning line on stderr; at most MAX_WARNINGS per command, each cut to a line."""
+    if _shown["warnings"] >= MAX_WARNINGS:
+        _shown["hidden"] += 1
+        return
+    _shown["warnings"] += 1
+    text = " ".join(message.split())
+    if len(text) > MAX_MESSAGE_CHARS:
+        text = text[:MAX_MESSAGE_CHARS - 1] + "…"
+    say(f"warning: {text}")
+
+
+def end_warnings() -> None:
+    """Say how many warnings were not shown, and start counting again (next command)."""
+    if _shown["hidden"]:
+        say(f"warning: {_shown['hidden']:,} more warnings not shown")
+    _shown.update(warnings=0, hidden=0)
 
 
 _pending: list[str] = []

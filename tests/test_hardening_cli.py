@@ -249,3 +249,15 @@ def test_compare_validates_everything_before_writing(tmp_path, extra, fragment):
     args += [a.format(tmp=tmp_path) for a in extra]
     one_line(run_cli(*args, exit_code=None), 2, fragment)
     assert os.listdir(tmp_path) == []
+
+
+def test_many_warnings_are_capped(tmp_path):
+    head = open(ROOT / STALK8, encoding="utf-8").read()
+    lines = "\n".join(f"  {i}.0.0.0: length=2" for i in range(1, 200))   # 1.0.0.0 is the leaf
+    long_address = ".".join(["0"] * 50_000)
+    path = tmp_path / "ov.lsys"
+    path.write_text(f"{head}overrides:\n{lines}\n  {long_address}: length=3\n", encoding="utf-8")
+    result = run_cli("derive", str(path), "-o", os.devnull)
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 6 and "194 more overrides match no" in warnings[-1]
+    assert max(map(len, result.stderr.splitlines())) < 500
