@@ -9,6 +9,7 @@ succeeds, so a failed run never leaves a partial file behind.
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import os
 import stat
@@ -100,6 +101,8 @@ def _special_target(path: str) -> bool:
         mode = os.stat(path).st_mode
     except (FileNotFoundError, NotADirectoryError):
         return False
+    except OSError as exc:                    # a name too long, a loop of links
+        raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
     if stat.S_ISDIR(mode):
         raise InputError("is a directory; expected the name of a file to write", path)
     return not stat.S_ISREG(mode)
@@ -188,7 +191,12 @@ def _write_errors(name: str) -> Iterator[None]:
         raise
     except OSError as exc:
         reason = exc.strerror or str(exc)
+        if exc.errno in _BAD_NAME_ERRORS:      # the name given is wrong: bad input
+            raise InputError(f"cannot write: {reason}", name) from None
         raise RunFailure(f"cannot write {name}: {reason}") from None
+
+
+_BAD_NAME_ERRORS = {errno.ENAMETOOLONG, errno.ENOTDIR, errno.ENOENT, errno.EISDIR}
 
 
 def _open_stream(target, binary: bool) -> IO:

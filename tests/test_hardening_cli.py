@@ -261,3 +261,9 @@ def test_many_warnings_are_capped(tmp_path):
     warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
     assert len(warnings) == 6 and "194 more overrides match no" in warnings[-1]
     assert max(map(len, result.stderr.splitlines())) < 500
+
+
+def test_output_name_too_long_is_bad_input(tmp_path):
+    one_line(run_cli("derive", STALK8, "-o", str(tmp_path / ("x" * 300)), exit_code=None), 2,
+             "cannot write: File name too long")
+    no_temporary_files(tmp_path)
