@@ -267,3 +267,8 @@ def test_output_name_too_long_is_bad_input(tmp_path):
     one_line(run_cli("derive", STALK8, "-o", str(tmp_path / ("x" * 300)), exit_code=None), 2,
              "cannot write: File name too long")
     no_temporary_files(tmp_path)
+
+
+def test_compare_refuses_a_run_too_big_for_memory():
+    one_line(run_cli("compare", STALK8, STALK8, "--dt", "1e-6", "--steps", "9999999999",
+                     "--wind-speed", "1", exit_code=None), 2, "GB of angles in memory")
