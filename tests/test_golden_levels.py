@@ -33,7 +33,7 @@ import shutil
 
 import pytest
 
-from golden_util import ROOT, assert_golden, golden_path, run_cli
+from golden_util import ROOT, assert_golden, golden_path, regenerating, run_cli, same_but_numbers
 
 STALK_K_FP = 0.7           # stalk8.lsys: force_propagated
 STALK_BRANCHES = 8         # 2^3 branches of 1 m
@@ -56,6 +56,11 @@ COMPARE_GOLDEN = "levels/compare_stalk8_l1_derived_w5.json"
 # The JSON keeps 10 significant digits; the kernel and the reference model agree to
 # about 1e-12 relative on this run, so the figures must agree to the JSON's rounding.
 JSON_REL = 1e-8
+# Fitted values of the branching files: agreement expected across scipy/BLAS builds.
+OPTIMISER_REL = 1e-4
+# The header's error figures (3 decimals of a per cent) measured on those values
+# move a little more: a worst amplitude error of 35.904 % on one build, 35.899 % on another.
+HEADER_REL = 1e-3
 
 
 def _simplify(example: str, level: int, method: str, *extra: str) -> str:
@@ -89,7 +94,28 @@ def test_simplify_stalk8_golden(level, method):
 @pytest.mark.slow
 @pytest.mark.parametrize("example", sorted(ABOP_LEVEL1_BRANCHES))
 def test_simplify_abop_level1_golden(example):
-    assert_golden(f"levels/{example}_l1_derived.lsys", _simplify(example, 1, "derived"))
+    # The least-squares refinement stops where scipy's trust-region iterations stop;
+    # their last digits (about 1e-7 relative) differ between scipy/BLAS builds, and a
+    # length of 0.0999999999997 is written as an override where 0.1 is not. So the
+    # pinned file is compared as what it means: its header (numbers within
+    # OPTIMISER_REL) and the tree it derives, array by array.
+    name = f"levels/{example}_l1_derived.lsys"
+    text = _simplify(example, 1, "derived")
+    if regenerating() or _pinned(name) == text:
+        assert_golden(name, text)
+        return
+    pinned = _pinned(name)
+    header = lambda s: "".join(line for line in s.splitlines(True) if line.startswith("#"))
+    assert same_but_numbers(header(pinned), header(text), HEADER_REL), \
+        "header differs from the golden file beyond the optimiser's tolerance"
+    want, got = _tree_of(pinned, "golden"), _tree_of(text, "obtained")
+    assert got.n_branches == want.n_branches and got.n_leaves == want.n_leaves
+    for field in ("parent", "length", "radius", "bend_strength", "rotation_strength",
+                  "force_absorbed", "force_propagated", "drag_coefficient", "euler", "offset",
+                  "leaf_branch", "leaf_area", "leaf_normal"):
+        a, b = getattr(want, field), getattr(got, field)
+        scale = max(float(abs(a).max(initial=0.0)), 1e-300)
+        assert abs(a - b).max(initial=0.0) <= OPTIMISER_REL * scale, field
 
 
 def _compare_in(tmp_path) -> str:
