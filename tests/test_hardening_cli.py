@@ -154,6 +154,13 @@ def test_internal_error_is_one_line(monkeypatch):
     assert "Traceback" in run_cli("derive", STALK8, exit_code=None).stderr
 
 
+def test_closed_stdin_is_bad_input():
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} derive - <&-"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        "<stdin>: error: standard input is closed; expected a file name or data on stdin"]
+
+
 def test_closed_and_full_stdout_exit_1():
     for redirect, reason in ((">&-", "standard output is closed"),
                              ("> /dev/full", "cannot write standard output: No space left")):
