@@ -35,8 +35,13 @@ def console():
 
 
 def say(message: str) -> None:
-    """One line for people, on stderr (never markup-interpreted)."""
-    console().print(message, markup=False)
+    """One line for people, on stderr (never markup-interpreted). A stderr that cannot be
+    written (closed, a full disk) loses the line but never fails the command: it is
+    not the command's data."""
+    try:
+        console().print(message, markup=False)
+    except OSError:
+        pass
 
 
 MAX_WARNINGS = 20            # warnings shown per command; the rest are counted

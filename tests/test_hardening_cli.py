@@ -279,3 +279,10 @@ def test_output_name_too_long_is_bad_input(tmp_path):
 def test_compare_refuses_a_run_too_big_for_memory():
     one_line(run_cli("compare", STALK8, STALK8, "--dt", "1e-6", "--steps", "9999999999",
                      "--wind-speed", "1", exit_code=None), 2, "GB of angles in memory")
+
+
+def test_full_stderr_does_not_fail_the_command(tmp_path):
+    out = tmp_path / "t.jsonl"
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} derive {STALK8} -o {out} 2>/dev/full"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and out.exists()
