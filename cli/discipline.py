@@ -115,6 +115,30 @@ def harden_params(command: click.Command) -> click.Command:
     return command
 
 
+# --- options that only work together -------------------------------------------------
+
+def given(ctx: click.Context, name: str) -> bool:
+    """True when the parameter ``name`` was given (command line or environment)."""
+    from click.core import ParameterSource
+
+    return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT)
+
+
+def require_together(ctx: click.Context, needs: dict[str, tuple[str, ...]]) -> None:
+    """An option given without any of the options it needs has no effect: a usage error.
+
+    ``needs`` maps a parameter name to the names of which one must be given with it
+    (``{"evaluations": ("calibrate",)}``).
+    """
+    for name, partners in needs.items():
+        if given(ctx, name) and not any(given(ctx, p) for p in partners):
+            def flag(n: str) -> str:
+                opts = [o for p in ctx.command.params if p.name == n for o in p.opts]
+                return max(opts, key=len) if opts else "--" + n.replace("_", "-")
+            raise click.UsageError(f"{flag(name)} has no effect without "
+                                   f"{' or '.join(flag(p) for p in partners)}", ctx)
+
+
 # --- the exit codes ------------------------------------------------------------------
 
 def _command_name(exc: BaseException, fallback: str) -> str:

@@ -286,3 +286,13 @@ def test_full_stderr_does_not_fail_the_command(tmp_path):
     done = subprocess.run(["bash", "-c", f"{PLANTLOD} derive {STALK8} -o {out} 2>/dev/full"],
                           cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and out.exists()
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (("compare", STALK8, STALK8, *SIM, "--degrees"),
+     "--degrees has no effect without --original-angles or --simplified-angles or --angles"),
+    (("simplify", STALK8, "--level", "1", "--evaluations", "5"),
+     "--evaluations has no effect without --calibrate"),
+])
+def test_options_without_effect_are_usage_errors(args, fragment):
+    one_line(run_cli(*args, exit_code=None), 2, fragment)
