@@ -18,6 +18,7 @@ import click
 from plantlod.simplify.constants import DEFAULT_PLOT_TIME
 from plantlod.lsys.errors import InputError, RunFailure
 
+from .discipline import given, require_together
 from .io import check_output_path, display_name, open_output, read_text, say, warn
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
@@ -110,6 +111,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
       plantlod compare tree.jsonl l1.tree.jsonl --original-angles a.csv --simplified-angles b.csv --json
       plantlod compare --angles golden.csv new.csv --atol 1e-9
     """
+    require_together(ctx, {"degrees": ("original_angles", "simplified_angles", "angles_mode")})
     if angles_mode:
         _check_angles_mode(ctx, simplified)
         _compare_csvs(original, simplified[0], degrees, atol, as_json, output)
@@ -172,19 +174,13 @@ def _check_pairs(simplified, values, option: str) -> None:
                                f"SIMPLIFIED file(s); give it once per SIMPLIFIED, in order")
 
 
-def _given(ctx, name: str) -> bool:
-    from click.core import ParameterSource
-
-    return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT)
-
-
 def _settings_if_needed(ctx, sides, sim_kwargs):
     """The simulation settings when some side has no angle CSV; None (and no options) otherwise."""
     needed = [path for path, csv, _n in sides if csv is None]
     if not needed:
-        given = [p for p in SIMULATION_PARAMS if _given(ctx, p)]
-        if given:
-            raise click.UsageError(f"--{given[0].replace('_', '-')} applies only when a side is "
+        extra = [p for p in SIMULATION_PARAMS if given(ctx, p)]
+        if extra:
+            raise click.UsageError(f"--{extra[0].replace('_', '-')} applies only when a side is "
                                    f"simulated; every side here comes with an angle CSV")
         return None
     if sim_kwargs.get("dt") is None:
@@ -199,7 +195,7 @@ def _check_angles_mode(ctx, simplified) -> None:
     other = [p for p in ("original_angles", "simplified_angles", "original_n", "simplified_n",
                          "window_text", "max_amplitude_error", "max_period_error", "max_tip_error",
                          "obj_dir", "at_text", "every", "plot_path", "plot_at") + SIMULATION_PARAMS
-             if _given(ctx, p)]
+             if given(ctx, p)]
     if other:
         name = {"window_text": "window", "at_text": "at", "obj_dir": "obj", "plot_path": "plot",
                 "original_n": "derivation-length"}.get(other[0], other[0])

@@ -37,6 +37,7 @@ from plantlod.lsys.errors import InputError, PlantlodError
 CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
                        if hasattr(signal, name))
 INT64_MAX = 2**63 - 1
+MAX_ERROR_CHARS = 1000       # an error message longer than this is cut
 DEBUG_VARIABLE = "PLANTLOD_DEBUG"
 
 
@@ -114,6 +115,30 @@ def harden_params(command: click.Command) -> click.Command:
     return command
 
 
+# --- options that only work together -------------------------------------------------
+
+def given(ctx: click.Context, name: str) -> bool:
+    """True when the parameter ``name`` was given (command line or environment)."""
+    from click.core import ParameterSource
+
+    return ctx.get_parameter_source(name) not in (None, ParameterSource.DEFAULT)
+
+
+def require_together(ctx: click.Context, needs: dict[str, tuple[str, ...]]) -> None:
+    """An option given without any of the options it needs has no effect: a usage error.
+
+    ``needs`` maps a parameter name to the names of which one must be given with it
+    (``{"evaluations": ("calibrate",)}``).
+    """
+    for name, partners in needs.items():
+        if given(ctx, name) and not any(given(ctx, p) for p in partners):
+            def flag(n: str) -> str:
+                opts = [o for p in ctx.command.params if p.name == n for o in p.opts]
+                return max(opts, key=len) if opts else "--" + n.replace("_", "-")
+            raise click.UsageError(f"{flag(name)} has no effect without "
+                                   f"{' or '.join(flag(p) for p in partners)}", ctx)
+
+
 # --- the exit codes ------------------------------------------------------------------
 
 def _command_name(exc: BaseException, fallback: str) -> str:
@@ -161,25 +186,29 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
 
 
 def _one_line(text: str) -> str:
-    """``text`` on one line, control characters (a NUL read from a file) escaped."""
+    """``text`` on one line, control characters (a NUL read from a file) escaped, cut
+    to MAX_ERROR_CHARS."""
     text = " ".join(str(text).split())
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return text if len(text) <= MAX_ERROR_CHARS else text[:MAX_ERROR_CHARS - 1] + "…"
 
 
 def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
     """Run ``call`` (a click main in non-standalone mode); map its end to an exit code."""
-    from .io import drop_pending_warnings, flush_pending_warnings
+    from .io import drop_pending_warnings, end_warnings, flush_pending_warnings
 
     drop_pending_warnings()
     try:
         result = call()
         flush_pending_warnings()
+        end_warnings()
         _flush_stdout()
         return result if isinstance(result, int) else 0
     except BaseException as exc:     # noqa: BLE001 -- the one place every failure ends
         if isinstance(exc, SystemExit):
             raise
         drop_pending_warnings()
+        end_warnings()
         code, line = describe_failure(exc, prog)
         if code != 0 and os.environ.get(DEBUG_VARIABLE) and not isinstance(exc, click.exceptions.Exit):
             import traceback

@@ -9,6 +9,7 @@ succeeds, so a failed run never leaves a partial file behind.
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import os
 import stat
@@ -34,12 +35,37 @@ def console():
 
 
 def say(message: str) -> None:
-    """One line for people, on stderr (never markup-interpreted)."""
-    console().print(message, markup=False)
+    """One line for people, on stderr (never markup-interpreted). A stderr that cannot be
+    written (closed, a full disk) loses the line but never fails the command: it is
+    not the command's data."""
+    try:
+        console().print(message, markup=False)
+    except OSError:
+        pass
+
+
+MAX_WARNINGS = 20            # warnings shown per command; the rest are counted
+MAX_MESSAGE_CHARS = 400      # a longer warning is cut (an address of 400,000 parts)
+_shown = {"warnings": 0, "hidden": 0}
 
 
 def warn(message: str) -> None:
-    say(f"warning: {message}")
+    """One warning line on stderr; at most MAX_WARNINGS per command, each cut to a line."""
+    if _shown["warnings"] >= MAX_WARNINGS:
+        _shown["hidden"] += 1
+        return
+    _shown["warnings"] += 1
+    text = " ".join(message.split())
+    if len(text) > MAX_MESSAGE_CHARS:
+        text = text[:MAX_MESSAGE_CHARS - 1] + "…"
+    say(f"warning: {text}")
+
+
+def end_warnings() -> None:
+    """Say how many warnings were not shown, and start counting again (next command)."""
+    if _shown["hidden"]:
+        say(f"warning: {_shown['hidden']:,} more warnings not shown")
+    _shown.update(warnings=0, hidden=0)
 
 
 _pending: list[str] = []
@@ -80,6 +106,8 @@ def _special_target(path: str) -> bool:
         mode = os.stat(path).st_mode
     except (FileNotFoundError, NotADirectoryError):
         return False
+    except OSError as exc:                    # a name too long, a loop of links
+        raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
     if stat.S_ISDIR(mode):
         raise InputError("is a directory; expected the name of a file to write", path)
     return not stat.S_ISREG(mode)
@@ -168,7 +196,12 @@ def _write_errors(name: str) -> Iterator[None]:
         raise
     except OSError as exc:
         reason = exc.strerror or str(exc)
+        if exc.errno in _BAD_NAME_ERRORS:      # the name given is wrong: bad input
+            raise InputError(f"cannot write: {reason}", name) from None
         raise RunFailure(f"cannot write {name}: {reason}") from None
+
+
+_BAD_NAME_ERRORS = {errno.ENAMETOOLONG, errno.ENOTDIR, errno.ENOENT, errno.EISDIR}
 
 
 def _open_stream(target, binary: bool) -> IO:

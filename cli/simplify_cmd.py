@@ -11,6 +11,7 @@ from plantlod.simplify.constants import (
     CALIBRATION_EVALUATIONS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
 )
 
+from .discipline import require_together
 from .io import display_name, open_output, say
 
 
@@ -67,6 +68,7 @@ def simplify(input_path, output, level, method, calibrate, wind_range, dt, durat
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.simplify.pipeline import Options, simplify as run_simplify
 
+    require_together(click.get_current_context(), {"evaluations": ("calibrate",)})
     system = read_lsys(input_path)
     options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
                       dt=dt, duration=duration, max_evaluations=evaluations)

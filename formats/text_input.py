@@ -31,6 +31,9 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES) -> str:
     name = source_name(path)
     try:
         if path == "-":
+            if sys.stdin is None:
+                raise InputError("standard input is closed; expected a file name or data on stdin",
+                                 name)
             data = _read_capped(sys.stdin.buffer, name, max_line_bytes)
         else:
             with open(path, "rb") as handle:

@@ -200,7 +200,8 @@ def compile_expr(expr: Expr) -> Compiled:
             with np.errstate(all="ignore"):
                 out = fn(*[a(env) for a in args])
             if not np.all(np.isfinite(out)):
-                raise _err(pos, f"{fname}() of a value outside its domain")
+                raise _err(pos, f"{fname}() of a value outside its domain, or a result too "
+                                "large (not a finite real number)")
             return _scalarise(out)
         return call
     raise TypeError(f"not an expression node: {expr!r}")

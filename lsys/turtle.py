@@ -72,8 +72,9 @@ _TURNS = {
 }
 _FIXED_KINDS = {"[": OPEN, "]": CLOSE, "f": MOVE, "!": RADIUS, "$": ROLL}
 
-# How many dropped-leaf addresses a warning lists.
+# How many dropped-leaf addresses (unmatched overrides) a warning lists (warns about).
 _WARN_LIST = 5
+_ADDRESS_PARTS_SHOWN = 12      # parts of a long address shown in a message
 
 
 def build_tree(system: LSystem, derived: DerivedString) -> Tree:
@@ -543,9 +544,20 @@ def _apply_overrides(system, derived, branches, values, leaves, leaf_area) -> No
         _apply_leaf_ordinal_overrides(merged, keys, key_rows, derived.address_array(leaves),
                                       leaf_area)
     unmatched = [a for a in merged if len(a) != width] + [a for a, m in zip(keys, matched) if not m]
-    for address in unmatched:
-        warnings.warn(f"override for address {'.'.join(map(str, address))} matches no "
+    for address in unmatched[:_WARN_LIST]:
+        warnings.warn(f"override for address {_short_address(address)} matches no "
                       "branch or leaf module", stacklevel=3)
+    if len(unmatched) > _WARN_LIST:
+        warnings.warn(f"{len(unmatched) - _WARN_LIST:,} more overrides match no branch or leaf "
+                      "module", stacklevel=3)
+
+
+def _short_address(address: tuple[int, ...]) -> str:
+    """An address for a message: dotted, cut to its first parts when it is very long."""
+    if len(address) <= _ADDRESS_PARTS_SHOWN:
+        return ".".join(map(str, address))
+    head = ".".join(map(str, address[:_ADDRESS_PARTS_SHOWN]))
+    return f"{head}... ({len(address):,} parts)"
 
 
 def _apply_leaf_ordinal_overrides(merged, keys, key_rows, leaf_rows, leaf_area) -> None:
@@ -565,7 +577,7 @@ def _apply_leaf_ordinal_overrides(merged, keys, key_rows, leaf_rows, leaf_area) 
     for k, name, value in wanted:
         hit = (which == k) & (ordinal == int(name[len("area_"):]))
         if not hit.any():
-            warnings.warn(f"override {name} for address {'.'.join(map(str, keys[k]))} matches no "
+            warnings.warn(f"override {name} for address {_short_address(keys[k])} matches no "
                           f"leaf ({int(np.sum(which == k))} attached there)", stacklevel=4)
         leaf_area[hit] = value
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from .constants import SIM_CHUNK_VALUES
 from .constants import SIM_STEPS_PER_CALL
+from .constants import MAX_HELD_ANGLE_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
@@ -109,7 +110,16 @@ def _times(first_row: int, rows: int, every: int, dt: float) -> np.ndarray:
 
 def simulate_arrays(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
                     damping: float = 0.0) -> Samples:
-    """The whole run as one `Samples`: times (m,), bend and rot (m, B), m = steps // every + 1."""
+    """The whole run as one `Samples`: times (m,), bend and rot (m, B), m = steps // every + 1.
+
+    Raises `InputError` before running when the arrays would pass MAX_HELD_ANGLE_BYTES
+    (streaming `simulate` has no such limit)."""
+    held = 2 * (steps // max(every, 1) + 1) * tree.n_branches * 8
+    if held > MAX_HELD_ANGLE_BYTES:
+        raise InputError(f"the run would hold {held / 1e9:,.1f} GB of angles in memory "
+                         f"({steps:,} steps x {tree.n_branches:,} branches), more than the limit "
+                         f"of {MAX_HELD_ANGLE_BYTES / 1e9:g} GB; expected fewer steps or "
+                         "branches (plantlod simulate streams any length to a file)")
     parts = list(simulate(tree, dt, steps, wind, every=every, damping=damping))
     return Samples(np.concatenate([p.times for p in parts]),
                    np.concatenate([p.bend for p in parts]),

@@ -154,6 +154,13 @@ def test_internal_error_is_one_line(monkeypatch):
     assert "Traceback" in run_cli("derive", STALK8, exit_code=None).stderr
 
 
+def test_closed_stdin_is_bad_input():
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} derive - <&-"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        "<stdin>: error: standard input is closed; expected a file name or data on stdin"]
+
+
 def test_closed_and_full_stdout_exit_1():
     for redirect, reason in ((">&-", "standard output is closed"),
                              ("> /dev/full", "cannot write standard output: No space left")):
@@ -249,3 +256,43 @@ def test_compare_validates_everything_before_writing(tmp_path, extra, fragment):
     args += [a.format(tmp=tmp_path) for a in extra]
     one_line(run_cli(*args, exit_code=None), 2, fragment)
     assert os.listdir(tmp_path) == []
+
+
+def test_many_warnings_are_capped(tmp_path):
+    head = open(ROOT / STALK8, encoding="utf-8").read()
+    lines = "\n".join(f"  {i}.0.0.0: length=2" for i in range(1, 200))   # 1.0.0.0 is the leaf
+    long_address = ".".join(["0"] * 50_000)
+    path = tmp_path / "ov.lsys"
+    path.write_text(f"{head}overrides:\n{lines}\n  {long_address}: length=3\n", encoding="utf-8")
+    result = run_cli("derive", str(path), "-o", os.devnull)
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 6 and "194 more overrides match no" in warnings[-1]
+    assert max(map(len, result.stderr.splitlines())) < 500
+
+
+def test_output_name_too_long_is_bad_input(tmp_path):
+    one_line(run_cli("derive", STALK8, "-o", str(tmp_path / ("x" * 300)), exit_code=None), 2,
+             "cannot write: File name too long")
+    no_temporary_files(tmp_path)
+
+
+def test_compare_refuses_a_run_too_big_for_memory():
+    one_line(run_cli("compare", STALK8, STALK8, "--dt", "1e-6", "--steps", "9999999999",
+                     "--wind-speed", "1", exit_code=None), 2, "GB of angles in memory")
+
+
+def test_full_stderr_does_not_fail_the_command(tmp_path):
+    out = tmp_path / "t.jsonl"
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} derive {STALK8} -o {out} 2>/dev/full"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and out.exists()
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (("compare", STALK8, STALK8, *SIM, "--degrees"),
+     "--degrees has no effect without --original-angles or --simplified-angles or --angles"),
+    (("simplify", STALK8, "--level", "1", "--evaluations", "5"),
+     "--evaluations has no effect without --calibrate"),
+])
+def test_options_without_effect_are_usage_errors(args, fragment):
+    one_line(run_cli(*args, exit_code=None), 2, fragment)
