@@ -1,8 +1,8 @@
 """`plantlod compare`: how far simplified trees move from the original (docs/compare.md).
 
 The work is in `plantlod.simplify.compare` (groups, combined angles, report),
-`plantlod.formats.compare_report` (table, JSON), `plantlod.formats.obj` and
-`plantlod.formats.plot`; this module reads the inputs, runs what needs running
+`plantlod.simplify.report` (table, JSON), `plantlod.export.obj` and
+`plantlod.simplify.plot`; this module reads the inputs, runs what needs running
 and writes the outputs.
 """
 
@@ -137,7 +137,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     if plot_at is not None and plot_path is None:
         raise click.UsageError("--plot-at chooses the time of the trees in --plot FILE.png; give --plot too")
     if plot_path is not None:
-        from plantlod.formats.plot import require_matplotlib
+        from plantlod.simplify.plot import require_matplotlib
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
@@ -238,7 +238,7 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
 # --- outputs ---------------------------------------------------------------------------
 
 def _write_report(comparisons, bounds, violations, as_json: bool, output: str | None) -> None:
-    from plantlod.formats import compare_report as fmt
+    from plantlod.simplify import report as fmt
 
     if as_json:
         text = fmt.dumps(fmt.comparison_document(comparisons, bounds, violations))
@@ -286,7 +286,7 @@ def _prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
 
     Returns (offsets, [(t, sample index)] for --at, the PNG bytes or None).
     """
-    from plantlod.formats.obj import rest_layout
+    from plantlod.export.obj import rest_layout
     from plantlod.sim.kinematics import rest_height
 
     trees = [r.tree for r in runs]
@@ -295,7 +295,7 @@ def _prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
     at_frames = [(t, _sample_index(times, t, "--at")) for t in at_times]
     png = None
     if plot_path is not None:
-        from plantlod.formats.plot import plot_comparison
+        from plantlod.simplify.plot import plot_comparison
 
         if plot_at is None:
             t_plot = at_times[0] if at_times else min(DEFAULT_PLOT_TIME, float(times[-1]))
@@ -309,7 +309,7 @@ def _prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
 
 
 def _write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
-    from plantlod.formats.obj import obj_text, posed_meshes
+    from plantlod.export.obj import obj_text, posed_meshes
 
     offsets, at_frames, png = pictures
     trees = [r.tree for r in runs]
@@ -343,7 +343,7 @@ def _write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
 
 def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, as_json: bool,
                   output: str | None) -> None:
-    from plantlod.formats import compare_report as fmt
+    from plantlod.simplify import report as fmt
     from plantlod.simplify.compare import angle_differences
 
     name_a, name_b = display_name(path_a), display_name(path_b)

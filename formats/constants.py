@@ -12,12 +12,6 @@ READ_CHUNK_BYTES = 1 << 20          # read inputs a MiB at a time
 NORMAL_UNIT_TOL = 1e-6        # tree files: leaf normals must be unit length within this
 DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format string`
 
-# --- OBJ frames (formats/obj.py) ---------------------------------------------------------
-OBJ_SIDES = 8                 # sides of a branch tube
-OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without children
-OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
-OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)
-
 # --- output formatting ------------------------------------------------------------
 # Angles and other floats in CSV output: fixed significant digits, so that a
 # last-bit difference in a libm routine on another machine does not change bytes.

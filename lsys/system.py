@@ -161,6 +161,8 @@ class LSystem:
     seed: int = DEFAULT_SEED
     name: str = ""
     source: str = field(default="", compare=False)   # file name, for messages
+    # the header comment a writer puts first (simplify records its errors there); not meaning
+    comment: str = field(default="", compare=False)
 
     def branch_symbol(self, name: str) -> BranchSymbol | None:
         for b in self.branches:

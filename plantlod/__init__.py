@@ -1,17 +1,66 @@
 """plantlod: wind-blown L-system trees with levels of detail.
 
-The public Python API lives here (docs/api.md). The subpackages each own one
-responsibility and import one way, bottom to top:
+    import plantlod
+    system = plantlod.read_lsystem("examples/stalk8.lsys")
+    angles = plantlod.simulate(plantlod.derive(system), wind=(2, 0, 0), dt=0.01, steps=400)
+    level = plantlod.simplify(system, level=1)
+
+The public API (docs/api.md) is loaded on first use (PEP 562), so ``import
+plantlod`` costs almost nothing. The subpackages each own one responsibility and
+import one way, bottom to top (tests/test_package_graph.py keeps it so):
 
     lsys (language) -> sim (dynamics) -> simplify (levels of detail)
-        -> scene (many trees, camera-chosen levels) / export (glTF, USD, pages) -> cli
+        -> scene (many trees, camera-chosen levels) / export (glTF, USD, OBJ, pages)
+        -> plantlod (this API) -> cli (commands)
 
-`formats` reads and writes bytes and depends on no domain logic above `lsys`.
+`formats` reads and writes bytes and imports nothing above `lsys`.
 """
 
+from __future__ import annotations
+
 from importlib.metadata import PackageNotFoundError, version as _version
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = _version("plantlod")
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0+unknown"
+
+__all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "RunFailure", "Tree",
+           "__version__", "compare", "derive", "read_angles", "read_lsystem", "read_tree",
+           "simplify", "simulate", "write_angles", "write_lsystem", "write_tree"]
+
+_FROM = {
+    **{name: "plantlod.api" for name in ("Angles", "compare", "derive", "read_angles",
+                                         "read_lsystem", "read_tree", "simulate",
+                                         "write_angles", "write_lsystem", "write_tree")},
+    "InputError": "plantlod.lsys.errors", "PlantlodError": "plantlod.lsys.errors",
+    "RunFailure": "plantlod.lsys.errors", "LSystem": "plantlod.lsys.system",
+    "Tree": "plantlod.lsys.tree",
+}
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and editors only
+    from plantlod.api import (Angles, compare, derive, read_angles, read_lsystem, read_tree,
+                              simplify, simulate, write_angles, write_lsystem, write_tree)
+    from plantlod.lsys.errors import InputError, PlantlodError, RunFailure
+    from plantlod.lsys.system import LSystem
+    from plantlod.lsys.tree import Tree
+
+
+def __getattr__(name: str) -> Any:
+    import importlib
+
+    if name == "simplify":
+        # the subpackage plantlod.simplify is callable as plantlod.api.simplify, so that
+        # the name stays one object once any of its modules has been imported
+        return importlib.import_module("plantlod.simplify")
+    module = _FROM.get(name)
+    if module is None:
+        raise AttributeError(f"module 'plantlod' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

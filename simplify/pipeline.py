@@ -161,8 +161,17 @@ def simplify(system: LSystem, options: Options,
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     header = header_comment(system, options, reports, summary)
+    out = replace(out, comment=header)
     text = write_lsys(out, header)
     return Result(out, text, original, tree, reports, summary, notes)
+
+
+def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
+    """The level-``level`` L-system of ``system``, its header comment (``.comment``) set.
+
+    options : the other fields of `Options` (method, calibrate, wind_range, dt, ...).
+    """
+    return simplify(system, Options(level=level, **options)).system
 
 
 def _read_back(system: LSystem) -> Tree:

@@ -1,4 +1,4 @@
-"""OBJ meshes of posed trees (formats/obj.py) and `plantlod compare --obj`.
+"""OBJ meshes of posed trees (export/obj.py) and `plantlod compare --obj`.
 
 Vertex positions are checked against kinematics worked out by hand (a straight
 stalk at rest, one bent branch), and the written files are read back with
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from plantlod.cli.main import cli
-from plantlod.formats.obj import (
+from plantlod.export.obj import (
     OBJ_LAYOUT_MARGIN, OBJ_SIDES, OBJ_TIP_TAPER, Mesh, obj_text, rest_layout, top_radius, tree_mesh,
 )
 from treegen import make_tree, stalk
@@ -25,7 +25,7 @@ S = OBJ_SIDES
 
 
 def rings(mesh: Mesh, i: int) -> tuple[np.ndarray, np.ndarray]:
-    """Base and top ring vertices (S, 3) of branch i (layout of formats/obj.py)."""
+    """Base and top ring vertices (S, 3) of branch i (layout of export/obj.py)."""
     v = mesh.vertices[2 * S * i: 2 * S * (i + 1)]
     return v[:S], v[S:]
 

@@ -1,4 +1,4 @@
-"""`plantlod compare --plot` (formats/plot.py): the PNG, its determinism, and life without matplotlib."""
+"""`plantlod compare --plot` (simplify/plot.py): the PNG, its determinism, and life without matplotlib."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def test_plot_writes_the_same_png_twice(runner, stalks):
 
 
 def test_worst_series_picks_distinct_groups():
-    from plantlod.formats.plot import worst_series
+    from plantlod.simplify.plot import worst_series
     from plantlod.simplify.compare import Run, compare_runs
     from treegen import make_tree
 

@@ -18,10 +18,10 @@ import math
 
 import numpy as np
 
-from plantlod.simplify.compare import AngleDifference, Comparison, Violation
-from plantlod.simplify.measures import COMPONENTS
+from .compare import AngleDifference, Comparison, Violation
+from .measures import COMPONENTS
 
-from .constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
+from plantlod.formats.constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
 
 UNDEFINED = "-"
 

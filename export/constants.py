@@ -1,0 +1,7 @@
+"""Constants of animation out: OBJ frames (and the glTF/USD exporters)."""
+
+# --- OBJ frames (export/obj.py) ---------------------------------------------------------
+OBJ_SIDES = 8                 # sides of a branch tube
+OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without children
+OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
+OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)

@@ -1,0 +1,285 @@
+"""The public API: what the commands do, as functions (docs/api.md).
+
+    system = plantlod.read_lsystem("examples/stalk8.lsys")    # LSystem
+    tree = plantlod.derive(system)                            # Tree
+    angles = plantlod.simulate(tree, wind=(2, 0, 0), dt=0.01, steps=400)
+    level = plantlod.simplify(system, level=1)                # LSystem
+    report = plantlod.compare(system, level, wind=(5, 0, 0), dt=0.01, duration=20)
+
+Each CLI command is this plus option parsing, messages and files, so the same
+input gives the same bytes either way (tests/test_api.py). Angles are radians,
+lengths metres, times seconds, winds metres per second (model.md).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from dataclasses import dataclass
+from typing import IO, Any, Sequence, Union
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.system import LSystem
+from plantlod.lsys.tree import Tree
+
+PathOrText = Union[str, "os.PathLike[str]"]
+PathOrFile = Union[str, "os.PathLike[str]", IO[str]]
+
+
+@dataclass(frozen=True)
+class Angles:
+    """Sampled angles of a run, rows at t = 0, every*dt, 2*every*dt, ...
+
+    time      : (T,) seconds; row 0 is t = 0 (every angle 0, model.md 4)
+    bend      : (T, B) radians, or (W, T, B) for a list of W winds
+    rotation  : the same shape as ``bend``
+    addresses : (B,) the branches' derivation addresses, in tree order
+    """
+
+    time: np.ndarray
+    bend: np.ndarray
+    rotation: np.ndarray
+    addresses: tuple[str, ...]
+
+
+# --- L-systems and trees -----------------------------------------------------------------
+
+def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSystem:
+    """Parse an L-system from a file path or from its text (docs/lsys-format.md).
+
+    A string with a line break, or one that names no existing file, is read as
+    the text itself. Raises `plantlod.InputError` (file:line:col) on bad input.
+    """
+    from plantlod.lsys.parse import parse_lsys
+
+    if isinstance(path_or_text, os.PathLike) or (
+            isinstance(path_or_text, str) and "\n" not in path_or_text
+            and os.path.exists(path_or_text)):
+        from plantlod.formats.lsys_file import read_lsys
+        return read_lsys(os.fspath(path_or_text))
+    return parse_lsys(str(path_or_text), name or "<text>")
+
+
+def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> str:
+    """The canonical text of ``system`` (with its header comment); written when a target is given."""
+    from plantlod.formats.lsys_file import write_lsys
+
+    text = write_lsys(system, system.comment or None)
+    _write_text(text, path_or_file)
+    return text
+
+
+def derive(system: LSystem, n: int | None = None, *, max_modules: int | None = None) -> Tree:
+    """Derive ``system`` ``n`` steps (default: its derivation length) and run the turtle.
+
+    Returns the `Tree` (plantlod.lsys.tree: per-branch arrays of shape (B,),
+    per-leaf arrays (F,), rest rotations as ZYZ angles (B, 3)).
+    """
+    from plantlod.lsys.build import build
+    from plantlod.lsys.constants import DEFAULT_MAX_MODULES
+
+    return build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES).tree
+
+
+def read_tree(path_or_file: PathOrFile) -> Tree:
+    """Read a tree file (JSON Lines, docs/tree-format.md)."""
+    from plantlod.formats.treefile import read_tree as _read
+
+    stream, name = _text_stream(path_or_file)
+    return _read(stream, name)
+
+
+def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
+    """The tree file text of ``tree``; written when a target is given."""
+    from plantlod.formats.treefile import write_tree as _write
+
+    buf = io.StringIO()
+    _write(tree, buf)
+    _write_text(buf.getvalue(), path_or_file)
+    return buf.getvalue()
+
+
+# --- simulation --------------------------------------------------------------------------
+
+def simulate(tree: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0), dt: float = 0.01,
+             steps: int | None = None, *, duration: float | None = None, every: int = 1,
+             damping: float = 0.0, threads: int | None = None) -> Angles:
+    """Simulate ``tree`` in ``wind`` (model.md 3-4); an `LSystem` is derived first.
+
+    wind     : (vx, vy, vz) m/s, a wind object of plantlod.sim.wind (anything with
+               ``sample(times) -> (K, 3)``), or a list of either: then every array
+               gets a leading lane axis (W,) and the runs step together on all
+               cores (plantlod.sim.lanes; each lane equals its single run bit for bit)
+    steps    : time steps, or ``duration`` seconds (rounded to whole steps)
+    every    : keep every ``every``-th step (row 0 is t = 0)
+    threads  : engine threads for a list of winds (default: all cores or $PLANTLOD_THREADS)
+    Raises `InputError` for an unstable dt (model.md 4) and `RunFailure` when a run diverges.
+    """
+    from plantlod.sim.stability import check_stability
+
+    if isinstance(tree, LSystem):
+        tree = derive(tree)
+    steps = _step_count(dt, steps, duration)
+    if not isinstance(every, (int, np.integer)) or every < 1:
+        raise InputError(f"every must be an integer >= 1, got {every!r}")
+    check_stability(tree, dt, damping)
+    many = isinstance(wind, list)
+    winds = [_wind(w) for w in (wind if many else [wind])]
+    time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
+    if not many:
+        bend, rot = bend[0], rot[0]
+    return Angles(time, bend, rot, tuple(tree.address))
+
+
+def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping: float,
+               threads: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All winds in one pass of the lanes engine: times (T,), bend and rot (W, T, B)."""
+    from plantlod.sim.lanes import LaneModel, run_lanes
+
+    ks = np.arange(steps, dtype=np.float64)          # step k uses V(t_{k-1})
+    samples = np.stack([np.asarray(w.sample(ks * dt), dtype=np.float64).reshape(steps, 3)
+                        for w in winds]) if steps else np.zeros((len(winds), 0, 3))
+    bend, rot = run_lanes(LaneModel.from_tree(tree, damping), samples, dt, steps, every=every,
+                          threads=threads, addresses=tree.address)
+    rest = np.zeros((len(winds), 1, tree.n_branches))
+    time = np.arange(steps // every + 1, dtype=np.float64) * every * dt
+    return time, np.concatenate([rest, bend], axis=1), np.concatenate([rest, rot], axis=1)
+
+
+def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
+    """Read an angle CSV (docs/angles-csv.md); ``degrees`` says the file holds degrees."""
+    from plantlod.formats.angles_csv import read_angles_csv
+
+    stream, name = _text_stream(path_or_file)
+    time, addresses, bend, rot = read_angles_csv(stream, name, degrees=degrees)
+    return Angles(time, bend, rot, tuple(addresses))
+
+
+def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
+                 degrees: bool = False) -> str:
+    """The angle CSV of a single run (``bend`` of shape (T, B)); written when a target is given."""
+    from plantlod.formats.angles_csv import AnglesCsvWriter
+
+    if np.ndim(angles.bend) != 2:
+        raise InputError("write_angles writes one run: select a lane first (angles.bend[w])")
+    buf = io.StringIO()
+    AnglesCsvWriter(buf, list(angles.addresses), degrees=degrees).write(
+        angles.time, angles.bend, angles.rotation)
+    _write_text(buf.getvalue(), path_or_file)
+    return buf.getvalue()
+
+
+# --- levels of detail ----------------------------------------------------------------------
+
+def simplify(system: LSystem, level: int = 1, **options: Any) -> LSystem:
+    """The level-``level`` L-system standing for ``system`` (docs/simplify.md).
+
+    options : those of `plantlod.simplify.pipeline.Options` (method, calibrate,
+              wind_range, dt, duration, max_evaluations). Its header comment
+              (``.comment``) records the errors measured for it.
+    """
+    from plantlod.simplify.pipeline import simplified_system
+
+    return simplified_system(system, level, **options)
+
+
+def compare(original: Tree | LSystem, *simplified: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0),
+            dt: float = 0.01, steps: int | None = None, duration: float | None = None,
+            window: tuple[float | None, float | None] | None = None,
+            bounds: dict[str, float] | None = None, damping: float = 0.0) -> dict:
+    """Compare simplified trees with the original in one wind (model.md 6).
+
+    Returns the document ``plantlod compare --json`` prints (before rounding):
+    per simplified tree the worst-group amplitude, period and tip errors, the
+    visible-motion figures (motion_error, period_error_major, tip_error_max_m)
+    and every group. ``bounds`` maps figure names (``"motion_error"``, ...) to limits;
+    ``passed`` says whether all held.
+    """
+    from plantlod.simplify.compare import BOUND_OPTIONS, Run, check_bounds, compare_runs
+    from plantlod.simplify.report import comparison_document
+
+    if not simplified:
+        raise InputError("compare needs at least one simplified tree")
+    n = _step_count(dt, steps, duration)
+    w = _wind(wind)
+    runs = []
+    for k, item in enumerate((original,) + simplified):
+        tree = derive(item) if isinstance(item, LSystem) else item
+        a = simulate(tree, w, dt, n, damping=damping)
+        runs.append(Run(tree, a.time, a.bend, a.rotation, _name(item, k)))
+    t0, t1 = window if window else (None, None)
+    comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
+    unknown = set(bounds or {}) - set(BOUND_OPTIONS)
+    if unknown:
+        raise InputError(f"unknown bound {sorted(unknown)[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}")
+    bounds = {name: (bounds or {}).get(name) for name in BOUND_OPTIONS}
+    violations = [check_bounds(c.report, bounds) for c in comparisons]
+    return comparison_document(comparisons, bounds, violations)
+
+
+# --- helpers -------------------------------------------------------------------------------
+
+def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
+    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    if (steps is None) == (duration is None):
+        raise InputError("give exactly one of steps and duration")
+    if steps is None:
+        if not (math.isfinite(duration) and duration >= 0):
+            raise InputError(f"duration must be a finite number >= 0, got {duration!r}")
+        steps = int(round(duration / dt))
+    if not isinstance(steps, (int, np.integer)) or steps < 0:
+        raise InputError(f"steps must be an integer >= 0, got {steps!r}")
+    return int(steps)
+
+
+def _wind(wind: Any):
+    from plantlod.sim.wind import ConstantWind
+
+    if hasattr(wind, "sample"):
+        return wind
+    vector = np.asarray(wind, dtype=np.float64)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise InputError(f"a wind is (vx, vy, vz) in m/s or a wind object, got {wind!r}")
+    return ConstantWind(vector)
+
+
+def _name(item: Tree | LSystem, k: int) -> str:
+    source = getattr(item, "source", "") or ""
+    return source or ("original" if k == 0 else f"simplified {k}")
+
+
+def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
+    if hasattr(path_or_file, "read"):
+        return path_or_file, getattr(path_or_file, "name", "<stream>")  # type: ignore[return-value]
+    from plantlod.formats.text_input import read_text
+
+    path = os.fspath(path_or_file)
+    return io.StringIO(read_text(path)), path
+
+
+def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
+    if path_or_file is None:
+        return
+    if hasattr(path_or_file, "write"):
+        path_or_file.write(text)          # type: ignore[union-attr]
+        return
+    path = os.fspath(path_or_file)
+    folder = os.path.dirname(os.path.abspath(path))
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as out:
+            out.write(text)
+        os.replace(tmp, path)          # all or nothing: no partial file under the name
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
+__all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",
+           "simulate", "read_angles", "write_angles", "simplify", "compare"]

@@ -1,0 +1,94 @@
+"""The public API (plantlod/__init__.py, docs/api.md): the same bytes as the commands,
+lanes for a list of winds, lazy loading."""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import plantlod
+from golden_util import ROOT, run_cli
+
+RUN = ["--dt", "0.01", "--steps", "300", "--wind-speed", "5"]
+
+
+@pytest.fixture
+def stalk(tmp_path, monkeypatch):
+    """A folder holding stalk8.lsys, made the working directory (file names match the CLI's)."""
+    shutil.copy(ROOT / "examples" / "stalk8.lsys", tmp_path / "stalk8.lsys")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def test_derive_and_simulate_give_the_commands_bytes(stalk):
+    system = plantlod.read_lsystem("stalk8.lsys")
+    tree = plantlod.derive(system)
+    assert plantlod.write_tree(tree) == run_cli("derive", "stalk8.lsys", cwd=stalk).stdout
+    angles = plantlod.simulate(tree, wind=(5.0, 0.0, 0.0), dt=0.01, steps=300)
+    assert angles.bend.shape == (301, tree.n_branches) and angles.time[0] == 0.0
+    assert plantlod.write_angles(angles) == run_cli("simulate", "stalk8.lsys", *RUN, cwd=stalk).stdout
+
+
+def test_simplify_and_compare_give_the_commands_bytes(stalk):
+    from plantlod.simplify.report import dumps
+
+    system = plantlod.read_lsystem("stalk8.lsys")
+    level = plantlod.simplify(system, level=1)
+    cli_text = run_cli("simplify", "stalk8.lsys", "--level", "1", "--no-progress", cwd=stalk).stdout
+    assert plantlod.write_lsystem(level) == cli_text
+    plantlod.write_lsystem(level, stalk / "stalk8_l1.lsys")
+    assert (stalk / "stalk8_l1.lsys").read_text() == cli_text
+    doc = plantlod.compare(system, plantlod.read_lsystem("stalk8_l1.lsys"),
+                           wind=(5.0, 0.0, 0.0), dt=0.01, duration=3.0)
+    cli_json = run_cli("compare", "stalk8.lsys", "stalk8_l1.lsys", "--dt", "0.01",
+                       "--duration", "3", "--wind-speed", "5", "--json", cwd=stalk).stdout
+    assert dumps(doc) == cli_json
+    assert json.loads(cli_json)["comparisons"][0]["motion_error"] is not None
+
+
+def test_a_list_of_winds_adds_a_lane_axis_equal_to_single_runs():
+    tree = plantlod.derive(plantlod.read_lsystem(ROOT / "examples" / "abop_1_24a.lsys"), 3)
+    winds = [(2.0, 0.0, 0.0), (0.0, 7.0, 1.0), (0.5, 0.5, 0.0)]
+    many = plantlod.simulate(tree, wind=winds, dt=0.01, steps=120, every=4)
+    assert many.bend.shape == (3, 31, tree.n_branches)
+    for w, vector in enumerate(winds):
+        one = plantlod.simulate(tree, wind=vector, dt=0.01, steps=120, every=4)
+        assert np.array_equal(one.bend, many.bend[w]) and np.array_equal(one.rotation, many.rotation[w])
+
+
+def test_round_trips_and_text_input():
+    system = plantlod.read_lsystem((ROOT / "examples" / "stalk8.lsys").read_text())
+    tree = plantlod.derive(system)
+    again = plantlod.read_tree(io.StringIO(plantlod.write_tree(tree)))
+    assert again.address == tree.address and np.array_equal(again.length, tree.length)
+    angles = plantlod.simulate(system, wind=(1.0, 2.0, 0.0), dt=0.01, duration=0.5)
+    back = plantlod.read_angles(io.StringIO(plantlod.write_angles(angles)))
+    np.testing.assert_allclose(back.bend, angles.bend, rtol=1e-9, atol=1e-15)
+
+
+def test_bad_input_raises_input_error():
+    with pytest.raises(plantlod.InputError):
+        plantlod.read_lsystem("axiom: F(\n")
+    tree = plantlod.derive(plantlod.read_lsystem(ROOT / "examples" / "stalk8.lsys"))
+    with pytest.raises(plantlod.InputError):
+        plantlod.simulate(tree, wind=(1.0, 0.0), dt=0.01, steps=10)
+    with pytest.raises(plantlod.InputError):
+        plantlod.simulate(tree, wind=(1.0, 0.0, 0.0), dt=0.01)        # neither steps nor duration
+
+
+def test_import_is_lazy_and_public_names_are_listed():
+    code = ("import sys, plantlod; print(sorted(m for m in ('numba', 'scipy', 'numpy', 'rich', "
+            "'trimesh', 'matplotlib', 'plantlod.api') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    assert set(plantlod.__all__) <= set(dir(plantlod))
+    for name in plantlod.__all__:
+        assert getattr(plantlod, name) is not None
+    assert plantlod.__version__
+    assert callable(plantlod.simplify) and plantlod.simplify.pipeline is not None

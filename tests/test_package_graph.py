@@ -1,0 +1,88 @@
+"""The packages import one way (plantlod/__init__.py):
+
+    lsys -> sim -> simplify -> {scene, export} -> plantlod (the API) -> cli
+
+and `formats` (bytes in and out) imports nothing above `lsys`. Read from the
+source with `ast`, every import of every module, deferred ones inside functions
+included: a new edge against the direction, or any cycle between packages, fails.
+"""
+
+from __future__ import annotations
+
+import ast
+import pathlib
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+FOLDERS = {"lsys": "lsys", "sim": "sim", "simplify": "simplify", "scene": "scene",
+           "export": "export", "formats": "formats", "api": "plantlod", "cli": "cli"}
+RANK = {"lsys": 0, "formats": 0, "sim": 1, "simplify": 2, "scene": 3, "export": 3,
+        "api": 4, "cli": 5}
+# formats sits beside lsys: it may read lsys' Tree and errors, nothing else above it
+ALLOWED_FROM_FORMATS = {"lsys"}
+
+
+def _package_of(module: str) -> str | None:
+    parts = module.split(".")
+    if parts[0] != "plantlod":
+        return None
+    if len(parts) == 1 or parts[1] in ("api",):
+        return "api"
+    return parts[1] if parts[1] in RANK else None
+
+
+def edges() -> set[tuple[str, str, str]]:
+    """(importing package, imported package, where) for every cross-package import."""
+    out = set()
+    for package, folder in FOLDERS.items():
+        for path in sorted((ROOT / folder).glob("*.py")):
+            tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+            for node in ast.walk(tree):
+                targets = []
+                if isinstance(node, ast.Import):
+                    targets = [a.name for a in node.names]
+                elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                    targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+                for target in targets:
+                    other = _package_of(target)
+                    if other and other != package:
+                        out.add((package, other, f"{folder}/{path.name}:{node.lineno}"))
+    return out
+
+
+def test_imports_go_one_way():
+    bad = []
+    for source, target, where in sorted(edges()):
+        if source == "formats":
+            if target not in ALLOWED_FROM_FORMATS:
+                bad.append(f"{where}: formats imports {target}")
+        elif target == "formats":
+            continue                    # every package may read and write bytes
+        elif RANK[target] >= RANK[source]:
+            bad.append(f"{where}: {source} imports {target}")
+    assert not bad, "imports against lsys -> sim -> simplify -> scene/export -> plantlod -> cli:\n" \
+        + "\n".join(bad)
+
+
+def test_no_cycles_between_packages():
+    graph: dict[str, set[str]] = {}
+    for source, target, _ in edges():
+        graph.setdefault(source, set()).add(target)
+
+    def reaches(start: str, goal: str, seen: set[str]) -> bool:
+        for nxt in graph.get(start, ()):
+            if nxt == goal or (nxt not in seen and reaches(nxt, goal, seen | {nxt})):
+                return True
+        return False
+
+    cycles = sorted(p for p in graph if reaches(p, p, {p}))
+    assert not cycles, f"packages on an import cycle: {cycles}"
+
+
+def test_the_check_sees_a_wrong_edge(tmp_path, monkeypatch):
+    """The test can fail: a module of lsys importing sim is reported."""
+    folder = tmp_path / "lsys"
+    folder.mkdir()
+    (folder / "bad.py").write_text("from plantlod.sim.run import simulate\n")
+    monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
+    monkeypatch.setattr(__import__(__name__), "FOLDERS", {"lsys": "lsys"})
+    assert ("lsys", "sim") in {(a, b) for a, b, _ in edges()}
