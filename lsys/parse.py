@@ -160,7 +160,8 @@ def _describe(tok: _Tok) -> str:
     if tok.kind == "end":
         return "end of line"
     if tok.kind == "char":
-        return f"character '{tok.text}'"
+        advice = UNSUPPORTED_SYMBOLS.get(tok.text)
+        return f"character '{tok.text}'" + (f" ({advice})" if advice else "")
     return f"'{tok.text}'"
 
 
@@ -271,6 +272,8 @@ def _primary(cur: _Cursor) -> Expr:
         return Call(tok.text, args, pos)
     if tok.kind == "(":
         return _parenthesised(cur, tok.start, "parenthesis")
+    if tok.kind == "char" and tok.text in UNSUPPORTED_SYMBOLS:
+        raise _error(pos, UNSUPPORTED_SYMBOLS[tok.text])
     raise _error(pos, f"unexpected {_describe(tok)}; expected a number, a name or '('")
 
 

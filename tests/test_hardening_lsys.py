@@ -203,6 +203,17 @@ def test_unsupported_abop_symbols_say_what_to_write(symbol, advice):
     assert (info.value.line, info.value.col) == (HEAD_LINES + 1, 9)
 
 
+@pytest.mark.parametrize("body, col, advice", [
+    ("axiom: F\u2212F\n", 9, "ASCII '-'"), ("axiom: F(2\u22121)\n", 11, "ASCII '-'"),
+    ("define a = \u22121\naxiom: F\n", 12, "ASCII '-'"),
+    ("axiom: F\nproductions:\n  F -> F\u2227F\n", 9, "write '^'"),
+])
+def test_pdf_look_alikes_are_named(body, col, advice):
+    with pytest.raises(InputError) as info:
+        system(body)
+    assert info.value.col == col and advice in info.value.message
+
+
 @pytest.mark.parametrize("line", ["  % -> F", "  A < % -> F", "  %(1) -> F"])
 def test_cut_cannot_be_a_pattern(line):
     with pytest.raises(InputError, match="cannot be a predecessor"):
