@@ -352,3 +352,11 @@ def test_abop_production_label_is_named():
     with pytest.raises(InputError, match="production label") as info:
         system("axiom: F\nproductions:\n  p1: F -> FF\n")
     assert (info.value.line, info.value.col) == (HEAD_LINES + 3, 3)
+
+
+@pytest.mark.parametrize("line, key", [("n = 5", "derivation_length"), ("δ = 22.5°", "branching_angle"),
+                                       ("ω: F", "axiom")])
+def test_abop_caption_lines_say_what_to_write(line, key):
+    with pytest.raises(InputError, match=f"ABOP's captions.*'{key}") as info:
+        parse_lsys(line + "\n", "c.lsys")
+    assert (info.value.line, info.value.col) == (1, 1)
