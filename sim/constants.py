@@ -14,3 +14,6 @@ MIN_TIME_STEP = 1e-9          # s; a smaller --dt is refused (1e-320 overflowed 
 MAX_TIME_STEPS = 10**10       # steps of one run, --steps or round(--duration / --dt)
 # Angles a whole run may hold in memory (compare, simplify; simulate streams): 4 GB.
 MAX_HELD_ANGLE_BYTES = 4_000_000_000
+
+# --- the lanes engine (sim/lanes.py, docs/engine.md) --------------------------------
+THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine (default: all cores)

@@ -1,0 +1,217 @@
+"""Many runs of one tree structure per call: W winds, or W parameter sets, as vector lanes.
+
+    model = LaneModel.from_tree(tree)                       # shared arrays, built once
+    bend, rot = run_lanes(model, winds, dt, steps)          # winds (W, 3) or (W, steps, 3)
+
+Each lane is one run of model.md sections 3-4, with the same values the
+single-run kernel gives (tests/test_sim_lanes.py checks them bit for bit). The
+parameters a lane may change (k_FA, k_fp, k_bs, k_rs, drag, leaf scale) are
+(B,) arrays shared by every lane unless `LaneModel.with_lane_parameters` gives
+them a lane axis; the structure (parents, rest rotations, leaf normals) is
+always shared, never copied per lane. The numba kernel is `lanes_kernel`
+(imported on first use, so importing this module is cheap); the layout and
+what the compiler makes of it: docs/engine.md.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.tree import Tree
+
+from .constants import THREADS_ENV
+
+LANE_PARAMETERS = ("absorbed", "propagated", "bend_k", "rot_k", "drag", "leaf_scale")
+
+
+@dataclass(frozen=True)
+class LaneModel:
+    """A tree flattened for the lanes kernel (the fields of `kernel.KernelModel`).
+
+    Lane parameters (`LANE_PARAMETERS`) are (B,) (leaf_scale (F,)) when shared by
+    every lane, or (B, W) ((F, W)) with one column per lane.
+    """
+
+    parent: np.ndarray
+    rest: np.ndarray
+    cos_psi: np.ndarray
+    sin_psi: np.ndarray
+    absorbed: np.ndarray
+    propagated: np.ndarray
+    bend_k: np.ndarray
+    rot_k: np.ndarray
+    drag: np.ndarray
+    leaf_start: np.ndarray
+    leaf_scale: np.ndarray
+    leaf_normal: np.ndarray
+    damping: float
+
+    @classmethod
+    def from_tree(cls, tree: Tree, damping: float = 0.0) -> "LaneModel":
+        from .kernel import prepare   # numba: only when a simulation is prepared
+
+        k = prepare(tree, damping)
+        return cls(**{f: getattr(k, f) for f in cls.__dataclass_fields__})
+
+    @property
+    def n_branches(self) -> int:
+        return int(self.parent.shape[0])
+
+    @property
+    def lanes(self) -> int | None:
+        """The lane count fixed by per-lane parameters, None when all are shared."""
+        for name in LANE_PARAMETERS:
+            a = getattr(self, name)
+            if a.ndim == 2:
+                return int(a.shape[1])
+        return None
+
+    def with_lane_parameters(self, **columns: np.ndarray) -> "LaneModel":
+        """A model whose named parameters have one value per lane.
+
+        columns : name -> (B, W) array ((F, W) for leaf_scale), in the kernel's
+                  units (bend_k = k_bs / 1000, drag = C_d 2 pi r L, leaf_scale = s_L A)
+        """
+        widths = set()
+        changes = {}
+        for name, value in columns.items():
+            if name not in LANE_PARAMETERS:
+                raise InputError(f"{name!r} is not a lane parameter; expected one of "
+                                 f"{', '.join(LANE_PARAMETERS)}")
+            a = np.ascontiguousarray(value, dtype=np.float64)
+            rows = getattr(self, name).shape[0]
+            if a.ndim != 2 or a.shape[0] != rows:
+                raise InputError(f"{name} per lane must have shape ({rows}, W), got {a.shape}")
+            widths.add(a.shape[1])
+            changes[name] = a
+        if len(widths | ({self.lanes} if self.lanes else set())) > 1:
+            raise InputError(f"lane parameters disagree on the lane count: {sorted(widths)}")
+        return replace(self, **changes)
+
+
+def thread_count(threads: int | None = None) -> int:
+    """Threads to use: ``threads``, else $PLANTLOD_THREADS, else every core numba sees."""
+    import numba
+
+    if threads is None:
+        env = os.environ.get(THREADS_ENV, "").strip()
+        if env:
+            try:
+                threads = int(env)
+            except ValueError:
+                raise InputError(f"{THREADS_ENV}={env!r} is not a whole number") from None
+    limit = numba.config.NUMBA_NUM_THREADS
+    if threads is None:
+        return limit
+    if threads < 1:
+        raise InputError(f"the thread count must be >= 1, got {threads}")
+    return min(int(threads), limit)
+
+
+def _winds(winds, lanes: int | None, steps: int) -> np.ndarray:
+    w = np.asarray(winds, dtype=np.float64)
+    if w.ndim == 1 and w.shape == (3,):
+        w = w[None, :]
+    if w.ndim == 2 and w.shape[1] == 3:
+        w = w[:, None, :]
+    elif not (w.ndim == 3 and w.shape[2] == 3 and w.shape[1] in (1, steps)):
+        raise InputError(f"winds must have shape (W, 3) or (W, {steps}, 3), got {w.shape}")
+    if lanes is not None and w.shape[0] == 1 and lanes > 1:
+        w = np.broadcast_to(w, (lanes,) + w.shape[1:])
+    if lanes is not None and w.shape[0] != lanes:
+        raise InputError(f"{w.shape[0]} winds for {lanes} lanes of parameters")
+    if not np.all(np.isfinite(w)):
+        raise InputError("wind components must be finite")
+    return np.ascontiguousarray(w)
+
+
+def new_state(model: LaneModel, lanes: int) -> np.ndarray:
+    """The rest state of ``lanes`` runs: (W, 4, B) zeros, [theta_b, v_b, theta_r, v_r]."""
+    return np.zeros((lanes, 4, model.n_branches))
+
+
+def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
+              state: np.ndarray | None = None, threads: int | None = None,
+              first_step: int = 1, addresses=None) -> tuple[np.ndarray, np.ndarray]:
+    """Step W runs of ``model`` by ``steps`` time steps of ``dt`` seconds.
+
+    winds  : (W, 3) steady winds, or (W, steps, 3) the wind at the start of each
+             step (V(t_{k-1}) for step k), m/s; one wind (3,) is one lane
+    state  : optional (W, 4, B) float64 [theta_b, v_b, theta_r, v_r] (rad, rad/s),
+             read as the start and updated in place, so a caller can run in pieces
+             (numbering steps with ``first_step``); default: at rest
+    every  : rows are kept after the steps k (counted from ``first_step``) with k % every == 0
+    threads: see `thread_count`; the output does not depend on it
+    Returns (bend, rotation), each (W, T, B) float64 radians, T the number of kept
+    steps (steps // every when first_step = 1). Raises `RunFailure` naming the
+    lane, step and branch (by address when ``addresses`` is given) where an angle
+    stopped being finite. Stability is the caller's check (`sim.stability`).
+    """
+    from . import lanes_kernel   # numba, compiled on first use
+
+    import numba
+
+    if not isinstance(steps, (int, np.integer)) or steps < 0:
+        raise InputError(f"steps must be an integer >= 0, got {steps!r}")
+    if not isinstance(every, (int, np.integer)) or every < 1:
+        raise InputError(f"every must be an integer >= 1, got {every!r}")
+    if not (math.isfinite(dt) and dt > 0):
+        raise InputError(f"dt must be a positive number, got {dt!r}")
+    w = _winds(winds, model.lanes, steps)
+    lanes, b = w.shape[0], model.n_branches
+    if state is None:
+        state = new_state(model, lanes)
+    if state.shape != (lanes, 4, b) or state.dtype != np.float64:
+        raise InputError(f"state must be float64 of shape ({lanes}, 4, {b}), got {state.shape}")
+    # lane index last in the kernel: (B, Wp) planes, Wp = W padded to whole blocks;
+    # padding lanes repeat the last lane (their results are dropped)
+    padded = -(-lanes // lanes_kernel.BLOCK) * lanes_kernel.BLOCK
+    fill = np.r_[np.arange(lanes), np.full(padded - lanes, lanes - 1)] if lanes else np.arange(0)
+    planes = [np.ascontiguousarray(state[fill, q, :].T) for q in range(4)]
+    w = np.ascontiguousarray(w[fill])
+    lane_model = _padded(model, fill)
+    last = first_step + steps - 1
+    rows = last // every - (first_step - 1) // every if steps else 0
+    out_bend = np.empty((padded, rows, b))
+    out_rot = np.empty((padded, rows, b))
+    bad_branch = np.full(padded, -1, dtype=np.int64)
+    bad_step = np.full(padded, -1, dtype=np.int64)
+    written = np.zeros(padded, dtype=np.int64)
+    n_threads = thread_count(threads)
+    before = numba.get_num_threads()
+    numba.set_num_threads(n_threads)
+    try:
+        if steps and lanes:
+            m = lane_model
+            lanes_kernel.run_lanes_kernel(
+                m.parent, m.rest, m.cos_psi, m.sin_psi, m.absorbed, m.propagated, m.bend_k,
+                m.rot_k, m.drag, m.leaf_start, m.leaf_scale, m.leaf_normal, float(m.damping),
+                planes[0], planes[2], planes[1], planes[3],
+                w, int(steps), float(dt), int(first_step), int(every), out_bend, out_rot, 0,
+                bad_branch, bad_step, written)
+    finally:
+        numba.set_num_threads(before)
+    for q in range(4):
+        state[:, q, :] = planes[q].T[:lanes]
+    bad_branch, bad_step = bad_branch[:lanes], bad_step[:lanes]
+    bad = np.flatnonzero(bad_branch >= 0)
+    if bad.size:
+        lane = int(bad[np.argmin(bad_step[bad])])
+        i, k = int(bad_branch[lane]), int(bad_step[lane])
+        where = addresses[i] if addresses is not None else f"#{i}"
+        raise RunFailure(f"simulation diverged at t={k * dt:.10g} s (step {k}) in lane {lane}, "
+                         f"branch {where}: an angle is no longer finite; lower force_absorbed, "
+                         f"the wind or dt")
+    return out_bend[:lanes], out_rot[:lanes]
+
+
+def _padded(model: LaneModel, fill: np.ndarray) -> LaneModel:
+    """``model`` with its per-lane parameter columns taken at ``fill`` (shared ones as they are)."""
+    changes = {name: np.ascontiguousarray(getattr(model, name)[:, fill])
+               for name in LANE_PARAMETERS if getattr(model, name).ndim == 2}
+    return replace(model, **changes) if changes else model
