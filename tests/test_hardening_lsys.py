@@ -360,3 +360,13 @@ def test_abop_caption_lines_say_what_to_write(line, key):
     with pytest.raises(InputError, match=f"ABOP's captions.*'{key}") as info:
         parse_lsys(line + "\n", "c.lsys")
     assert (info.value.line, info.value.col) == (1, 1)
+
+
+def test_lanes_refuse_arrays_past_the_memory_cap():
+    from plantlod.sim.constants import MAX_HELD_ANGLE_BYTES
+    from plantlod.sim.lanes import LaneModel, run_lanes
+
+    tree = build(system("axiom: F F\n")).tree
+    rows = MAX_HELD_ANGLE_BYTES // (2 * 8 * tree.n_branches) + 1
+    with pytest.raises(InputError, match="GB of angles in memory"):
+        run_lanes(LaneModel.from_tree(tree), np.zeros((1, 3)), 0.01, rows)
