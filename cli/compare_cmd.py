@@ -72,6 +72,12 @@ def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[f
               help="Exit 1 when the worst period error is above this (a fraction).")
 @click.option("--max-tip-error", type=click.FloatRange(min=0), default=None,
               help="Exit 1 when the worst tip error is above this (a fraction of the rest height).")
+@click.option("--max-motion-error", type=click.FloatRange(min=0), default=None,
+              help="Exit 1 when the motion error (a fraction of the largest motion) is above this.")
+@click.option("--max-period-error-major", type=click.FloatRange(min=0), default=None,
+              help="Exit 1 when the period error of the major components is above this.")
+@click.option("--max-tip-error-m", type=click.FloatRange(min=0), default=None,
+              help="Exit 1 when a group tip strays farther than this many metres.")
 @click.option("--obj", "obj_dir", metavar="DIR", default=None,
               help="Write OBJ files of the posed trees side by side into DIR (with --at / --every).")
 @click.option("--at", "at_text", metavar="T[,T...]", default=None,
@@ -90,7 +96,7 @@ def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[f
 @click.pass_context
 def compare(ctx, original, simplified, original_angles, simplified_angles, degrees, original_n,
             simplified_n, window_text, as_json, output, max_amplitude_error, max_period_error,
-            max_tip_error, obj_dir, at_text, every, plot_path, plot_at, angles_mode, atol,
+            max_tip_error, max_motion_error, max_period_error_major, max_tip_error_m, obj_dir, at_text, every, plot_path, plot_at, angles_mode, atol,
             **sim_kwargs):
     """Compare the motion of simplified trees with the original's.
 
@@ -149,7 +155,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     comparisons = [compare_runs(runs[0], run, window[0] if window else None,
                                 window[1] if window else None) for run in runs[1:]]
     bounds = {"amplitude_error": max_amplitude_error, "period_error": max_period_error,
-              "tip_error": max_tip_error}
+              "tip_error": max_tip_error, "motion_error": max_motion_error,
+              "period_error_major": max_period_error_major, "tip_error_max_m": max_tip_error_m}
     violations = [check_bounds(c.report, bounds) for c in comparisons]
 
     # Everything that can still refuse the run (times outside it, the picture) comes
@@ -194,7 +201,7 @@ def _check_angles_mode(ctx, simplified) -> None:
         raise click.UsageError(f"--angles compares exactly two CSVs; got {1 + len(simplified)} files")
     other = [p for p in ("original_angles", "simplified_angles", "original_n", "simplified_n",
                          "window_text", "max_amplitude_error", "max_period_error", "max_tip_error",
-                         "obj_dir", "at_text", "every", "plot_path", "plot_at") + SIMULATION_PARAMS
+                         "max_motion_error", "max_period_error_major", "max_tip_error_m", "obj_dir", "at_text", "every", "plot_path", "plot_at") + SIMULATION_PARAMS
              if given(ctx, p)]
     if other:
         name = {"window_text": "window", "at_text": "at", "obj_dir": "obj", "plot_path": "plot",

@@ -102,6 +102,9 @@ def headline_lines(comparison: Comparison) -> list[str]:
         f"worst amplitude error: {fmt(r.amplitude_error)}{_where(r.amplitude_error_at)}",
         f"worst period error:    {fmt(r.period_error)}{_where(r.period_error_at)}",
         f"worst tip error:       {fmt(r.tip_error)}{_where(r.tip_error_at)}",
+        f"motion error:          {fmt(r.motion_error)}{_where(r.motion_error_at)}",
+        f"period error (major):  {fmt(r.period_error_major)}{_where(r.period_error_major_at)}",
+        f"tip error (max), m:    {fmt(r.tip_error_max_m)}{_where(r.tip_error_max_m_at)}",
         f"undefined periods:     {undefined}",
     ]
 

@@ -233,14 +233,16 @@ def _span(t: np.ndarray) -> str:
 # --- bounds --------------------------------------------------------------------------
 
 BOUND_OPTIONS = {"amplitude_error": "--max-amplitude-error", "period_error": "--max-period-error",
-                 "tip_error": "--max-tip-error"}
+                 "tip_error": "--max-tip-error", "motion_error": "--max-motion-error",
+                 "period_error_major": "--max-period-error-major",
+                 "tip_error_max_m": "--max-tip-error-m"}
 
 
 @dataclass
 class Violation:
     """A headline figure above its bound, or undefined although a bound was given.
 
-    figure : "amplitude_error", "period_error" or "tip_error"
+    figure : a key of BOUND_OPTIONS ("amplitude_error", "motion_error", ...)
     value  : the figure (NaN: undefined); limit : the bound
     at     : where the worst figure was found (None when undefined)
     """
@@ -267,7 +269,7 @@ class Violation:
 def check_bounds(report: Report, bounds: dict[str, float | None]) -> list[Violation]:
     """The headline figures of ``report`` that break their bounds.
 
-    bounds : figure name ("amplitude_error", "period_error", "tip_error") -> bound or None.
+    bounds : figure name (a key of BOUND_OPTIONS) -> bound or None.
     A figure above its bound breaks it; so does an undefined (NaN) figure, which
     a bound can never vouch for.
     """

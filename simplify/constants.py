@@ -3,6 +3,7 @@
 # --- groups and error measures (model.md 5 and 6) ---------------------------------
 ALPHA_TIE_TOL = 1e-9          # main path: alphas this close are tied (model.md 5)
 COUNTED_AMPLITUDE_FRACTION = 0.01  # error measures count components >= 1 % (model.md 6)
+MAJOR_AMPLITUDE_FRACTION = 0.10   # period error (major): components >= 10 % of A_max (model.md 6)
 
 # --- compare -------------------------------------------------------------------------
 # Two runs' times agree when they differ by at most this much, relative to

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .constants import COUNTED_AMPLITUDE_FRACTION
+from .constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
 from plantlod.lsys.errors import InputError
 
 COMPONENTS = ("bend", "rotation")
@@ -118,6 +118,12 @@ def tip_error(tips_orig: np.ndarray, tips_simp: np.ndarray, rest_height: float) 
     return np.sqrt(np.mean(d2, axis=0)) / rest_height
 
 
+def tip_distance_max(tips_orig: np.ndarray, tips_simp: np.ndarray) -> np.ndarray:
+    """Largest distance over time between group tips and simplified tips: (K, G, 3) -> (G,) m."""
+    d = np.asarray(tips_simp, dtype=np.float64) - np.asarray(tips_orig, dtype=np.float64)
+    return np.sqrt(np.einsum("kgi,kgi->kg", d, d)).max(axis=0) if d.shape[0] else np.zeros(d.shape[1])
+
+
 # --- the report -------------------------------------------------------------------
 
 @dataclass
@@ -199,6 +205,13 @@ class Report:
                         reference of the counting rule
     groups            : one entry per group, in simplified-branch order
     t0, t1            : the time window (s) the figures cover
+
+    The visible-motion measures of model.md section 6 (what a viewer sees):
+    motion_error       : largest |A_y - A_x| / A_max over counted components
+                         (A_max = largest_amplitude); NaN when nothing counts
+    period_error_major : largest period error over components with A_x >= 10 % of
+                         A_max and a defined period; NaN when there is none
+    tip_error_max_m    : largest |tip_y - tip_x| over time and groups, metres
     """
 
     amplitude_error: float
@@ -213,10 +226,23 @@ class Report:
     t0: float
     t1: float
     groups: list[GroupFigures] = field(default_factory=list)
+    motion_error: float = math.nan
+    motion_error_at: Worst | None = None
+    period_error_major: float = math.nan
+    period_error_major_at: Worst | None = None
+    tip_error_max_m: float = math.nan
+    tip_error_max_m_at: Worst | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready values: plain floats, None for NaN, addresses as strings."""
+        at = lambda w: None if w is None else w.to_dict()   # noqa: E731
         return {
+            "motion_error": _json_float(self.motion_error),
+            "motion_error_at": at(self.motion_error_at),
+            "period_error_major": _json_float(self.period_error_major),
+            "period_error_major_at": at(self.period_error_major_at),
+            "tip_error_max_m": _json_float(self.tip_error_max_m),
+            "tip_error_max_m_at": at(self.tip_error_max_m_at),
             "amplitude_error": _json_float(self.amplitude_error),
             "period_error": _json_float(self.period_error),
             "tip_error": _json_float(self.tip_error),
@@ -299,8 +325,17 @@ def compare_groups(t: np.ndarray,
     undefined = [Worst(addresses[j], COMPONENTS[c])
                  for j in range(g) for c in range(2) if counted[c, j] and not per_defined[c, j]]
     tip_worst, tip_at = _worst(tips[None, :], addresses, components=(None,))
+    # visible motion (model.md 6): errors against the largest motion, periods of the major components
+    motion = np.abs(amp_y - amp_x) / largest if largest > 0 else np.full_like(amp_x, np.nan)
+    motion_worst, motion_at = _worst(np.where(counted, motion, np.nan), addresses)
+    major = (amp_x >= MAJOR_AMPLITUDE_FRACTION * largest) & np.isfinite(per_err) if largest > 0 \
+        else np.zeros_like(amp_x, bool)
+    major_worst, major_at = _worst(np.where(major, per_err, np.nan), addresses)
+    tip_max = tip_distance_max(tips_orig, tips_simp)                   # (G,) metres
+    tip_max_worst, tip_max_at = _worst(tip_max[None, :], addresses, components=(None,))
     return Report(amp_worst, per_worst, tip_worst, amp_at, per_at, tip_at, undefined,
-                  largest, float(rest_height), float(t[0]), float(t[-1]), groups)
+                  largest, float(rest_height), float(t[0]), float(t[-1]), groups,
+                  motion_worst, motion_at, major_worst, major_at, tip_max_worst, tip_max_at)
 
 
 # --- helpers ----------------------------------------------------------------------

@@ -161,6 +161,28 @@ def test_bounds_and_exit_codes(runner, stalks):
     assert table.exit_code == 1 and table.stdout.startswith("original:")
 
 
+@pytest.mark.parametrize("figure, option", [("motion_error", "--max-motion-error"),
+                                            ("period_error_major", "--max-period-error-major"),
+                                            ("tip_error_max_m", "--max-tip-error-m")])
+def test_visible_motion_bounds(runner, stalks, figure, option):
+    base = ["stalk8.lsys", "stalk8_level1.lsys", *RUN, "--json"]
+    doc = json.loads(invoke(runner, base).stdout)["comparisons"][0]
+    value = doc[figure]
+    # model.md 6 from the JSON's own group figures: motion error and major period error
+    groups, largest = doc["groups"], doc["largest_amplitude"]
+    comps = [g[c] for g in groups for c in ("bend", "rotation")]
+    if figure == "motion_error":
+        assert value == pytest.approx(max(abs(c["amplitude_simplified"] - c["amplitude_original"])
+                                          for c in comps if c["counted"]) / largest, rel=1e-8)
+    if figure == "period_error_major":
+        assert value == pytest.approx(max(c["period_error"] for c in comps
+                                          if c["amplitude_original"] >= 0.1 * largest
+                                          and c["period_error"] is not None), rel=1e-8)
+    assert invoke(runner, base + [option, str(value * 1.01)]).exit_code == 0
+    bad = invoke(runner, base + [option, str(value * 0.99)])
+    assert bad.exit_code == 1 and json.loads(bad.stdout)["comparisons"][0]["exceeded"][0]["bound"] == option
+
+
 def test_usage_errors_exit_2(runner, stalks):
     cases = [
         (["stalk8.lsys", "stalk8_level1.lsys", "--steps", "10"], "--dt is required"),

@@ -159,6 +159,35 @@ def test_report_by_hand():
     assert math.isnan(rep.groups[2].rotation.amplitude_error)
 
 
+def test_visible_motion_measures_by_hand():
+    """model.md 6: motion error against A_max = 1, periods of the components >= 10 % of it."""
+    rep = compare_groups(*report_inputs(), rest_height=3.0, addresses=ADDR)
+    # |A_y - A_x| / 1 over counted components: 0.1 (0.0), 0 (0.1), 0.5 (0.3); 0.2 does not count
+    assert rep.motion_error == pytest.approx(0.5, abs=1e-12)
+    assert rep.motion_error_at.address == "0.3"
+    # major components: 0.0 (A 1) and 0.3 (A 0.5, period undefined); 0.1 (A 0.01) is not
+    # major, so its 25 % period error is left out: the only major period error is 0.0's 0
+    assert rep.period_error_major == pytest.approx(0.0, abs=1e-8)
+    assert rep.period_error_major_at.address == "0.0"
+    # the largest tip distance: 0.6 m at group 0.1
+    assert rep.tip_error_max_m == pytest.approx(0.6)
+    assert rep.tip_error_max_m_at.address == "0.1"
+    d = rep.to_dict()
+    assert d["motion_error"] == pytest.approx(0.5) and d["tip_error_max_m"] == pytest.approx(0.6)
+
+
+def test_tip_error_max_is_the_largest_distance_in_time():
+    k = 5
+    orig = np.zeros((k, 2, 3))
+    simp = np.zeros((k, 2, 3))
+    simp[:, 0, 0] = [0.0, 0.1, -0.4, 0.2, 0.0]      # largest |d| 0.4 m at one sample
+    simp[:, 1] = [0.1, 0.1, 0.1]                    # |d| = sqrt(0.03) throughout
+    rep = compare_groups(np.arange(k) * 0.1, np.zeros((k, 2)), np.zeros((k, 2)),
+                         np.zeros((k, 2)), np.zeros((k, 2)), orig, simp, 1.0, ["a", "b"])
+    assert rep.tip_error_max_m == pytest.approx(0.4) and rep.tip_error_max_m_at.address == "a"
+    assert math.isnan(rep.motion_error) and math.isnan(rep.period_error_major)
+
+
 def test_report_to_dict_is_json_ready():
     d = compare_groups(*report_inputs(), rest_height=3.0, addresses=ADDR).to_dict()
     text = json.dumps(d, allow_nan=False)          # no NaN or numpy scalars left
