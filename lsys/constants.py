@@ -11,8 +11,9 @@ DEFAULT_DRAG_COEFFICIENT = 0.0015   # C_d, "set to 0.0015" in the thesis
 DEFAULT_LEAF_FORCE_SCALE = 1.0      # s_L
 DEFAULT_SEED = 0
 DEFAULT_MOVE_LENGTH = 1.0           # f without a parameter
-# --max-modules: the turtle needs about 650 bytes per module at its peak (ABOP 1.24a at
-# n = 8: 1.17 M modules, 750 MB), so 5 M modules stay near 3.5 GB.
+# --max-modules: derive's peak memory is 650 bytes (ABOP 1.24a at n = 8: 1.17 M modules,
+# 750 MB) to 1.1 kB (F -> FF at n = 21, every module a branch: 2.1 M modules, 2.3 GB) per
+# module, so 5 M modules stay within about 3.5 to 5.5 GB.
 DEFAULT_MAX_MODULES = 5_000_000
 
 

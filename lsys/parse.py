@@ -64,6 +64,9 @@ _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
 _ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
+# ABOP's captions: "n = 5, δ = 22.5°, ω: F" and what to write instead.
+_ABOP_KEYS = {"n": "derivation_length: N", "δ": "branching_angle: DEGREES", "ω": "axiom: MODULES"}
+_ABOP_CAPTION = re.compile(r"\s*(n|δ|ω)\s*[=:]")
 # The production arrow as ABOP prints it, as L-Py and cpfg write it, and plantlod's own;
 # longest first. docs/notation.md.
 ARROWS = ("-->", "->", "→")
@@ -160,7 +163,8 @@ def _describe(tok: _Tok) -> str:
     if tok.kind == "end":
         return "end of line"
     if tok.kind == "char":
-        return f"character '{tok.text}'"
+        advice = UNSUPPORTED_SYMBOLS.get(tok.text)
+        return f"character '{tok.text}'" + (f" ({advice})" if advice else "")
     return f"'{tok.text}'"
 
 
@@ -271,6 +275,8 @@ def _primary(cur: _Cursor) -> Expr:
         return Call(tok.text, args, pos)
     if tok.kind == "(":
         return _parenthesised(cur, tok.start, "parenthesis")
+    if tok.kind == "char" and tok.text in UNSUPPORTED_SYMBOLS:
+        raise _error(pos, UNSUPPORTED_SYMBOLS[tok.text])
     raise _error(pos, f"unexpected {_describe(tok)}; expected a number, a name or '('")
 
 
@@ -611,6 +617,10 @@ class _FileParser:
         if _has_arrow(line):
             raise cur.error("production outside a section; expected a 'productions:' or "
                             "'interpretation:' line before it")
+        abop = _ABOP_CAPTION.match(line)
+        if abop:
+            raise cur.error(f"'{abop.group(1)}' is how ABOP's captions write it; expected "
+                            f"'{_ABOP_KEYS[abop.group(1)]}'")
         raise cur.error(f"unexpected {cur.describe()} outside a section; expected {_STATEMENTS_HELP}")
 
     def _expect_end(self, cur: _Cursor, what: str) -> None:

@@ -32,7 +32,7 @@ BRACKETS = frozenset("[]")
 # Symbols that cannot be a predecessor or a context pattern: they structure the string.
 STRUCTURE_SYMBOLS = frozenset("[]%")
 # Characters that are syntax, never module names.
-RESERVED_CHARS = frozenset("(),:;#<>=\"'{}~") | frozenset(" \t\r\n")
+RESERVED_CHARS = frozenset("(),:;#<>=\"'{}~\u2212\u2013\u2227") | frozenset(" \t\r\n")
 # Symbols of ABOP (chapter 1 and 5) and L-Py that plantlod does not draw, with what to
 # write instead; the parser rejects them with this advice (docs/notation.md).
 UNSUPPORTED_SYMBOLS = {
@@ -44,6 +44,10 @@ UNSUPPORTED_SYMBOLS = {
          "symbol ('leaf L: area=...') and write L instead",
     "'": "\"'\" (ABOP: increment the colour index) is not supported; colours do not "
          "matter to the wind model, delete it",
+    # look-alikes that a paste from a PDF of ABOP brings in
+    "\u2212": "'\u2212' (a minus sign from a PDF) is not '-'; write the ASCII '-'",
+    "\u2013": "'\u2013' (a dash from a PDF) is not '-'; write the ASCII '-'",
+    "\u2227": "'\u2227' is ABOP's 'pitch up'; write '^'",
 }
 
 # Keyword parameters of a branch symbol declaration and of a branch override:

@@ -25,6 +25,7 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
 from .constants import THREADS_ENV
+from .run import check_held_angles
 
 LANE_PARAMETERS = ("absorbed", "propagated", "bend_k", "rot_k", "drag", "leaf_scale")
 
@@ -177,6 +178,7 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     lane_model = _padded(model, fill)
     last = first_step + steps - 1
     rows = last // every - (first_step - 1) // every if steps else 0
+    check_held_angles(rows, b, padded)
     out_bend = np.empty((padded, rows, b))
     out_rot = np.empty((padded, rows, b))
     bad_branch = np.full(padded, -1, dtype=np.int64)

@@ -108,18 +108,24 @@ def _times(first_row: int, rows: int, every: int, dt: float) -> np.ndarray:
     return np.arange(first_row, first_row + rows, dtype=np.float64) * every * dt
 
 
+def check_held_angles(rows: int, branches: int, lanes: int = 1) -> None:
+    """Refuse (InputError) bend and rotation arrays of (lanes, rows, branches) float64 that
+    would pass MAX_HELD_ANGLE_BYTES, before they are allocated."""
+    held = 2 * lanes * rows * branches * 8
+    if held > MAX_HELD_ANGLE_BYTES:
+        raise InputError(f"the run would hold {held / 1e9:,.1f} GB of angles in memory "
+                         f"({lanes:,} x {rows:,} rows x {branches:,} branches), more than the "
+                         f"limit of {MAX_HELD_ANGLE_BYTES / 1e9:g} GB; expected fewer steps, "
+                         "winds or branches (plantlod simulate streams any length to a file)")
+
+
 def simulate_arrays(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
                     damping: float = 0.0) -> Samples:
     """The whole run as one `Samples`: times (m,), bend and rot (m, B), m = steps // every + 1.
 
     Raises `InputError` before running when the arrays would pass MAX_HELD_ANGLE_BYTES
     (streaming `simulate` has no such limit)."""
-    held = 2 * (steps // max(every, 1) + 1) * tree.n_branches * 8
-    if held > MAX_HELD_ANGLE_BYTES:
-        raise InputError(f"the run would hold {held / 1e9:,.1f} GB of angles in memory "
-                         f"({steps:,} steps x {tree.n_branches:,} branches), more than the limit "
-                         f"of {MAX_HELD_ANGLE_BYTES / 1e9:g} GB; expected fewer steps or "
-                         "branches (plantlod simulate streams any length to a file)")
+    check_held_angles(steps // max(every, 1) + 1, tree.n_branches)
     parts = list(simulate(tree, dt, steps, wind, every=every, damping=damping))
     return Samples(np.concatenate([p.times for p in parts]),
                    np.concatenate([p.bend for p in parts]),

@@ -203,6 +203,17 @@ def test_unsupported_abop_symbols_say_what_to_write(symbol, advice):
     assert (info.value.line, info.value.col) == (HEAD_LINES + 1, 9)
 
 
+@pytest.mark.parametrize("body, col, advice", [
+    ("axiom: F\u2212F\n", 9, "ASCII '-'"), ("axiom: F(2\u22121)\n", 11, "ASCII '-'"),
+    ("define a = \u22121\naxiom: F\n", 12, "ASCII '-'"),
+    ("axiom: F\nproductions:\n  F -> F\u2227F\n", 9, "write '^'"),
+])
+def test_pdf_look_alikes_are_named(body, col, advice):
+    with pytest.raises(InputError) as info:
+        system(body)
+    assert info.value.col == col and advice in info.value.message
+
+
 @pytest.mark.parametrize("line", ["  % -> F", "  A < % -> F", "  %(1) -> F"])
 def test_cut_cannot_be_a_pattern(line):
     with pytest.raises(InputError, match="cannot be a predecessor"):
@@ -341,3 +352,21 @@ def test_abop_production_label_is_named():
     with pytest.raises(InputError, match="production label") as info:
         system("axiom: F\nproductions:\n  p1: F -> FF\n")
     assert (info.value.line, info.value.col) == (HEAD_LINES + 3, 3)
+
+
+@pytest.mark.parametrize("line, key", [("n = 5", "derivation_length"), ("δ = 22.5°", "branching_angle"),
+                                       ("ω: F", "axiom")])
+def test_abop_caption_lines_say_what_to_write(line, key):
+    with pytest.raises(InputError, match=f"ABOP's captions.*'{key}") as info:
+        parse_lsys(line + "\n", "c.lsys")
+    assert (info.value.line, info.value.col) == (1, 1)
+
+
+def test_lanes_refuse_arrays_past_the_memory_cap():
+    from plantlod.sim.constants import MAX_HELD_ANGLE_BYTES
+    from plantlod.sim.lanes import LaneModel, run_lanes
+
+    tree = build(system("axiom: F F\n")).tree
+    rows = MAX_HELD_ANGLE_BYTES // (2 * 8 * tree.n_branches) + 1
+    with pytest.raises(InputError, match="GB of angles in memory"):
+        run_lanes(LaneModel.from_tree(tree), np.zeros((1, 3)), 0.01, rows)
