@@ -30,8 +30,17 @@ def _wind_range(ctx, param, value):
 @click.argument("input_path", metavar="FILE")
 @click.option("-o", "--output", default=None, metavar="OUT.lsys",
               help="Write the level-n .lsys here (atomically) instead of stdout.")
-@click.option("-n", "--level", type=click.IntRange(min=1), required=True,
-              help="Level n: the result derives N - n steps (1 <= n < N).")
+@click.option("-n", "--level", type=click.IntRange(min=1), default=None,
+              help="Level n (grammar form: the result derives N - n steps, 1 <= n < N; "
+                   "explicit form: down to the level of one branch).")
+@click.option("--form", type=click.Choice(["auto", "grammar", "explicit"]), default="auto",
+              show_default=True,
+              help="grammar: same productions, N - n steps; explicit: groups merged from the "
+                   "tips, chords as rest geometry (any tree); auto: grammar where it meets the "
+                   "level's bounds, else explicit.")
+@click.option("--levels", "levels_dir", metavar="DIR", default=None,
+              help="Write every level of the explicit form, 1 to the last, as DIR/level<k>.lsys "
+                   "(instead of --level and -o).")
 @click.option("--method", type=click.Choice(["derived", "thesis"]), default="derived",
               show_default=True,
               help="derived: closed-form rules matching every group's static angle; "
@@ -50,8 +59,8 @@ def _wind_range(ctx, param, value):
               help="Calibration budget: candidate trees simulated (each at every wind).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: only when stderr is a terminal).")
-def simplify(input_path, output, level, method, calibrate, wind_range, dt, duration,
-             evaluations, progress):
+def simplify(input_path, output, level, form, levels_dir, method, calibrate, wind_range, dt,
+             duration, evaluations, progress):
     """Write a level-n L-system that sways like FILE's tree.
 
     The result keeps FILE's axiom and productions and derives N - n steps; its
@@ -69,9 +78,16 @@ def simplify(input_path, output, level, method, calibrate, wind_range, dt, durat
     from plantlod.simplify.pipeline import Options, simplify as run_simplify
 
     require_together(click.get_current_context(), {"evaluations": ("calibrate",)})
+    if (level is None) == (levels_dir is None):
+        raise click.UsageError("give --level N, or --levels DIR for every level of the explicit form")
     system = read_lsys(input_path)
+    if levels_dir is not None:
+        if output is not None:
+            raise click.UsageError("--levels writes DIR/level<k>.lsys; -o does not apply")
+        _write_levels(system, levels_dir, input_path, wind_range, dt, duration)
+        return
     options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
-                      dt=dt, duration=duration, max_evaluations=evaluations)
+                      dt=dt, duration=duration, max_evaluations=evaluations, form=form)
     show = sys.stderr.isatty() if progress is None else progress
     if show:
         result = _with_progress(run_simplify, system, options)
@@ -80,12 +96,35 @@ def simplify(input_path, output, level, method, calibrate, wind_range, dt, durat
     with open_output(output) as out:
         out.write(result.text)
     s = result.summary
-    say(f"simplify: {display_name(input_path)} level {level} ({method}"
+    form_used = "explicit" if result.tree.group_root else "grammar"
+    say(f"simplify: {display_name(input_path)} level {level}, {form_used} form ({method}"
         f"{', calibrated' if calibrate else ''}): {result.original.n_branches:,} -> "
         f"{result.tree.n_branches:,} branches; worst amplitude error {_pct(s.amplitude)}, "
         f"period {_pct(s.period)}, tip {_pct(s.tip)} of height")
     for note in result.notes:
         say(f"simplify: {note}")
+
+
+def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
+                  duration: float) -> None:
+    """Every explicit level, 1 to the last, into ``folder`` (created), one measured file each."""
+    import os
+
+    from plantlod.lsys.build import build
+    from plantlod.simplify.explicit import merge_levels
+    from plantlod.simplify.pipeline import Options, simplify_explicit
+
+    last = len(merge_levels(build(system).tree)) - 1
+    os.makedirs(folder, exist_ok=True)
+    for k in range(1, last + 1):
+        result = simplify_explicit(system, Options(level=k, wind_range=wind_range, dt=dt,
+                                                   duration=duration, form="explicit"))
+        with open_output(os.path.join(folder, f"level{k}.lsys")) as out:
+            out.write(result.text)
+        s = result.summary
+        say(f"simplify: {display_name(input_path)} level {k}/{last}: {result.original.n_branches:,}"
+            f" -> {result.tree.n_branches:,} branches; worst amplitude {_pct(s.amplitude)}, "
+            f"tip {_pct(s.tip)} of height")
 
 
 def _pct(x: float) -> str:

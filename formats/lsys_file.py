@@ -114,6 +114,9 @@ def write_lsys(system: LSystem, header_comment: str | None = None) -> str:
             blocks.append([f"{title}:"] + [_INDENT + format_production(r) for r in rules])
     if system.overrides:
         blocks.append(["overrides:"] + [_INDENT + _format_override(o) for o in system.overrides])
+    if system.groups:
+        blocks.append(["groups:"] + [_INDENT + ".".join(map(str, a)) + ": " + root
+                                     for a, root in system.groups])
     return "\n\n".join("\n".join(block) for block in blocks if block) + "\n"
 
 

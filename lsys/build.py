@@ -40,7 +40,24 @@ def build(system: LSystem, steps: int | None = None,
     derived = derive(system, n, max_modules=max_modules)
     interpreted = interpret(system, derived, max_modules=max_modules)
     tree, warnings = build_tree_with_warnings(system, interpreted)
+    if system.groups:
+        tree = _with_group_roots(system, tree)
     return Built(derived, interpreted, tree, n, warnings)
+
+
+def _with_group_roots(system: LSystem, tree: Tree) -> Tree:
+    """``tree`` with `Tree.group_root` from the file's groups: section (every branch named)."""
+    from dataclasses import replace
+
+    from .errors import InputError
+
+    roots = {".".join(map(str, a)): root for a, root in system.groups}
+    missing = [a for a in tree.address if a not in roots]
+    if missing:
+        raise InputError(f"the groups: section names no group for the branch at {missing[0]}"
+                         f" ({len(missing)} branches without one); expected a line per branch",
+                         system.source or None)
+    return replace(tree, group_root=[roots[a] for a in tree.address])
 
 
 def build_tree_with_warnings(system: LSystem, interpreted: DerivedString) -> tuple[Tree, list[str]]:

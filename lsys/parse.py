@@ -43,7 +43,7 @@ HEADER_KEYS = (
 )
 REQUIRED_HEADER_KEYS = ("derivation_length", "branching_angle", "force_absorbed", "force_propagated")
 _INTEGER_KEYS = frozenset({"derivation_length", "seed"})
-SECTIONS = ("productions", "interpretation", "overrides")
+SECTIONS = ("productions", "interpretation", "overrides", "groups")
 _DECLARATIONS = ("define", "branch", "leaf")
 OVERRIDE_KEYS = {**BRANCH_KEYS, **LEAF_KEYS}
 
@@ -552,6 +552,8 @@ class _FileParser:
         self.rules: dict[str, list[Production]] = {"productions": [], "interpretation": []}
         self.overrides: list[Override] = []
         self.override_pos: dict[tuple[int, ...], Pos] = {}
+        self.groups: list[tuple[tuple[int, ...], str]] = []
+        self.group_pos: dict[tuple[int, ...], Pos] = {}
         self.section: str | None = None
 
     def run(self) -> LSystem:
@@ -609,6 +611,8 @@ class _FileParser:
         if self.section is not None and not hint:
             if self.section == "overrides":
                 return self._override(cur)
+            if self.section == "groups":
+                return self._group(cur)
             self.rules[self.section].append(_production(cur, self.defines))
             return None
         cur.skip_ws()
@@ -806,6 +810,25 @@ class _FileParser:
         self.overrides.append(Override(address, tuple(sorted(values.items())), pos))
         self.override_pos[address] = pos
 
+    def _group(self, cur: _Cursor) -> None:
+        """``ADDRESS: ORIGINAL_ADDRESS``: the branch drawn at ADDRESS stands for the group
+        of the original's branches rooted at ORIGINAL_ADDRESS (model.md 5, explicit form)."""
+        cur.skip_ws()
+        line = cur.text[cur.i:].split("#", 1)[0]
+        left, colon, right = line.partition(":")
+        left, right = left.strip(), right.strip()
+        if not colon or not _ADDRESS.fullmatch(left) or not _ADDRESS.fullmatch(right):
+            raise cur.error("expected 'ADDRESS: ORIGINAL_ADDRESS' in the groups section, as in "
+                            "'12: 0.4.0.1' (dotted non-negative integers)")
+        address = tuple(int(part) for part in left.split("."))
+        pos = cur.pos()
+        if address in self.group_pos:
+            raise cur.error(f"address {left} has two groups (first at "
+                            f"{_where(self.group_pos[address])}); expected one line per address")
+        self.groups.append((address, right))
+        self.group_pos[address] = pos
+        cur.i = len(cur.text)
+
     # whole-file checks
 
     def _finish(self) -> LSystem:
@@ -824,7 +847,7 @@ class _FileParser:
             interpretation=tuple(self.rules["interpretation"]),
             branches=tuple(self.branches), leaves=tuple(self.leaves),
             defines=tuple(self.defines.items()), overrides=tuple(self.overrides),
-            source=self.source, **values,
+            groups=tuple(self.groups), source=self.source, **values,
         )
         errors = list(_whole_file_errors(system))
         if errors:

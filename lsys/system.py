@@ -160,6 +160,9 @@ class LSystem:
     defines: tuple[tuple[str, float], ...] = ()   # in file order, already evaluated
     ignore: tuple[str, ...] = ()                  # symbols skipped when matching context
     overrides: tuple[Override, ...] = ()
+    # explicit form (model.md 5): (address of a branch here, address of the original
+    # branch that roots the group it stands for), in file order
+    groups: tuple[tuple[tuple[int, ...], str], ...] = ()
     drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT
     leaf_force_scale: float = DEFAULT_LEAF_FORCE_SCALE
     seed: int = DEFAULT_SEED

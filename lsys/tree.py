@@ -111,6 +111,9 @@ class Tree:
     leaf_address: list[str]
     leaf_force_scale: float = 1.0
     source: str = field(default="")
+    # explicit form: per branch, the address of the original branch rooting its group
+    # (the file's `groups:` section); empty for a tree whose addresses say it
+    group_root: list[str] = field(default_factory=list)
 
     @property
     def n_branches(self) -> int:

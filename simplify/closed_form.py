@@ -59,7 +59,7 @@ from .constants import REFINE_LSMR_ITERATIONS
 from plantlod.lsys.tree import Tree, leaf_keys
 from plantlod.sim.kinematics import depth_levels
 
-from .groups import assign_groups, combined_angles, main_paths
+from .groups import assign_groups, carry_angles, combined_angles, main_paths
 from .static import (RestFrames, angle_gains, fit_directions, own_drag_shape,
                      own_leaf_forces, rest_frames, static_angles, static_parts)
 
@@ -104,13 +104,18 @@ class StaticTargets:
     root_leaf: np.ndarray
 
 
-def static_targets(original: Tree, gmap: GroupMap, directions: np.ndarray) -> StaticTargets:
+def static_targets(original: Tree, gmap: GroupMap, directions: np.ndarray,
+                   turn: np.ndarray | None = None) -> StaticTargets:
+    """The targets; with ``turn`` (G, 3, 3) = W_0^T W'_g (`groups.swing_turns`) the combined
+    angles are carried from each group root's swing frame into its branch's (by turn^T)."""
     frames = rest_frames(original)
     parts = static_parts(original, directions, frames)
     out = []
     for force in (parts.leaf, parts.drag):
         bend, rot = static_angles(original, force, frames)
         cb, cr = combined_angles(original, gmap.paths, bend, rot)
+        if turn is not None:
+            cb, cr = carry_angles(np.transpose(turn, (0, 2, 1)), cb, cr)
         out.append(np.stack([cb, cr], axis=-1))
     return StaticTargets(directions, out[0], out[1], parts.leaf[:, gmap.roots])
 
@@ -176,7 +181,8 @@ class LevelParameters:
 
 def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                 directions: np.ndarray | None = None, refine: bool = True,
-                speeds: tuple[float, ...] = SIMPLIFY_WIND_RANGE) -> LevelParameters:
+                speeds: tuple[float, ...] = SIMPLIFY_WIND_RANGE,
+                turn: np.ndarray | None = None) -> LevelParameters:
     """Parameters of the level-n tree ``skeleton`` (its arrays are read for geometry only).
 
     ``skeleton`` is the level-n tree as the skeleton system builds it
@@ -190,7 +196,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     """
     if directions is None:
         directions = fit_directions(MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS, FIT_ELEVATION)
-    targets = static_targets(original, gmap, directions)
+    targets = static_targets(original, gmap, directions, turn)
     frames = rest_frames(skeleton)
     g_count = skeleton.n_branches
     d = len(directions)
@@ -253,7 +259,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     if refine:
         rdirs = fit_directions(REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
         model = _StaticModel(skeleton, gains, _unit_leaf_forces(skeleton, frames, rdirs),
-                             leaf_branch, own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs),
+                             leaf_branch, own_drag_shape(frames, rdirs), static_targets(original, gmap, rdirs, turn),
                              np.asarray(speeds, dtype=np.float64))
         surface = 2.0 * math.pi * skeleton.radius * lengths            # (G,) m^2
         refined = model.refine(kfa, kfp, drag_c * surface, areas)

@@ -22,7 +22,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose, rest_height
-from plantlod.simplify.groups import assign_groups, combined_angles, main_paths
+from .groups import assign_groups, carry_angles, combined_angles, main_paths, swing_turns
 from plantlod.simplify.measures import Report, Worst, compare_groups, window
 
 from .constants import POSE_BLOCK_BRANCH_SAMPLES, TIME_MATCH_RTOL
@@ -158,8 +158,14 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     last = np.asarray([int(p[-1]) for p in paths], dtype=np.int64)
     tips_o = tip_series(original.tree, original.bend[cut], original.rot[cut], last)
     tips_s = tip_series(simplified.tree, simplified.bend[cut], simplified.rot[cut], np.arange(g))
+    simp_b, simp_r = simplified.bend[cut], simplified.rot[cut]
+    if simplified.tree.group_root:
+        # explicit form: a chord's swing frame is turned against its group root's; its
+        # angles are carried into the root's frame, where the combined angles are
+        simp_b, simp_r = carry_angles(swing_turns(original.tree, simplified.tree, paths),
+                                      simp_b, simp_r)
     report = compare_groups(original.times[cut], combined_b[cut], combined_r[cut],
-                            simplified.bend[cut], simplified.rot[cut], tips_o, tips_s,
+                            simp_b, simp_r, tips_o, tips_s,
                             rest_height(original.tree), list(simplified.tree.address))
     return Comparison(original, simplified, groups, paths, int((groups < 0).sum()),
                       combined_b, combined_r, cut, report)

@@ -52,3 +52,12 @@ CALIBRATION_WEIGHT_FLOOR = 0.1  # weight every residual keeps
 # branching targets: amplitude 10 %, period 2 %); without it calibration trades
 # periods for amplitudes (abop_1_24f: 43 % -> 29 % amplitude for 0.3 % -> 3.7 % period).
 CALIBRATION_PERIOD_WEIGHT = 5.0
+
+# --- explicit form (simplify/explicit.py, docs/simplify.md "Explicit form") -------------
+LEVEL_RATIO = 0.6             # level n has at most this x the branches of level n - 1 (model.md 5)
+RUNS_BATCH_BYTES = 400_000_000  # angles held at once by simplify's measurement runs (lanes batched to this)
+# The accuracy each level is held to (issue 12): motion error, period error (major), tip
+# error as a fraction of the height; `simplify --form auto` keeps the grammar form where it
+# meets them. Level 3 and beyond are held to level 2's.
+LEVEL_BOUNDS = {1: (0.05, 0.02, 0.01), 2: (0.10, 0.04, 0.02)}
+SMALL_ANGLE_LIMIT = 0.1       # rad: the bounds apply while the original's combined angles stay below

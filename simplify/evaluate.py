@@ -14,7 +14,7 @@ import numpy as np
 
 from .constants import HIGH_SPEED_FRACTION
 from .constants import MEASURE_WIND_DIRECTIONS
-from .constants import POSE_BLOCK_BRANCH_SAMPLES
+from .constants import POSE_BLOCK_BRANCH_SAMPLES, RUNS_BATCH_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose, rest_height
@@ -86,32 +86,58 @@ class Runs:
         self.gmap = gmap
         self.dt, self.steps, self.every = dt, steps, every
         self.height = rest_height(original)
-        self.runs = [self._run_original(w) for w in winds]
+        self.winds = list(winds)
+        self.runs = []
+        for wind, times, bend, rot in self._simulated(original):
+            cb, cr = combined_angles(original, gmap.paths, bend, rot)
+            self.runs.append(OriginalRun(wind, times, cb, cr, tips_of(original, bend, rot, gmap.tips)))
 
-    def _run_original(self, wind: WindCase) -> OriginalRun:
-        s = simulate_arrays(self.original, self.dt, self.steps,
-                            wind_from_speed(wind.speed, wind.direction), every=self.every)
-        cb, cr = combined_angles(self.original, self.gmap.paths, s.bend, s.rot)
-        tips = tips_of(self.original, s.bend, s.rot, self.gmap.tips)
-        return OriginalRun(wind, s.times, cb, cr, tips)
+    def _simulated(self, tree: Tree):
+        """(wind, times (K,), bend (K, B), rot (K, B)) for every wind, the winds stepped
+        together as lanes on all cores (`plantlod.sim.lanes`), a few lanes at a time so
+        that memory stays near RUNS_BATCH_BYTES."""
+        from plantlod.sim.lanes import LaneModel, run_lanes
+
+        model = LaneModel.from_tree(tree)
+        rows = self.steps // self.every
+        times = np.arange(rows + 1, dtype=np.float64) * self.every * self.dt
+        per_lane = 16 * (rows + 1) * max(tree.n_branches, 1)
+        batch = max(1, RUNS_BATCH_BYTES // per_lane)
+        for lo in range(0, len(self.winds), batch):
+            winds = self.winds[lo:lo + batch]
+            vectors = np.array([wind_from_speed(w.speed, w.direction).sample(np.zeros(1))[0]
+                                for w in winds])
+            bend, rot = run_lanes(model, vectors, self.dt, self.steps, every=self.every,
+                                  addresses=tree.address)
+            rest = np.zeros((1, tree.n_branches))
+            for k, wind in enumerate(winds):
+                yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])
 
     def compare(self, simplified: Tree) -> list[Report]:
         """One section-6 report per wind. Raises InputError when the simplified run diverges."""
+        from .groups import carry_angles, swing_turns
+
+        turn = swing_turns(self.original, simplified, self.gmap.paths) if simplified.group_root else None
         reports = []
         every_branch = np.arange(simplified.n_branches)
-        for run in self.runs:
-            try:
-                s = simulate_arrays(simplified, self.dt, self.steps,
-                                    wind_from_speed(run.wind.speed, run.wind.direction),
-                                    every=self.every)
-            except RunFailure as exc:
-                raise InputError(f"the simplified tree is unstable at {run.wind.label()}: {exc}",
-                                 simplified.source or None) from None
-            tips = tips_of(simplified, s.bend, s.rot, every_branch)
+        try:
+            simulated = list(self._simulated(simplified))
+        except RunFailure as exc:
+            raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
+                             simplified.source or None) from None
+        for run, (_wind, _times, bend, rot) in zip(self.runs, simulated):
+            tips = tips_of(simplified, bend, rot, every_branch)
+            if turn is not None:
+                bend, rot = carry_angles(turn, bend, rot)
             reports.append(compare_groups(run.times, run.combined_b, run.combined_r,
-                                          s.bend, s.rot, run.tips, tips, self.height,
+                                          bend, rot, run.tips, tips, self.height,
                                           simplified.address))
         return reports
+
+    def largest_combined_angle(self) -> list[float]:
+        """Per wind, the largest |Θb| or |Θr| of any group over the run (rad)."""
+        return [float(max(np.abs(r.combined_b).max(initial=0.0), np.abs(r.combined_r).max(initial=0.0)))
+                for r in self.runs]
 
 
 @dataclass

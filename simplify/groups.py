@@ -106,6 +106,8 @@ def assign_groups(original: Tree, simplified: Tree) -> np.ndarray:
     """
     if simplified.n_branches == 0:
         raise InputError("the simplified tree has no branches; expected at least one to compare")
+    if simplified.group_root:
+        return assign_stated_groups(original, simplified)
     orig_keys = _parse_tree_addresses(original, "original")
     simp_keys = _parse_tree_addresses(simplified, "simplified")
     depth_o = len(orig_keys[0][0]) if orig_keys else 0
@@ -143,6 +145,38 @@ def assign_groups(original: Tree, simplified: Tree) -> np.ndarray:
         raise InputError(
             f"simplified branch(es) {_examples(empty)} stand for no branch of the original; "
             f"expected every simplified address to begin some original branch's address")
+    return groups
+
+
+def assign_stated_groups(original: Tree, simplified: Tree) -> np.ndarray:
+    """Groups of an explicit-form tree (model.md 5): (B_orig,) simplified-branch indices.
+
+    Every simplified branch names the original branch rooting its group
+    (`Tree.group_root`); an original branch belongs to the group of its nearest
+    ancestor-or-self that roots a group. The groups must be connected and cover
+    every original branch exactly once: a root named twice, an unknown address,
+    or an original root branch under no stated root is an `InputError`.
+    """
+    index = {a: i for i, a in enumerate(original.address)}
+    owner = np.full(original.n_branches, -1, dtype=np.int64)
+    for s, root in enumerate(simplified.group_root):
+        i = index.get(root)
+        if i is None:
+            raise InputError(f"simplified branch {simplified.address[s]} stands for the group at "
+                             f"{root}, which is no branch of the original; expected the original "
+                             f"that the file was simplified from")
+        if owner[i] >= 0:
+            raise InputError(f"the original branch {root} roots two groups (simplified branches "
+                             f"{simplified.address[owner[i]]} and {simplified.address[s]})")
+        owner[i] = s
+    parent = np.asarray(original.parent, dtype=np.int64)
+    groups = owner.copy()
+    for i in range(original.n_branches):            # parents come before children
+        if groups[i] < 0:
+            if parent[i] < 0:
+                raise InputError(f"the original's root branch {original.address[i]} belongs to no "
+                                 f"group; expected the groups to cover every branch")
+            groups[i] = groups[parent[i]]
     return groups
 
 
@@ -285,6 +319,25 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
     if bend.ndim == 1:
         return theta_b[0], theta_r[0]
     return theta_b, theta_r
+
+
+def swing_turns(original: Tree, simplified: Tree, paths: list[np.ndarray]) -> np.ndarray:
+    """W_0^T W'_g for every group g: (G, 3, 3), from the simplified branch's rest swing frame
+    W'_g to its group root's W_0 (world frames at rest). The identity where they agree (the
+    grammar form's straight groups); an explicit-form chord turns its frame."""
+    from plantlod.sim.kinematics import rest_pose
+
+    w0 = rest_pose(original).swing[np.array([int(p[0]) for p in paths], dtype=np.int64)]
+    w1 = rest_pose(simplified).swing
+    return np.einsum("gji,gjk->gik", w0, w1)
+
+
+def carry_angles(turn: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Angles (..., G) of one-member paths carried by ``turn`` (G, 3, 3) into another swing
+    frame, as `combined_angles` carries a member: Ω = M ω, ω = (-θr, θb, 0); Θb = Ω_y, Θr = -Ω_x."""
+    b = turn[:, 1, 1] * bend - turn[:, 1, 0] * rot
+    r = turn[:, 0, 0] * rot - turn[:, 0, 1] * bend
+    return b, r
 
 
 def _concatenate(paths: list[np.ndarray]) -> np.ndarray:

@@ -23,6 +23,7 @@ from .constants import SIMPLIFY_DT
 from .constants import SIMPLIFY_DURATION
 from .constants import SIMPLIFY_EVERY
 from .constants import SIMPLIFY_WIND_RANGE
+from .constants import LEVEL_BOUNDS, SMALL_ANGLE_LIMIT
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
@@ -37,6 +38,7 @@ from .measures import Report
 from .thesis import thesis_parameters
 
 METHODS = ("derived", "thesis")
+FORMS = ("auto", "grammar", "explicit")
 
 
 @dataclass
@@ -50,6 +52,9 @@ class Options:
     dt, duration : time step and run length (s) of those runs
     every        : keep every k-th step when measuring
     max_evaluations : calibration budget (candidate evaluations)
+    form         : "grammar" (model.md 5: same productions, N - n steps), "explicit"
+                   (groups merged from the tips, chords), or "auto": the grammar form
+                   where it meets the level's bounds (`LEVEL_BOUNDS`), else the explicit form
     """
 
     level: int
@@ -60,6 +65,7 @@ class Options:
     duration: float = SIMPLIFY_DURATION
     every: int = SIMPLIFY_EVERY
     max_evaluations: int = CALIBRATION_EVALUATIONS
+    form: str = "auto"
 
     def __post_init__(self) -> None:
         from plantlod.lsys.errors import InputError
@@ -104,7 +110,100 @@ def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, so
 
 def simplify(system: LSystem, options: Options,
              progress: Callable[[str, float], None] | None = None) -> Result:
-    """Simplify ``system`` to ``options.level``. Raises InputError for bad input (see module doc)."""
+    """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input."""
+    if options.form not in FORMS:
+        raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
+    if options.form == "explicit" or (options.form == "auto" and options.method == "derived"
+                                      and not options.calibrate
+                                      and options.level >= system.derivation_length):
+        return simplify_explicit(system, options, progress)
+    if options.form == "grammar" or options.method != "derived" or options.calibrate:
+        return simplify_grammar(system, options, progress)
+    try:
+        grammar = simplify_grammar(system, options, progress)
+    except InputError as exc:               # the grammar form cannot follow this tree
+        result = simplify_explicit(system, options, progress)
+        result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
+        return result
+    if meets_bounds(grammar.reports, options.level):
+        grammar.notes.insert(0, "grammar form: it meets the level's bounds")
+        return grammar
+    result = simplify_explicit(system, options, progress)
+    result.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
+                           f"({_bounds_text(grammar.reports)})")
+    return result
+
+
+def meets_bounds(reports: list[tuple[WindCase, Report]], level: int) -> bool:
+    """Whether every wind's visible-motion figures are within the level's bounds (LEVEL_BOUNDS)."""
+    motion, period, tip = LEVEL_BOUNDS[min(level, max(LEVEL_BOUNDS))]
+    for _wind, r in reports:
+        for value, limit in ((r.motion_error, motion), (r.period_error_major, period),
+                             (r.tip_error, tip)):
+            if math.isfinite(value) and value > limit:
+                return False
+    return True
+
+
+def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
+    worst = lambda name: max((getattr(r, name) for _, r in reports  # noqa: E731
+                              if math.isfinite(getattr(r, name))), default=math.nan)
+    return (f"motion {_percent(worst('motion_error'))}, period {_percent(worst('period_error_major'))}, "
+            f"tip {_percent(worst('tip_error'))} of the height")
+
+
+def simplify_explicit(system: LSystem, options: Options,
+                      progress: Callable[[str, float], None] | None = None) -> Result:
+    """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form."""
+    from .explicit import explicit_system_text, merge_levels
+
+    source = system.source or None
+    if options.method != "derived" or options.calibrate:
+        raise InputError("the explicit form has derived parameters only; expected --method "
+                         "derived without --calibrate (or --form grammar)", source)
+    original = build(system).tree
+    if original.n_branches == 0:
+        raise InputError("the original tree has no branches; expected a tree to simplify", source)
+    check_stability(original, options.dt)
+    levels = merge_levels(original)
+    last = len(levels) - 1
+    if not 1 <= options.level <= last:
+        raise InputError(f"level {options.level} is past the last: this tree has {last} levels in "
+                         f"the explicit form (1 to {last}, the last a single branch)", source)
+    if progress:
+        progress("fitting the explicit form", 0.0)
+    header = {key: getattr(system, key) for key in (
+        "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
+        "drag_coefficient", "leaf_force_scale")}
+    text, tree = explicit_system_text(original, levels[options.level], name=system.name or "tree",
+                                      header=header, level=options.level, dt=options.dt)
+    check_stability(tree, options.dt)
+    if progress:
+        progress("measuring", 0.5)
+    runs = Runs(original, group_map(original, tree), options.winds(), options.dt, options.steps,
+                options.every)
+    reports = list(zip(options.winds(), runs.compare(tree)))
+    summary = summarize([r for _, r in reports])
+    notes = _angle_notes(runs)
+    out = parse_lsys(text, system.source)
+    comment = header_comment(system, options, reports, summary, form="explicit",
+                             branches=(original.n_branches, tree.n_branches))
+    out = replace(out, comment=comment)
+    return Result(out, write_lsys(out, comment), original, tree, reports, summary, notes)
+
+
+def _angle_notes(runs: Runs) -> list[str]:
+    """A warning where the original's combined angles pass SMALL_ANGLE_LIMIT (targets hold below)."""
+    over = [w.speed for w, a in zip(runs.winds, runs.largest_combined_angle()) if a > SMALL_ANGLE_LIMIT]
+    if not over:
+        return []
+    return [f"warning: the original's combined angles pass {SMALL_ANGLE_LIMIT:g} rad at "
+            f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
+
+
+def simplify_grammar(system: LSystem, options: Options,
+                     progress: Callable[[str, float], None] | None = None) -> Result:
+    """The grammar form: the same productions, derivation length N - n, new parameters."""
     source = system.source or None
     if options.method not in METHODS:
         raise InputError(f"unknown method {options.method!r}; expected one of {', '.join(METHODS)}")
@@ -160,7 +259,9 @@ def simplify(system: LSystem, options: Options,
         runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
-    header = header_comment(system, options, reports, summary)
+    notes += _angle_notes(runs)
+    header = header_comment(system, options, reports, summary, form="grammar",
+                            branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)
     text = write_lsys(out, header)
     return Result(out, text, original, tree, reports, summary, notes)
@@ -184,19 +285,24 @@ def _percent(x: float) -> str:
 
 
 def header_comment(system: LSystem, options: Options, reports: list[tuple[WindCase, Report]],
-                   summary: Summary) -> str:
-    """The header: source, level, method, and the section-6 errors simplify measured."""
+                   summary: Summary, form: str = "grammar",
+                   branches: tuple[int, int] | None = None) -> str:
+    """The header: source, level, form, method, and the section-6 errors simplify measured."""
+    shape = (f"derivation length {system.derivation_length} -> {system.derivation_length - options.level}"
+             if form == "grammar" else
+             f"explicit form, {branches[0]:,} -> {branches[1]:,} branches" if branches else "explicit form")
     lines = [
-        f"plantlod simplify: level {options.level} of {system.source or '<input>'} "
-        f"(derivation length {system.derivation_length} -> {system.derivation_length - options.level})",
+        f"plantlod simplify: level {options.level} of {system.source or '<input>'} ({shape})",
+        f"form: {form}",
         f"method: {options.method}" + (", calibrated" if options.calibrate else ""),
         "errors of this file against the original (model.md section 6), steady winds from rest,",
         f"dt {options.dt:g} s, {options.duration:g} s, every {options.every} steps sampled:",
-        "  wind m/s  toward deg  amplitude    period       tip/height",
+        "  wind m/s  toward deg  amplitude    period       tip/height   motion       period(major)",
     ]
     for wind, rep in reports:
         lines.append(f"  {wind.speed:<8g}  {wind.direction:<10g}  {_percent(rep.amplitude_error):<11}"
-                     f"  {_percent(rep.period_error):<11}  {_percent(rep.tip_error)}")
+                     f"  {_percent(rep.period_error):<11}  {_percent(rep.tip_error):<11}"
+                     f"  {_percent(rep.motion_error):<11}  {_percent(rep.period_error_major)}")
     lines.append(f"worst: amplitude {_percent(summary.amplitude)}, period {_percent(summary.period)}, "
-                 f"tip {_percent(summary.tip)} of the rest height")
+                 f"tip {_percent(summary.tip)} of the rest height; {_bounds_text(reports)}")
     return "\n".join(lines)

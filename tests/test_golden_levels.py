@@ -64,7 +64,7 @@ HEADER_REL = 1e-3
 
 
 def _simplify(example: str, level: int, method: str, *extra: str) -> str:
-    return run_cli("simplify", f"examples/{example}.lsys", "--level", str(level),
+    return run_cli("simplify", f"examples/{example}.lsys", "--level", str(level), "--form", "grammar",
                    "--method", method, "--no-progress", *extra).stdout
 
 
@@ -125,7 +125,7 @@ def _compare_in(tmp_path) -> str:
     are the same on every machine.
     """
     shutil.copy(ROOT / "examples" / "stalk8.lsys", tmp_path / "stalk8.lsys")
-    run_cli("simplify", "stalk8.lsys", "--level", "1", "--no-progress", "-o", "stalk8_l1.lsys",
+    run_cli("simplify", "stalk8.lsys", "--level", "1", "--form", "grammar", "--no-progress", "-o", "stalk8_l1.lsys",
             cwd=tmp_path)
     return run_cli("compare", "stalk8.lsys", "stalk8_l1.lsys", "--dt", str(COMPARE_DT),
                    "--duration", str(COMPARE_DURATION), "--wind-speed", str(COMPARE_WIND),

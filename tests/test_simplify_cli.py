@@ -14,13 +14,14 @@ from plantlod.simplify.pipeline import Options, simplify
 
 
 def test_simplify_stalk8_level1_golden():
-    result = run_cli("simplify", "examples/stalk8.lsys", "--level", "1")
+    result = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--form", "grammar")
     assert_golden("simplify_stalk8_level1.lsys", result.stdout)
     system = parse_lsys(result.stdout)           # a valid .lsys ...
     assert system.derivation_length == 2         # ... of N - n steps
     assert "level 1 of examples/stalk8.lsys" in result.stdout.splitlines()[0]
     assert "worst: amplitude" in result.stdout
-    assert "simplify: examples/stalk8.lsys level 1 (derived): 8 -> 4 branches" in result.stderr
+    assert "simplify: examples/stalk8.lsys level 1, grammar form (derived): 8 -> 4 branches" in result.stderr
+    assert "combined angles pass 0.1 rad at 15 m/s" in result.stderr   # the stalk leans far at 15 m/s
 
 
 def test_same_input_same_bytes(tmp_path):
@@ -34,7 +35,11 @@ def test_same_input_same_bytes(tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--level", "3"], "expected a level below the derivation length 3"),
+    (["--level", "3", "--form", "grammar"], "expected a level below the derivation length 3"),
+    # 8 -> 4 -> 2 -> 1 branches: the explicit form has 3 levels (model.md 5: <= 60 % each)
+    (["--level", "4"], "level 4 is past the last: this tree has 3 levels"),
+    (["--level", "4", "--form", "explicit"], "this tree has 3 levels"),
+    (["--level", "1", "--form", "explicit", "--method", "thesis"], "derived parameters only"),
     (["--level", "2", "--method", "thesis", "--calibrate"], "--calibrate refines the derived"),
     (["--level", "1", "--dt", "250"], "time step too large"),
     (["--level", "1", "--wind-range", "5,1"], "expected 0 < LOW <= HIGH"),
@@ -52,8 +57,12 @@ def test_nothing_to_merge(tmp_path):
             "rotation_strength=20\naxiom: F F A\nproductions:\n  A -> A\n")
     path = tmp_path / "flat.lsys"
     path.write_text(text)
-    result = run_cli("simplify", str(path), "--level", "1", exit_code=2)
+    result = run_cli("simplify", str(path), "--level", "1", "--form", "grammar", exit_code=2)
     assert "nothing to merge" in result.stderr
+    # the explicit form merges the two branches into one: auto falls back to it and says why
+    auto = run_cli("simplify", str(path), "--level", "1")
+    assert "explicit form: the grammar form does not apply (nothing to merge" in auto.stderr
+    assert "groups:" in auto.stdout and "2 -> 1 branches" in auto.stdout
 
 
 def _worst(level, calibrate, winds):

@@ -1,0 +1,353 @@
+"""The explicit form of a level (model.md 5): groups merged from the tips, chords as rest geometry.
+
+For any tree (stochastic instances, chains that turn, sympodial trees, 3D bushes)
+the level-k tree is written out as an L-system of derivation length 0 whose
+axiom draws one branch per group, each naming the original branch that roots
+its group (the file's ``groups:`` section):
+
+1. **Groups** (`merge_levels`): level 0 is every original branch on its own.
+   Level k+1 merges groups of level k into their parent groups, smallest merged
+   size first (a heap: n log n), until at most `LEVEL_RATIO` of level k's groups
+   are left; so groups are connected, nested level in level, and the chain ends
+   with one group. Merging the smallest first grows groups evenly from the tips
+   toward the trunk (Beaudoin & Keyser 2004 merge from the tips too).
+2. **Geometry**: a group's branch runs from its root's rest base to its group tip
+   (the end of its main path, model.md 5), the chord; so every group tip sits where
+   it sits in the original at rest. Where a group hangs from the middle of its
+   parent group, the turtle moves there with ``f`` first (an offset).
+3. **Equivalent leaves**: the leaves of a group, A_j n_j, give the leaf-force
+   response M = sum_j A_j n_j n_j^T (3x3, symmetric, at rest). Its eigenvectors
+   e_i with eigenvalues l_i >= 0 give at most three leaves with M = sum_i l_i e_i e_i^T
+   exactly, and sum_i l_i = trace M = sum_j A_j: they are drawn with the summed area.
+4. **Parameters**: k_FA, k_fp, C_d and leaf force gains per branch come from the
+   statics of the groups (`closed_form`, the same least squares the grammar form
+   uses: each group's combined angle in a set of wind directions, leaf part ~ v and
+   drag part ~ v^2); k_bs and k_rs from the group's dominant period
+   (`dominant_strengths`).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantlod.lsys.expr import format_number
+from plantlod.lsys.tree import Tree
+
+from .constants import LEVEL_RATIO
+from .groups import main_paths
+from .static import rest_frames
+
+
+@dataclass(frozen=True)
+class Grouping:
+    """The groups of one level: (B0,) int64 group of every original branch, groups numbered
+    in order of their root branch (parents before children), and (G,) the root branch of each."""
+
+    group: np.ndarray
+    root: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.root.shape[0])
+
+
+def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
+    """Level 0 (every branch alone) to the last level (one group per root branch).
+
+    Each level has at most ``ratio`` times the groups of the level before it,
+    except that a tree of several root branches ends with one group per root.
+    Deterministic: ties go to the lower branch index.
+    """
+    b = tree.n_branches
+    parent = np.asarray(tree.parent, dtype=np.int64)
+    levels = [Grouping(np.arange(b, dtype=np.int64), np.arange(b, dtype=np.int64))]
+    if b == 0:
+        return levels
+    # union-find over original branch indices; a group is named by its root branch
+    owner = np.arange(b, dtype=np.int64)
+    size = np.ones(b, dtype=np.int64)
+
+    def find(i: int) -> int:
+        while owner[i] != i:
+            owner[i] = owner[owner[i]]
+            i = int(owner[i])
+        return i
+
+    roots_left = set(range(b))
+    while True:
+        count = len(roots_left)
+        target = math.floor(ratio * count)
+        mergeable = [r for r in roots_left if parent[r] >= 0]
+        if not mergeable:
+            break
+        heap = [(int(size[r] + size[find(int(parent[r]))]), r) for r in mergeable]
+        heapq.heapify(heap)
+        while heap and len(roots_left) > max(target, 1):
+            total, r = heapq.heappop(heap)
+            if r not in roots_left:
+                continue
+            up = find(int(parent[r]))
+            now = int(size[r] + size[up])
+            if now != total:                      # sizes changed since it was pushed
+                heapq.heappush(heap, (now, r))
+                continue
+            owner[r] = up
+            size[up] += size[r]
+            roots_left.discard(r)
+        group_root = np.array([find(i) for i in range(b)], dtype=np.int64)
+        roots = np.array(sorted(roots_left), dtype=np.int64)
+        number = np.full(b, -1, dtype=np.int64)
+        number[roots] = np.arange(len(roots))
+        levels.append(Grouping(number[group_root], roots))
+        if len(roots_left) == count:
+            break
+    return levels
+
+
+def equivalent_leaves(tree: Tree, frames, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Areas (k,) m^2 and world normals (k, 3) of at most three leaves whose leaf-force
+    response sum A n n^T equals that of the leaves on ``members`` at rest (see module doc)."""
+    on = np.isin(np.asarray(tree.leaf_branch, dtype=np.int64), members)
+    if not on.any():
+        return np.zeros(0), np.zeros((0, 3))
+    normals = np.einsum("kij,kj->ki", frames.frame[np.asarray(tree.leaf_branch)[on]],
+                        np.asarray(tree.leaf_normal, dtype=np.float64)[on])
+    area = np.asarray(tree.leaf_area, dtype=np.float64)[on]
+    response = np.einsum("k,ki,kj->ij", area, normals, normals)
+    values, vectors = np.linalg.eigh(response)
+    keep = values > 1e-12 * max(float(values.max()), 1e-300)
+    # sum of the eigenvalues kept = trace = summed area (up to the dropped ~0 ones)
+    values = values[keep] * (area.sum() / values[keep].sum())
+    return values[::-1], vectors[:, keep].T[::-1]
+
+
+def _zyz(m: np.ndarray) -> tuple[float, float, float]:
+    """ZYZ angles (phi, alpha, psi) in radians of the rotation m = Rz(phi) Ry(alpha) Rz(psi)."""
+    h = math.hypot(m[0, 2], m[1, 2])
+    if h < 1e-12:
+        return 0.0, (0.0 if m[2, 2] > 0 else math.pi), math.atan2(m[1, 0], m[0, 0] if m[2, 2] > 0 else -m[0, 0])
+    return math.atan2(m[1, 2], m[0, 2]), math.atan2(h, m[2, 2]), math.atan2(m[2, 1], -m[2, 0])
+
+
+def _chord_frame(root_frame: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """The root's rest frame turned by the smallest rotation that takes its z axis to ``direction``."""
+    z = root_frame[:, 2]
+    axis = np.cross(z, direction)
+    s, c = float(np.linalg.norm(axis)), float(np.dot(z, direction))
+    if s < 1e-12:
+        return root_frame.copy() if c > 0 else root_frame @ np.diag([1.0, -1.0, -1.0])
+    k = axis / s
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    rot = np.eye(3) + s * kx + (1 - c) * kx @ kx
+    return rot @ root_frame
+
+
+def _turn(angles: tuple[float, float, float]) -> str:
+    """Turtle modules for M <- M Rz(phi) Ry(alpha) Rz(psi) (degrees in the file)."""
+    phi, alpha, psi = (math.degrees(a) for a in angles)
+    out = ""
+    for sym, a in (("/", phi), ("+", alpha), ("/", psi)):
+        if a != 0.0:
+            out += f"{sym}({format_number(a)})"
+    return out
+
+
+def _unturn(angles: tuple[float, float, float]) -> str:
+    phi, alpha, psi = (math.degrees(a) for a in angles)
+    out = ""
+    for sym, a in (("/", -psi), ("+", -alpha), ("/", -phi)):
+        if a != 0.0:
+            out += f"{sym}({format_number(a)})"
+    return out
+
+
+@dataclass
+class Skeleton:
+    """One level's axiom and what its parameters are fitted with.
+
+    axiom          : the axiom's text (derivation length 0)
+    branch_address : (G,) axiom address of each group's branch
+    leaf_address   : per group, the axiom addresses of its equivalent leaves
+    leaf_area      : per group, their areas (m^2, summing to the group's leaf area)
+    length         : (G,) chord lengths, m
+    paths          : per group, its main path in the original (branch indices)
+    """
+
+    axiom: str
+    branch_address: list[str]
+    leaf_address: list[list[str]]
+    leaf_area: list[np.ndarray]
+    length: np.ndarray
+    paths: list[np.ndarray]
+
+
+def explicit_skeleton(original: Tree, grouping: Grouping) -> Skeleton:
+    """The explicit-form axiom of one level; rest geometry: chords (module doc)."""
+    frames = rest_frames(original)
+    g_count = grouping.count
+    paths = main_paths(original, grouping.group, g_count)
+    parent = np.asarray(original.parent, dtype=np.int64)
+    root = grouping.root
+    parent_group = np.array([grouping.group[parent[r]] if parent[r] >= 0 else -1 for r in root])
+    base = frames.base[root]
+    tip = frames.tip[np.array([p[-1] for p in paths])]
+    chord = tip - base
+    length = np.linalg.norm(chord, axis=1)
+    frame = np.empty((g_count, 3, 3))
+    for g in range(g_count):
+        direction = chord[g] / length[g] if length[g] > 0 else frames.axis[root[g]]
+        frame[g] = _chord_frame(frames.frame[root[g]], direction)
+    children: list[list[int]] = [[] for _ in range(g_count)]
+    for g in range(g_count):
+        if parent_group[g] >= 0:
+            children[parent_group[g]].append(g)
+    members = [np.flatnonzero(grouping.group == g) for g in range(g_count)]
+
+    tokens: list[str] = []          # one module or bracket per token, as the axiom's modules
+    branch_address = [""] * g_count
+    leaf_address: list[list[str]] = [[] for _ in range(g_count)]
+    leaf_area: list[np.ndarray] = [np.zeros(0)] * g_count
+    count = [0]
+
+    def emit(text: str) -> None:
+        # every module counts one address: a name with its (...) argument list is one module
+        i = 0
+        while i < len(text):
+            j = i + 1
+            if j < len(text) and text[j] == "(":
+                j = text.index(")", j) + 1
+            tokens.append(text[i:j])
+            count[0] += 1
+            i = j
+
+    def place(g: int, parent_frame: np.ndarray, parent_tip: np.ndarray) -> None:
+        offset_world = base[g] - parent_tip
+        if np.linalg.norm(offset_world) > 1e-12 * max(1.0, float(np.abs(base[g]).max())):
+            local = parent_frame.T @ offset_world
+            d = float(np.linalg.norm(local))
+            # turn z to the offset direction, move, turn back
+            to = _zyz(_chord_frame(np.eye(3), local / d))
+            emit(_turn(to) + f"f({format_number(d)})" + _unturn(to))
+        emit(_turn(_zyz(parent_frame.T @ frame[g])))
+        branch_address[g] = str(count[0])
+        emit("F")
+        areas, normals = equivalent_leaves(original, frames, members[g])
+        leaf_area[g] = areas
+        for a, n in zip(areas, normals):
+            local = frame[g].T @ n
+            ang = (math.atan2(local[1], local[0]), math.asin(max(-1.0, min(1.0, -local[2]))), 0.0)
+            emit("[")
+            emit(_turn(ang))
+            leaf_address[g].append(str(count[0]))
+            emit("L")
+            emit("]")
+        for c in children[g]:
+            emit("[")
+            place(c, frame[g], tip[g])
+            emit("]")
+
+    top = [g for g in range(g_count) if parent_group[g] < 0]
+    for g in top:
+        emit("[")
+        place(g, np.eye(3), np.zeros(3))
+        emit("]")
+    return Skeleton("".join(tokens), branch_address, leaf_address, leaf_area, length, paths)
+
+
+def dominant_strengths(original: Tree, paths: list[np.ndarray], weights: list[np.ndarray],
+                       dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """k_bs' and k_rs' per group from the members' swings, (G,) each.
+
+    Each main-path member j swings, to first order, as its own oscillator with
+    angular frequency w_j = arccos(1 - s_j / 2) / dt, s_j = k_j dt / 1000 (model.md 4),
+    carrying a share c_j (``weights``: its static angle) of the combined angle.
+    The group's branch gets the frequency sum_j c_j w_j / sum_j c_j, the frequency
+    that the combined signal's crossings follow, and k' = 1000 (2 - 2 cos(w dt)) / dt,
+    the inverse of w = arccos(1 - s/2) / dt. Where every member has one strength this
+    is that strength, exactly.
+    """
+    out = []
+    for strengths in (original.bend_strength, original.rotation_strength):
+        values = np.empty(len(paths))
+        for g, (p, c) in enumerate(zip(paths, weights)):
+            k = np.asarray(strengths, dtype=np.float64)[p]
+            if np.all(k == k[0]):
+                values[g] = k[0]
+                continue
+            s = k * dt / 1000.0
+            w = np.arccos(1.0 - s / 2.0)
+            c = np.abs(c) if np.abs(c).sum() > 0 else np.ones_like(w)
+            wm = float(np.sum(c * w) / np.sum(c))
+            values[g] = 1000.0 * 2.0 * (1.0 - math.cos(wm)) / dt
+        out.append(values)
+    return out[0], out[1]
+
+
+def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
+                         level: int, dt: float, refine: bool = False) -> tuple[str, Tree]:
+    """The level's explicit-form L-system (text, header comment not included) and its tree.
+
+    header : the original's header values (branching_angle, rotation_angle, seed,
+             force_absorbed, force_propagated, drag_coefficient, leaf_force_scale)
+    """
+    from plantlod.lsys.build import build
+    from plantlod.lsys.parse import parse_lsys
+
+    from .closed_form import GroupMap, closed_form
+    from .groups import assign_stated_groups
+
+    sk = explicit_skeleton(original, grouping)
+    root_address = [original.address[r] for r in grouping.root]
+    radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
+    head = [f"name: {name} level {level} (explicit form)", "derivation_length: 0"]
+    head += [f"{key}: {format_number(header[key])}" for key in (
+        "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
+        "drag_coefficient", "leaf_force_scale")]
+    declarations = ["branch F: length=1 radius=1 bend_strength=1 rotation_strength=1", "leaf L: area=1"]
+
+    def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
+        lines = []
+        for g, address in enumerate(sk.branch_address):
+            kv = " ".join(f"{k}={format_number(values[k][g])}" for k in sorted(values))
+            lines.append(f"  {address}: {kv}")
+            for a, area in zip(sk.leaf_address[g], leaf_area[g]):
+                lines.append(f"  {a}: area={format_number(area)}")
+        lines.sort(key=lambda line: int(line.split(":")[0]))
+        groups = [f"  {a}: {r}" for a, r in zip(sk.branch_address, root_address)]
+        return "\n".join(head) + "\n\n" + "\n".join(declarations) + f"\n\naxiom: {sk.axiom}\n\n" \
+            + "overrides:\n" + "\n".join(lines) + "\n\ngroups:\n" + "\n".join(groups) + "\n"
+
+    ones = np.ones(grouping.count)
+    base_values = {"length": sk.length, "radius": radius, "bend_strength": ones,
+                   "rotation_strength": ones}
+    skeleton = build(parse_lsys(text(base_values, sk.leaf_area), name)).tree
+    groups = assign_stated_groups(original, skeleton)
+    # the skeleton's branches come in axiom order; map them to group numbers
+    order = np.array([int(a) for a in skeleton.address])
+    position = {int(a): g for g, a in enumerate(sk.branch_address)}
+    to_group = np.array([position[a] for a in order])
+    gmap = GroupMap(groups, [sk.paths[to_group[s]] for s in range(skeleton.n_branches)])
+    from .groups import swing_turns
+    params = closed_form(original, skeleton, gmap, refine=refine,
+                         turn=swing_turns(original, skeleton, gmap.paths))
+    from .groups import combined_angles
+    from .static import fit_directions, static_angles, static_parts
+    parts = static_parts(original, fit_directions(4, 0, 0.0))
+    bend, rot = static_angles(original, parts.leaf + parts.drag)
+    weights = [np.abs(bend[:, p]).mean(axis=0) + np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths]
+    kb, kr = dominant_strengths(original, gmap.paths, weights, dt)
+    fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
+              "rotation_strength": kr}
+    for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
+        fitted[key] = params.branch[key]
+    back = np.argsort(to_group)                      # group number -> skeleton branch
+    values = {k: v[back] for k, v in fitted.items()}
+    # leaf areas as fitted (the model's only leaf-specific gain; docs/simplify.md)
+    by_address = {addr: area for (addr, _k), area in params.leaf_areas.items()}
+    leaf_area = [np.array([by_address[a] for a in sk.leaf_address[g]]) for g in range(grouping.count)]
+    final = text(values, leaf_area)
+    return final, build(parse_lsys(final, name)).tree
