@@ -64,6 +64,7 @@ _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
 _ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
+_BRANCH_ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*(?::[0-9]+)?")   # a tree's branch address
 # ABOP's captions: "n = 5, δ = 22.5°, ω: F" and what to write instead.
 _ABOP_KEYS = {"n": "derivation_length: N", "δ": "branching_angle: DEGREES", "ω": "axiom: MODULES"}
 _ABOP_CAPTION = re.compile(r"\s*(n|δ|ω)\s*[=:]")
@@ -817,9 +818,10 @@ class _FileParser:
         line = cur.text[cur.i:].split("#", 1)[0]
         left, colon, right = line.partition(":")
         left, right = left.strip(), right.strip()
-        if not colon or not _ADDRESS.fullmatch(left) or not _ADDRESS.fullmatch(right):
+        if not colon or not _ADDRESS.fullmatch(left) or not _BRANCH_ADDRESS.fullmatch(right):
             raise cur.error("expected 'ADDRESS: ORIGINAL_ADDRESS' in the groups section, as in "
-                            "'12: 0.4.0.1' (dotted non-negative integers)")
+                            "'12: 0.4.0.1' (dotted non-negative integers; the original's may end "
+                            "in ':K', the K-th branch drawn at one address)")
         address = tuple(int(part) for part in left.split("."))
         pos = cur.pos()
         if address in self.group_pos:

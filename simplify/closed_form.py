@@ -182,7 +182,9 @@ class LevelParameters:
 def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                 directions: np.ndarray | None = None, refine: bool = True,
                 speeds: tuple[float, ...] = SIMPLIFY_WIND_RANGE,
-                turn: np.ndarray | None = None) -> LevelParameters:
+                turn: np.ndarray | None = None,
+                kappa_range: float | None = None,
+                strengths: tuple[np.ndarray, np.ndarray] | None = None) -> LevelParameters:
     """Parameters of the level-n tree ``skeleton`` (its arrays are read for geometry only).
 
     ``skeleton`` is the level-n tree as the skeleton system builds it
@@ -200,7 +202,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     frames = rest_frames(skeleton)
     g_count = skeleton.n_branches
     d = len(directions)
-    kb, kr = group_strengths(original, gmap)
+    kb, kr = group_strengths(original, gmap) if strengths is None else strengths
     lengths = fit_lengths(original, skeleton, frames, gmap)
     path_kfa = np.array([original.force_absorbed[p].mean() for p in gmap.paths])
     path_kfp = np.array([np.prod(original.force_propagated[p]) for p in gmap.paths])
@@ -237,12 +239,18 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
         t = targets.root_leaf[:, g]
         yy, yt = float(np.sum(y * y)), float(np.sum(y * t))
         kappa = yy / yt if yy > 0 and yt > 0 else path_kfa[g]
+        if kappa_range is not None:            # a near-orthogonal force match is no evidence
+            kappa = min(max(kappa, path_kfa[g] / kappa_range), path_kfa[g] * kappa_range)
         p_new = lam / kappa if has_in else path_kfp[g]     # no children: the chain's k_fp^m
         if p_new == 0 and np.any(u > 0):                   # leaves need p' > 0
             p_new = path_kfp[g]
+        if kappa_range is not None:            # likewise the force passed on, and the leaf gains
+            p_new = min(max(p_new, path_kfp[g] / kappa_range), path_kfp[g] * kappa_range)
         lam = kappa * p_new
         if own:
             areas[own] = u / lam if lam > 0 else 0.0
+            if kappa_range is not None:
+                areas[own] = np.minimum(areas[own], kappa_range * natural_area[own])
         col = (drag_shape[:, g] @ gain.T).reshape(-1)
         rhs = (targets.drag[:, g] - lam * (in_drag[:, g] @ gain.T)).reshape(-1)
         cc = float(col @ col)

@@ -61,3 +61,4 @@ RUNS_BATCH_BYTES = 400_000_000  # angles held at once by simplify's measurement 
 # meets them. Level 3 and beyond are held to level 2's.
 LEVEL_BOUNDS = {1: (0.05, 0.02, 0.01), 2: (0.10, 0.04, 0.02)}
 SMALL_ANGLE_LIMIT = 0.1       # rad: the bounds apply while the original's combined angles stay below
+KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA

@@ -37,7 +37,7 @@ import numpy as np
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import LEVEL_RATIO
+from .constants import KAPPA_RANGE, LEVEL_RATIO
 from .groups import main_paths
 from .static import rest_frames
 
@@ -258,37 +258,74 @@ def explicit_skeleton(original: Tree, grouping: Grouping) -> Skeleton:
     return Skeleton("".join(tokens), branch_address, leaf_address, leaf_area, length, paths)
 
 
-def dominant_strengths(original: Tree, paths: list[np.ndarray], weights: list[np.ndarray],
-                       dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """k_bs' and k_rs' per group from the members' swings, (G,) each.
+def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 0.0) -> np.ndarray:
+    """(steps + 1, n) angle of a branch of each ``strength`` (k, model units) started at rest
+    under a constant force whose equilibrium angle is 1, by model.md 4's step itself:
+    v <- v + s (1 - theta) - c v, theta <- theta + v dt, with s = k dt / 1000 ... per step
+    (the velocity gain k/1000 times (theta_eq - theta))."""
+    k = np.asarray(strength, dtype=np.float64) / 1000.0
+    theta = np.zeros_like(k)
+    v = np.zeros_like(k)
+    out = np.empty((steps + 1, k.size))
+    out[0] = 0.0
+    for step in range(1, steps + 1):
+        v = v + k * (1.0 - theta) - damping * v
+        theta = theta + v * dt
+        out[step] = theta
+    return out
 
-    Each main-path member j swings, to first order, as its own oscillator with
-    angular frequency w_j = arccos(1 - s_j / 2) / dt, s_j = k_j dt / 1000 (model.md 4),
-    carrying a share c_j (``weights``: its static angle) of the combined angle.
-    The group's branch gets the frequency sum_j c_j w_j / sum_j c_j, the frequency
-    that the combined signal's crossings follow, and k' = 1000 (2 - 2 cos(w dt)) / dt,
-    the inverse of w = arccos(1 - s/2) / dt. Where every member has one strength this
-    is that strength, exactly.
+
+def dominant_strengths(original: Tree, paths: list[np.ndarray],
+                       weights: tuple[list[np.ndarray], list[np.ndarray]],
+                       dt: float, duration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """k_bs', k_rs' and an amplitude factor per group (G,) from the members' own swings.
+
+    To first order each main-path member j swings on its own, from rest, around its
+    static angle c_j (``weights``: per group, the members' static bend angles, and their
+    rotation angles) with its own period (model.md 4), and the group's
+    combined angle is X(t) = sum_j c_j u_j(t) (`unit_response`). Its period P and
+    amplitude A are measured as model.md 6 measures them (over ``duration``); the
+    group's branch gets the strength whose period is P,
+    k' = 1000 (2 - 2 cos(2 pi dt / P)) / dt (the inverse of P = 2 pi dt / arccos(1 - s/2)),
+    and its k_FA is multiplied by A / sum_j c_j, since a single branch from rest swings
+    with an amplitude equal to its static angle. Where every member has one strength this
+    is that strength and a factor 1, exactly.
     """
+    from .measures import amplitude, period
+
+    steps = int(round(duration / dt))
+    t = np.arange(steps + 1) * dt
+    gain = np.ones(len(paths))
     out = []
-    for strengths in (original.bend_strength, original.rotation_strength):
+    for which, strengths in enumerate((original.bend_strength, original.rotation_strength)):
+        strengths = np.asarray(strengths, dtype=np.float64)
         values = np.empty(len(paths))
-        for g, (p, c) in enumerate(zip(paths, weights)):
-            k = np.asarray(strengths, dtype=np.float64)[p]
-            if np.all(k == k[0]):
-                values[g] = k[0]
-                continue
-            s = k * dt / 1000.0
-            w = np.arccos(1.0 - s / 2.0)
-            c = np.abs(c) if np.abs(c).sum() > 0 else np.ones_like(w)
-            wm = float(np.sum(c * w) / np.sum(c))
-            values[g] = 1000.0 * 2.0 * (1.0 - math.cos(wm)) / dt
+        unequal = [g for g, p in enumerate(paths) if np.any(strengths[p] != strengths[p[0]])]
+        for g, p in enumerate(paths):
+            values[g] = strengths[p[0]]
+        if unequal:
+            distinct, inverse = np.unique(np.concatenate([strengths[paths[g]] for g in unequal]),
+                                          return_inverse=True)
+            responses = unit_response(distinct, dt, steps)
+            at = 0
+            for g in unequal:
+                m = len(paths[g])
+                c = np.abs(weights[which][g])
+                c = c if c.sum() > 0 else np.ones(m)
+                signal = responses[:, inverse[at:at + m]] @ c
+                at += m
+                p_measured = float(period(t, signal))
+                if math.isfinite(p_measured) and p_measured > 0:
+                    values[g] = 1000.0 * 2.0 * (1.0 - math.cos(2.0 * math.pi * dt / p_measured)) / dt
+                if which == 0:
+                    gain[g] = float(amplitude(signal)) / float(c.sum())
         out.append(values)
-    return out[0], out[1]
+    return out[0], out[1], gain
 
 
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
-                         level: int, dt: float, refine: bool = False) -> tuple[str, Tree]:
+                         level: int, dt: float, duration: float = 20.0,
+                         refine: bool = False) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
@@ -332,18 +369,20 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     to_group = np.array([position[a] for a in order])
     gmap = GroupMap(groups, [sk.paths[to_group[s]] for s in range(skeleton.n_branches)])
     from .groups import swing_turns
-    params = closed_form(original, skeleton, gmap, refine=refine,
-                         turn=swing_turns(original, skeleton, gmap.paths))
-    from .groups import combined_angles
     from .static import fit_directions, static_angles, static_parts
     parts = static_parts(original, fit_directions(4, 0, 0.0))
     bend, rot = static_angles(original, parts.leaf + parts.drag)
-    weights = [np.abs(bend[:, p]).mean(axis=0) + np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths]
-    kb, kr = dominant_strengths(original, gmap.paths, weights, dt)
+    weights = ([np.abs(bend[:, p]).mean(axis=0) for p in gmap.paths],
+               [np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths])
+    kb, kr, amp = dominant_strengths(original, gmap.paths, weights, dt, duration)
+    params = closed_form(original, skeleton, gmap, refine=refine,
+                         turn=swing_turns(original, skeleton, gmap.paths),
+                         kappa_range=KAPPA_RANGE, strengths=(kb, kr))
     fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
               "rotation_strength": kr}
     for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
         fitted[key] = params.branch[key]
+    fitted["force_absorbed"] = fitted["force_absorbed"] * amp
     back = np.argsort(to_group)                      # group number -> skeleton branch
     values = {k: v[back] for k, v in fitted.items()}
     # leaf areas as fitted (the model's only leaf-specific gain; docs/simplify.md)

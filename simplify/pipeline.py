@@ -125,24 +125,37 @@ def simplify(system: LSystem, options: Options,
         result = simplify_explicit(system, options, progress)
         result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
         return result
-    if meets_bounds(grammar.reports, options.level):
+    grammar_score = bounds_score(grammar.reports, options.level)
+    if grammar_score <= 1.0:
         grammar.notes.insert(0, "grammar form: it meets the level's bounds")
         return grammar
-    result = simplify_explicit(system, options, progress)
-    result.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
-                           f"({_bounds_text(grammar.reports)})")
-    return result
+    try:
+        explicit = simplify_explicit(system, options, progress)
+    except InputError as exc:
+        grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
+                                f"form does not apply ({exc.message})")
+        return grammar
+    if bounds_score(explicit.reports, options.level) < grammar_score:
+        explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
+                                 f"({_bounds_text(grammar.reports)})")
+        return explicit
+    grammar.notes.insert(0, "grammar form: both forms miss the level's bounds, the grammar form "
+                            f"less ({_bounds_text(grammar.reports)}; explicit: "
+                            f"{_bounds_text(explicit.reports)})")
+    return grammar
 
 
-def meets_bounds(reports: list[tuple[WindCase, Report]], level: int) -> bool:
-    """Whether every wind's visible-motion figures are within the level's bounds (LEVEL_BOUNDS)."""
+def bounds_score(reports: list[tuple[WindCase, Report]], level: int) -> float:
+    """The worst ratio of a visible-motion figure to its bound (LEVEL_BOUNDS) over the winds:
+    <= 1 when the level meets its bounds."""
     motion, period, tip = LEVEL_BOUNDS[min(level, max(LEVEL_BOUNDS))]
+    worst = 0.0
     for _wind, r in reports:
         for value, limit in ((r.motion_error, motion), (r.period_error_major, period),
                              (r.tip_error, tip)):
-            if math.isfinite(value) and value > limit:
-                return False
-    return True
+            if math.isfinite(value):
+                worst = max(worst, value / limit)
+    return worst
 
 
 def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
@@ -176,7 +189,8 @@ def simplify_explicit(system: LSystem, options: Options,
         "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
         "drag_coefficient", "leaf_force_scale")}
     text, tree = explicit_system_text(original, levels[options.level], name=system.name or "tree",
-                                      header=header, level=options.level, dt=options.dt)
+                                      header=header, level=options.level, dt=options.dt,
+                                      duration=options.duration)
     check_stability(tree, options.dt)
     if progress:
         progress("measuring", 0.5)
