@@ -3,6 +3,7 @@
 #   make test   run the test suite (what CI runs)
 #   make bench  run the benchmarks and print their figures
 #   make golden regenerate the golden files (review the diff like code)
+#   make lod-table  the table of every level's errors on the evaluation trees
 
 PYTHON ?= python3
 VENV   := .venv
@@ -10,7 +11,7 @@ PY     := $(VENV)/bin/python
 PLANTLOD := $(VENV)/bin/plantlod
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench golden clean
+.PHONY: demo test bench golden lod-table clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -33,6 +34,10 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) bench/run.py
+
+# make lod-table: worst errors of every level of the evaluation trees (docs/lod-table.md)
+lod-table: $(STAMP)
+	$(PY) bench/lod_table.py --out docs/lod-table.md
 
 golden: $(STAMP)
 	PLANTLOD_REGEN_GOLDEN=1 $(PY) -m pytest -q tests -k golden

@@ -136,8 +136,15 @@ def simulate(tree: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0), dt: float = 0.01
 
 def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping: float,
                threads: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """All winds in one pass of the lanes engine: times (T,), bend and rot (W, T, B)."""
+    """All winds in one pass of the lanes engine: times (T,), bend and rot (W, T, B).
+    One wind runs on the single-run kernel (the same values, without lanes' padding)."""
     from plantlod.sim.lanes import LaneModel, run_lanes
+
+    if len(winds) == 1:
+        from plantlod.sim.run import simulate_arrays
+
+        s = simulate_arrays(tree, dt, steps, winds[0], every=every, damping=damping)
+        return s.times, s.bend[None], s.rot[None]
 
     ks = np.arange(steps, dtype=np.float64)          # step k uses V(t_{k-1})
     samples = np.stack([np.asarray(w.sample(ks * dt), dtype=np.float64).reshape(steps, 3)
