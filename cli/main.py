@@ -16,6 +16,7 @@ from .discipline import (
 )
 from .compare_cmd import compare
 from .derive_cmd import derive
+from .scene_cmd import scene
 from .simplify_cmd import simplify
 from .simulate_cmd import simulate
 
@@ -67,6 +68,7 @@ def cli():
       simulate  wind model -> angle CSV
       simplify  level-n L-system that sways like the original
       compare   amplitude, period and tip errors; OBJ frames and pictures
+      scene     many trees, each at the level its camera distance allows
 
     \b
     Example:
@@ -76,7 +78,7 @@ def cli():
     """
 
 
-for command in (derive, simulate, simplify, compare):
+for command in (derive, simulate, simplify, compare, scene):
     cli.add_command(command)
 
 

@@ -1,0 +1,64 @@
+"""`plantlod scene`: a forest, every tree at the level its camera distance allows (docs/scene.md)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import click
+
+from .io import open_output, say
+
+
+@click.command()
+@click.argument("scene_path", metavar="SCENE.toml")
+@click.option("--report", "report_path", default="-", show_default=True, metavar="FILE",
+              help="Write the report (JSON) here; - for stdout.")
+@click.option("--verify", is_flag=True,
+              help="Also run every tree at full detail and measure the error spent, in pixels.")
+@click.option("--budget", "budget_px", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Pixel budget (overrides the scene's budget_px).")
+@click.option("--cache", "cache_dir", default=None, metavar="DIR",
+              help="Folder of cached level chains (default: $PLANTLOD_CACHE or ~/.cache/plantlod).")
+@click.option("--no-cache", is_flag=True, help="Simplify every tree file anew; keep nothing.")
+@click.option("--threads", type=click.IntRange(min=1), default=None,
+              help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
+def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, threads):
+    """Run a scene of many trees, each at the coarsest level within the pixel budget.
+
+    SCENE.toml places trees (explicitly or scattered), the wind and a camera
+    (docs/scene.md). Each distinct tree file is simplified into its chain of levels
+    once (cached); each tree then runs at the coarsest level whose tip error, seen
+    from the camera, stays within the budget (model.md section 7).
+
+    \b
+    Example:
+      plantlod scene examples/forest.toml --verify --report -
+    """
+    import dataclasses
+    import pathlib
+
+    from plantlod.scene.file import read_scene
+    from plantlod.scene.levels import default_cache
+    from plantlod.scene.run import check_scene, run_scene
+
+    if no_cache and cache_dir is not None:
+        raise click.UsageError("--cache and --no-cache do not go together")
+    spec = read_scene(scene_path)
+    if budget_px is not None:
+        spec = dataclasses.replace(spec, budget_px=budget_px)
+    check_scene(spec)
+    cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
+    show = sys.stderr.isatty()
+
+    def progress(done: int, total: int) -> None:
+        if show:
+            click.echo(f"\rscene: {done}/{total} batches", err=True, nl=done == total)
+
+    report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress)
+    with open_output(report_path) as out:
+        out.write(json.dumps(report, indent=2, sort_keys=False) + "\n")
+    say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
+        f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
+        + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
+        + f", {report['wall_s']:.1f} s")

@@ -1,0 +1,10 @@
+"""Constants of scenes (docs/scene.md)."""
+
+MAX_TREES = 100_000            # trees one scene may place
+MAX_SCATTER_TRIES = 200        # random draws per tree before a scatter gives up on its spacing
+FRAME_RATE = 30.0              # frames per second: levels are chosen, and errors verified, per frame
+# Directions (deg, relative to the wind) over which a level's tip error is taken, the worst
+# of them, so the figure holds for any heading of the tree.
+TIP_ERROR_DIRECTIONS = (0.0, 90.0, 180.0, 270.0)
+CACHE_ENV = "PLANTLOD_CACHE"   # overrides the per-user cache folder
+VERIFY_LANES = 16             # full-detail trees run at once by --verify (bounds memory)

@@ -1,0 +1,244 @@
+"""The scene file (TOML, docs/scene.md): trees, wind, camera, pixel budget, time.
+
+    dt = 0.01
+    duration = 10
+    budget_px = 1
+    [wind]    speed = 5, direction = 0, gust_strength = 0, gust_seed = 0, front_speed = 0
+    [camera]  position = [0, -50, 2], target = [0, 0, 2], fov_deg = 60, height_px = 1080
+    [[tree]]  file = "stalk8.lsys", position = [0, 0, 0], heading = 0, scale = 1
+    [scatter] files = ["a.lsys", "b.lsys"], count = 100, seed = 1,
+              area = [x0, y0, x1, y1], min_spacing = 5
+
+Every error is an `InputError` naming the file and the line of the offending key
+(tomllib reports syntax errors with line and column; values are located by a scan of
+the text for their key).
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+import re
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError
+
+from .constants import MAX_SCATTER_TRIES, MAX_TREES
+
+TOP_KEYS = {"dt", "duration", "budget_px", "wind", "camera", "tree", "scatter"}
+WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
+CAMERA_KEYS = {"position", "target", "fov_deg", "height_px"}
+TREE_KEYS = {"file", "seed", "position", "heading", "scale"}
+SCATTER_KEYS = {"files", "count", "seed", "area", "min_spacing", "scale"}
+
+
+@dataclass(frozen=True)
+class Placed:
+    """One tree of the scene: its L-system file, base position (m), heading (deg), scale."""
+
+    file: pathlib.Path
+    position: tuple[float, float, float]
+    heading: float
+    scale: float
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera: position and target (m), vertical field of view (deg), image height (px)."""
+
+    position: np.ndarray
+    target: np.ndarray
+    fov_deg: float
+    height_px: int
+
+    def pixels_per_metre(self, distance: np.ndarray) -> np.ndarray:
+        """model.md 7: p = e H / (2 d tan(fov / 2)), per metre of e, at distance d (m)."""
+        d = np.asarray(distance, dtype=np.float64)
+        with np.errstate(divide="ignore"):
+            return self.height_px / (2.0 * d * math.tan(math.radians(self.fov_deg) / 2.0))
+
+
+@dataclass(frozen=True)
+class Wind:
+    speed: float
+    direction: float
+    gust_strength: float
+    gust_seed: int
+    front_speed: float
+
+
+@dataclass(frozen=True)
+class Scene:
+    source: str
+    trees: list[Placed]
+    wind: Wind
+    camera: Camera
+    budget_px: float
+    dt: float
+    duration: float
+
+    @property
+    def steps(self) -> int:
+        return int(round(self.duration / self.dt))
+
+
+def _line_of(text: str, key: str) -> int | None:
+    m = re.search(rf"(?m)^\s*{re.escape(key)}\s*=", text)
+    return text.count("\n", 0, m.start()) + 1 if m else None
+
+
+class _Reader:
+    def __init__(self, text: str, source: str):
+        self.text, self.source = text, source
+
+    def error(self, message: str, key: str | None = None) -> InputError:
+        line = _line_of(self.text, key) if key else None
+        return InputError(message, self.source, line, 1 if line else None)
+
+    def keys(self, table: dict, allowed: set[str], where: str) -> None:
+        for key in table:
+            if key not in allowed:
+                raise self.error(f"unknown key '{key}' in {where}; expected one of "
+                                 f"{', '.join(sorted(allowed))}", key)
+
+    def number(self, table: dict, key: str, default=None, *, low=None, low_open=False,
+               integer=False) -> float:
+        if key not in table:
+            if default is None:
+                raise self.error(f"missing '{key}'", None)
+            return default
+        value = table[key]
+        ok = isinstance(value, int) if integer else isinstance(value, (int, float))
+        if isinstance(value, bool) or not ok or not math.isfinite(value):
+            kind = "a whole number" if integer else "a finite number"
+            raise self.error(f"'{key}' must be {kind}, got {value!r}", key)
+        if low is not None and (value <= low if low_open else value < low):
+            raise self.error(f"'{key}' must be {'>' if low_open else '>='} {low:g}, got {value!r}", key)
+        return value
+
+    def vector(self, table: dict, key: str, size: int, default=None) -> tuple[float, ...]:
+        if key not in table:
+            if default is None:
+                raise self.error(f"missing '{key}' ({size} numbers)", None)
+            return default
+        value = table[key]
+        if (not isinstance(value, list) or len(value) != size
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                           and math.isfinite(v) for v in value)):
+            raise self.error(f"'{key}' must be a list of {size} finite numbers, got {value!r}", key)
+        return tuple(float(v) for v in value)
+
+    def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
+        if not isinstance(name, str) or not name:
+            raise self.error(f"'{key}' must name an .lsys file, got {name!r}", key)
+        path = (folder / name).resolve()
+        if not path.is_file():
+            raise self.error(f"tree file {name!r} not found (looked in {folder})", key)
+        return path
+
+
+def read_scene(path: str) -> Scene:
+    """Read and check a scene file (see the module doc); trees resolved relative to it."""
+    file = pathlib.Path(path)
+    try:
+        text = file.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the scene: {exc}", path) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        m = re.search(r"line (\d+), column (\d+)", str(exc))
+        raise InputError(f"not valid TOML: {str(exc).split(' (at')[0]}", path,
+                         int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None
+    r = _Reader(text, path)
+    r.keys(data, TOP_KEYS, "the scene")
+    folder = file.resolve().parent
+    dt = r.number(data, "dt", 0.01, low=0, low_open=True)
+    duration = r.number(data, "duration", 10.0, low=0, low_open=True)
+    budget = r.number(data, "budget_px", 1.0, low=0)
+    if budget == 0:
+        raise r.error("'budget_px' is 0: no level but the full tree shows no error; expected a "
+                      "positive pixel budget", "budget_px")
+
+    wind_t = data.get("wind", {})
+    if not isinstance(wind_t, dict):
+        raise r.error("[wind] must be a table", "wind")
+    r.keys(wind_t, WIND_KEYS, "[wind]")
+    wind = Wind(r.number(wind_t, "speed", 0.0, low=0), r.number(wind_t, "direction", 0.0),
+                r.number(wind_t, "gust_strength", 0.0, low=0),
+                int(r.number(wind_t, "gust_seed", 0, low=0, integer=True)),
+                r.number(wind_t, "front_speed", 0.0, low=0))
+
+    cam_t = data.get("camera")
+    if not isinstance(cam_t, dict):
+        raise r.error("missing [camera] (position, target, fov_deg, height_px)", "camera")
+    r.keys(cam_t, CAMERA_KEYS, "[camera]")
+    camera = Camera(np.array(r.vector(cam_t, "position", 3)), np.array(r.vector(cam_t, "target", 3)),
+                    r.number(cam_t, "fov_deg", 60.0, low=0, low_open=True),
+                    int(r.number(cam_t, "height_px", 1080, low=1, integer=True)))
+    if camera.fov_deg >= 180:
+        raise r.error(f"'fov_deg' must be below 180, got {camera.fov_deg:g}", "fov_deg")
+    if np.allclose(camera.position, camera.target):
+        raise r.error("the camera's target is its position; expected a direction to look in", "target")
+
+    trees: list[Placed] = []
+    entries = data.get("tree", [])
+    if not isinstance(entries, list):
+        raise r.error("trees are [[tree]] entries", "tree")
+    for entry in entries:
+        r.keys(entry, TREE_KEYS, "[[tree]]")
+        trees.append(Placed(r.file(entry.get("file"), "file", folder),
+                            r.vector(entry, "position", 3, (0.0, 0.0, 0.0)),
+                            r.number(entry, "heading", 0.0), r.number(entry, "scale", 1.0, low=0,
+                                                                       low_open=True)))
+    if "scatter" in data:
+        trees += _scatter(r, data["scatter"], folder)
+    if not trees:
+        raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
+    if len(trees) > MAX_TREES:
+        raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
+    return Scene(path, trees, wind, camera, budget, dt, duration)
+
+
+def _scatter(r: _Reader, table, folder: pathlib.Path) -> list[Placed]:
+    """N trees drawn from ``files`` over a rectangle, at least ``min_spacing`` apart, from ``seed``."""
+    if not isinstance(table, dict):
+        raise r.error("[scatter] must be a table", "scatter")
+    r.keys(table, SCATTER_KEYS, "[scatter]")
+    names = table.get("files")
+    if not isinstance(names, list) or not names:
+        raise r.error("'files' must be a non-empty list of .lsys files", "files")
+    files = [r.file(n, "files", folder) for n in names]
+    count = int(r.number(table, "count", None, low=1, integer=True))
+    seed = int(r.number(table, "seed", 0, low=0, integer=True))
+    x0, y0, x1, y1 = r.vector(table, "area", 4)
+    if not (x1 > x0 and y1 > y0):
+        raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0", "area")
+    spacing = r.number(table, "min_spacing", 0.0, low=0)
+    scale = r.number(table, "scale", 1.0, low=0, low_open=True)
+    rng = np.random.default_rng(seed)
+    points: list[tuple[float, float]] = []
+    cell = max(spacing, 1e-9)
+    grid: dict[tuple[int, int], list[int]] = {}
+    tries = 0
+    while len(points) < count:
+        tries += 1
+        if tries > MAX_SCATTER_TRIES * count:
+            raise r.error(f"cannot place {count:,} trees {spacing:g} m apart in the area "
+                          f"(placed {len(points):,}); expected a larger area or a smaller spacing",
+                          "min_spacing")
+        x, y = float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1))
+        gx, gy = int(x // cell), int(y // cell)
+        near = [j for dx in (-1, 0, 1) for dy in (-1, 0, 1) for j in grid.get((gx + dx, gy + dy), [])]
+        if spacing > 0 and any((points[j][0] - x) ** 2 + (points[j][1] - y) ** 2 < spacing ** 2
+                               for j in near):
+            continue
+        grid.setdefault((gx, gy), []).append(len(points))
+        points.append((x, y))
+    picks = rng.integers(0, len(files), size=count)
+    headings = rng.uniform(0.0, 360.0, size=count)
+    return [Placed(files[int(k)], (x, y, 0.0), float(h), scale)
+            for (x, y), k, h in zip(points, picks, headings)]

@@ -1,0 +1,119 @@
+"""The level chain of one tree file and each level's tip error, cached on disk.
+
+For a scene, every distinct tree file gets its explicit-form levels (model.md 5,
+`plantlod.simplify.explicit`): level 0 the original, each next one <= 60 % of the
+branches, down to one branch. Each level's **tip error (max)** (model.md 6, metres)
+is measured against the original in the scene's wind speed, the worst over
+`TIP_ERROR_DIRECTIONS` (so it holds for any heading). The level files and the errors
+are kept in the cache folder under a key of the tree file's bytes, the program
+version and the wind and time settings, so a second run of a scene simplifies nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pathlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantlod.lsys.build import build
+from plantlod.lsys.parse import parse_lsys
+from plantlod.lsys.tree import Tree
+
+from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS
+
+
+@dataclass
+class Chain:
+    """Levels 0 (the original) .. last of one tree file.
+
+    trees      : one Tree per level
+    tip_error_m: (L,) metres, the worst tip error (max) of each level in the scene's wind
+    groups     : per level, (B0,) the level branch holding each original branch
+    tips       : per level, (B_l,) the original branch whose tip each level branch stands for
+    """
+
+    trees: list[Tree]
+    tip_error_m: np.ndarray
+    groups: list[np.ndarray]
+    tips: list[np.ndarray]
+
+
+def default_cache() -> pathlib.Path:
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return pathlib.Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return pathlib.Path(base) / "plantlod"
+
+
+def cache_key(data: bytes, speed: float, dt: float, duration: float) -> str:
+    import plantlod
+
+    h = hashlib.sha256()
+    for part in (data, plantlod.__version__.encode(), repr((speed, dt, duration)).encode()):
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    return h.hexdigest()[:32]
+
+
+def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
+                cache: pathlib.Path | None) -> tuple[Chain, bool]:
+    """The chain of ``path`` and whether it came from the cache."""
+    data = path.read_bytes()
+    key = cache_key(data, speed, dt, duration)
+    entry = None if cache is None else cache / f"{key}.json"
+    if entry is not None and entry.is_file():
+        stored = json.loads(entry.read_text(encoding="utf-8"))
+        return _chain(path, data, stored["levels"], np.array(stored["tip_error_m"])), True
+    texts, errors = _simplify_all(path, data, speed, dt, duration)
+    if entry is not None:
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        tmp = entry.with_suffix(".tmp")
+        tmp.write_text(json.dumps({"file": str(path), "levels": texts,
+                                   "tip_error_m": [float(e) for e in errors]}), encoding="utf-8")
+        os.replace(tmp, entry)
+    return _chain(path, data, texts, np.asarray(errors)), False
+
+
+def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
+    from plantlod.simplify.groups import assign_groups, main_paths
+
+    original = build(parse_lsys(data.decode("utf-8"), str(path))).tree
+    trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
+    for k, text in enumerate(texts, start=1):
+        tree = build(parse_lsys(text, f"{path.name} level {k}")).tree
+        g = assign_groups(original, tree)
+        trees.append(tree)
+        groups.append(g)
+        tips.append(np.array([p[-1] for p in main_paths(original, g, tree.n_branches)], dtype=np.int64))
+    return Chain(trees, errors, groups, tips)
+
+
+def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float):
+    from plantlod.simplify.closed_form import group_map
+    from plantlod.simplify.evaluate import Runs, WindCase
+    from plantlod.simplify.explicit import explicit_system_text, merge_levels
+
+    system = parse_lsys(data.decode("utf-8"), str(path))
+    original = build(system).tree
+    header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
+                                              "force_absorbed", "force_propagated",
+                                              "drag_coefficient", "leaf_force_scale")}
+    levels = merge_levels(original)
+    winds = [WindCase(speed, d) for d in TIP_ERROR_DIRECTIONS]
+    steps = int(round(duration / dt))
+    texts, errors = [], [0.0]
+    for k in range(1, len(levels)):
+        text, tree = explicit_system_text(original, levels[k], name=system.name or path.stem,
+                                          header=header, level=k, dt=dt, duration=duration)
+        runs = Runs(original, group_map(original, tree), winds, dt, steps, every=1)
+        worst = max(r.tip_error_max_m for r in runs.compare(tree))
+        texts.append(text)
+        errors.append(float(worst) if np.isfinite(worst) else float("inf"))
+    # a coarser level never claims less error than a finer one: the budget picks the
+    # coarsest level within it, so the errors are made non-decreasing along the chain
+    return texts, np.maximum.accumulate(np.asarray(errors))
