@@ -51,10 +51,14 @@ def default_cache() -> pathlib.Path:
 
 
 def cache_key(data: bytes, speed: float, dt: float, duration: float) -> str:
-    import plantlod
+    from importlib.metadata import PackageNotFoundError, version
 
+    try:
+        program = version("plantlod")
+    except PackageNotFoundError:
+        program = "0+unknown"
     h = hashlib.sha256()
-    for part in (data, plantlod.__version__.encode(), repr((speed, dt, duration)).encode()):
+    for part in (data, program.encode(), repr((speed, dt, duration)).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest()[:32]
