@@ -97,13 +97,17 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
 
     begin = time.perf_counter()
     chains, cached = {}, 0
+    steps = scene.steps
+    winds = tree_winds(scene, steps)
+    # levels are measured at the strongest wind any tree sees (gusts included), so that a
+    # gust does not carry a far tree past its budget
+    speed = float(np.linalg.norm(winds, axis=-1).max()) if winds.size else 0.0
+    speed = round(speed, 6)
     for path in sorted({t.file for t in scene.trees}):
-        chain, hit = level_chain(path, scene.wind.speed, scene.dt, scene.duration, cache)
+        chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache)
         chains[path] = chain
         cached += hit
     runs = choose_levels(scene, chains, scene.budget_px)
-    steps = scene.steps
-    winds = tree_winds(scene, steps)
     every = max(1, int(round(1.0 / (FRAME_RATE * scene.dt))))
     frames = steps // every
     batches: dict[tuple, list[int]] = {}
@@ -137,6 +141,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "files": len(chains),
         "chains_from_cache": cached,
         "budget_px": scene.budget_px,
+        "level_wind_speed": speed,
         "dt": scene.dt,
         "duration": scene.duration,
         "frames": frames,
