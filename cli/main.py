@@ -16,6 +16,7 @@ from .discipline import (
 )
 from .compare_cmd import compare
 from .derive_cmd import derive
+from .export_cmd import export
 from .scene_cmd import scene
 from .simplify_cmd import simplify
 from .simulate_cmd import simulate
@@ -69,6 +70,7 @@ def cli():
       simplify  level-n L-system that sways like the original
       compare   amplitude, period and tip errors; OBJ frames and pictures
       scene     many trees, each at the level its camera distance allows
+      export    one tree's motion as glTF or OpenUSD
 
     \b
     Example:
@@ -78,7 +80,7 @@ def cli():
     """
 
 
-for command in (derive, simulate, simplify, compare, scene):
+for command in (derive, simulate, simplify, compare, scene, export):
     cli.add_command(command)
 
 

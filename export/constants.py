@@ -5,3 +5,4 @@ OBJ_SIDES = 8                 # sides of a branch tube
 OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without children
 OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
 OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)
+GLTF_CYLINDER_SIDES = 8        # sides of a branch tube in glTF

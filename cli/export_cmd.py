@@ -1,0 +1,51 @@
+"""`plantlod export`: one tree's motion as glTF or OpenUSD (docs/export.md)."""
+
+from __future__ import annotations
+
+import click
+
+from .io import display_name, say
+from .loading import load_tree
+
+
+@click.command(name="export")
+@click.argument("tree_path", metavar="TREE")
+@click.argument("angles_path", metavar="ANGLES.csv")
+@click.option("-o", "--output", required=True, metavar="OUT",
+              help="OUT.glb, OUT.gltf, OUT.usda or OUT.usdc: the format from the extension.")
+@click.option("--fps", type=click.FloatRange(min=0, min_open=True, max=1000), default=30.0,
+              show_default=True, help="Frames per second (angles resampled linearly).")
+@click.option("--frames", "frames_text", default=None, metavar="A:B",
+              help="Only frames A to B-1 (time restarts at 0).")
+@click.option("--degrees", is_flag=True, help="ANGLES holds degrees.")
+def export(tree_path, angles_path, output, fps, frames_text, degrees):
+    """Write the motion of TREE (an .lsys, a level file, or a tree file) from ANGLES.csv
+    (`plantlod simulate`'s output) as glTF 2.0 or OpenUSD.
+
+    \b
+    Example:
+      plantlod simulate examples/stalk8.lsys --dt 0.01 --duration 5 --wind-speed 5 -o s.csv
+      plantlod export examples/stalk8.lsys s.csv -o stalk8.glb
+    """
+    from plantlod.export.files import export_animation
+    from plantlod.formats.angles_csv import read_angles_csv
+    from plantlod.formats.text_input import read_text
+    from plantlod.simplify.compare import angles_in_tree_order
+    import io
+
+    frames = None
+    if frames_text is not None:
+        try:
+            a, b = (int(x) for x in frames_text.split(":"))
+        except ValueError:
+            raise click.BadParameter("expected A:B, two whole numbers", param_hint="--frames") from None
+        if not 0 <= a < b:
+            raise click.BadParameter("expected 0 <= A < B", param_hint="--frames")
+        frames = (a, b)
+    tree, _ = load_tree(tree_path)
+    times, addresses, bend, rot = read_angles_csv(io.StringIO(read_text(angles_path)),
+                                                  display_name(angles_path), degrees=degrees)
+    bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
+    export_animation(output, tree, times, bend, rot, fps, frames)
+    say(f"export: {display_name(tree_path)}: {tree.n_branches:,} branches, "
+        f"{times[-1]:g} s at {fps:g} fps -> {output}")

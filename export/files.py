@@ -1,0 +1,42 @@
+"""One table of exporters, chosen by the output's extension (as trimesh's exchange does)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.tree import Tree
+
+FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
+
+
+def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: np.ndarray,
+                     fps: float = 30.0, frames: tuple[int, int] | None = None) -> None:
+    """Write ``tree`` moving by ``bend``/``rot`` (K, B) at ``times`` (K,) to ``path``, atomically."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in FORMATS:
+        raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "
+                         f"{', '.join(FORMATS)}", path)
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=ext, dir=folder)
+    os.close(fd)
+    try:
+        if ext in (".glb", ".gltf"):
+            from .gltf import gltf_bytes, gltf_document
+
+            data = gltf_bytes(gltf_document(tree, times, bend, rot, fps, frames), ext == ".glb")
+            with open(tmp, "wb") as out:
+                out.write(data)
+        else:
+            os.unlink(tmp)                        # USD creates its own file
+            from .usd import write_usd
+
+            write_usd(tmp, tree, times, bend, rot, fps, frames)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

@@ -1,0 +1,137 @@
+"""plantlod export: glTF and OpenUSD files read back, their transforms composed here (not by
+the exporter's code), put every branch tip where the model's pose puts it; glTF passes the
+Khronos validator."""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import plantlod
+from golden_util import ROOT, run_cli
+from plantlod.sim.kinematics import pose
+
+FPS = 30.0
+
+
+def _quat_matrix(q):
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("export")
+    tree = plantlod.derive(plantlod.read_lsystem(ROOT / "examples" / "abop_2_6.lsys"), 5)
+    angles = plantlod.simulate(tree, wind=(9.0, 2.0, 0.0), dt=0.01, steps=150)
+    plantlod.write_tree(tree, folder / "t.jsonl")
+    plantlod.write_angles(angles, folder / "a.csv")
+    for ext in ("glb", "usda"):
+        run_cli("export", str(folder / "t.jsonl"), str(folder / "a.csv"), "-o", str(folder / f"t.{ext}"))
+    return folder, tree, angles
+
+
+def _expected_tips(tree, angles, k):
+    """The model's tips at frame k: angles interpolated linearly to t = k / FPS (as the file's
+    frames are resampled from the run's samples), posed by the model."""
+    t = k / FPS
+    bend = np.array([np.interp(t, angles.time, angles.bend[:, b]) for b in range(tree.n_branches)])
+    rot = np.array([np.interp(t, angles.time, angles.rotation[:, b]) for b in range(tree.n_branches)])
+    return pose(tree, bend, rot).tip
+
+
+def test_gltf_tips_follow_the_model(run):
+    import pygltflib
+
+    folder, tree, angles = run
+    doc = pygltflib.GLTF2().load(str(folder / "t.glb"))
+    blob = doc.binary_blob()
+
+    def read(accessor):
+        acc = doc.accessors[accessor]
+        view = doc.bufferViews[acc.bufferView]
+        width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[acc.type]
+        return np.frombuffer(blob, np.float32, acc.count * width, view.byteOffset).reshape(acc.count, -1)
+
+    animated = {}
+    for ch in doc.animations[0].channels:
+        sampler = doc.animations[0].samplers[ch.sampler]
+        animated[ch.target.node] = read(sampler.output)
+    for k in (0, 17, 45):
+        world = {}
+
+        def walk(n, m, t):
+            node = doc.nodes[n]
+            q = animated[n][k] if n in animated else (node.rotation or [0, 0, 0, 1])
+            r_local = _quat_matrix(np.asarray(q, dtype=np.float64))
+            t_world = t + m @ np.asarray(node.translation or [0, 0, 0], dtype=np.float64)
+            m_world = m @ r_local
+            world[n] = (m_world, t_world)
+            for c in node.children or []:
+                walk(c, m_world, t_world)
+
+        walk(0, np.eye(3), np.zeros(3))
+        names = {doc.nodes[n].name: n for n in world}
+        tips = np.array([world[names[a]][1] + world[names[a]][0] @ [0, 0, tree.length[i]]
+                         for i, a in enumerate(tree.address)])
+        model = _expected_tips(tree, angles, k)
+        y_up = np.stack([model[:, 0], model[:, 2], -model[:, 1]], axis=1)   # Z up -> Y up
+        np.testing.assert_allclose(tips, y_up, atol=1e-5)
+
+
+def test_usd_tips_follow_the_model(run):
+    from pxr import Usd, UsdGeom
+
+    folder, tree, angles = run
+    stage = Usd.Stage.Open(str(folder / "t.usda"))
+    assert UsdGeom.GetStageUpAxis(stage) == "Z" and stage.GetTimeCodesPerSecond() == FPS
+    cache_tips = {}
+    for k in (0, 30):
+        cache = UsdGeom.XformCache(Usd.TimeCode(k))
+        for prim in stage.Traverse():
+            if prim.GetTypeName() == "Xform" and prim.HasAttribute("plantlod:address"):
+                address = prim.GetAttribute("plantlod:address").Get()
+                m = np.array(cache.GetLocalToWorldTransform(prim))          # row-vector convention
+                i = tree.address.index(address)
+                cache_tips[address] = np.array([0, 0, tree.length[i], 1.0]) @ m
+        tips = np.array([cache_tips[a][:3] for a in tree.address])
+        np.testing.assert_allclose(tips, _expected_tips(tree, angles, k), atol=1e-5)
+
+
+def test_gltf_passes_the_khronos_validator(run, tmp_path):
+    folder, _, _ = run
+    if not shutil.which("node") or not shutil.which("npm"):
+        pytest.skip("node/npm not installed: the glTF validator (npm gltf-validator) cannot run")
+    cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME", pathlib.Path.home() / ".cache")) / "plantlod-test"
+    module = cache / "node_modules" / "gltf-validator"
+    if not module.is_dir():
+        cache.mkdir(parents=True, exist_ok=True)
+        done = subprocess.run(["npm", "install", "--silent", "--prefix", str(cache),
+                               "gltf-validator@2.0.0-dev.3.10"], capture_output=True, timeout=300)
+        if done.returncode != 0 or not module.is_dir():
+            pytest.skip("npm could not install gltf-validator into " + str(cache))
+    script = tmp_path / "validate.js"
+    script.write_text(
+        "const v = require(process.argv[2]); const fs = require('fs');\n"
+        "v.validateBytes(new Uint8Array(fs.readFileSync(process.argv[3])))"
+        ".then(r => console.log(JSON.stringify(r.issues)));\n")
+    for name in ("t.glb",):
+        out = subprocess.run(["node", str(script), str(module), str(folder / name)],
+                             capture_output=True, text=True, timeout=120, check=True)
+        issues = json.loads(out.stdout)
+        assert issues["numErrors"] == 0, issues["messages"][:5]
+
+
+def test_unknown_extension_is_exit_2(run, tmp_path):
+    folder, _, _ = run
+    result = run_cli("export", str(folder / "t.jsonl"), str(folder / "a.csv"), "-o",
+                     str(tmp_path / "x.fbx"), exit_code=2)
+    assert "cannot tell the format" in result.stderr and not (tmp_path / "x.fbx").exists()
