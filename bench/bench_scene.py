@@ -1,0 +1,39 @@
+"""The forest (examples/forest.toml, 1,000 trees): speedup, verified error, wall time against
+full detail, and full detail's throughput on 2 cores against 1.
+
+    .venv/bin/python bench/run.py scene        (level chains cached in ~/.cache/plantlod)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+COMMAND = "plantlod scene examples/forest.toml --verify --report -"
+
+
+def run(report) -> None:
+    from plantlod.scene.file import read_scene
+    from plantlod.scene.levels import default_cache
+    from plantlod.scene.run import run_scene
+
+    scene = read_scene(str(ROOT / "examples" / "forest.toml"))
+    run_scene(dataclasses.replace(scene, duration=0.05), cache=default_cache())   # fill the cache
+    doc = run_scene(scene, cache=default_cache(), verify=True)
+    report("forest: speedup (branch-steps full / spent)", doc["speedup"], "x", ">= 20", COMMAND)
+    report("forest: verified max error", doc["max_error_px"], "px", "<= 1", COMMAND)
+    report("forest: simulated s per wall s (at its levels)", doc["simulated_seconds_per_wall_second"],
+           "s/s", "> 1", COMMAND)
+    # full detail: every tree at level 0 (a budget no level meets), on 1 core and on 2
+    full = dataclasses.replace(scene, budget_px=1e-12)
+    times = {}
+    for threads in (1, 2):
+        begin = time.perf_counter()
+        run_scene(full, cache=default_cache(), threads=threads)
+        times[threads] = time.perf_counter() - begin
+    report("forest: full detail wall s (2 cores)", times[2], "s", "", COMMAND + " --budget 1e-12")
+    report("forest: levels wall s / full detail wall s", doc["wall_s"] / times[2], "x", "", COMMAND)
+    report("forest: full detail 2 cores / 1 core", times[1] / times[2], "x", ">= 1.7",
+           COMMAND + " --budget 1e-12 --threads 1|2")
