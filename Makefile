@@ -27,6 +27,11 @@ demo: $(STAMP)
 	$(MAKE) -C examples -j$(DEMO_JOBS) QUICK=1 OUT=$(DEMO_OUT) PLANTLOD=$(abspath $(PLANTLOD)) \
 	    PYTHON=$(abspath $(PY))
 	cat examples/$(DEMO_OUT)/results.md
+	$(PLANTLOD) simulate examples/stalk8.lsys --dt 0.01 --duration 10 --wind-speed 5 \
+	    -o examples/$(DEMO_OUT)/stalk8.csv
+	$(PLANTLOD) export examples/stalk8.lsys examples/$(DEMO_OUT)/stalk8.csv -o examples/$(DEMO_OUT)/stalk8.glb
+	$(PLANTLOD) export examples/stalk8.lsys examples/$(DEMO_OUT)/stalk8.csv -o examples/$(DEMO_OUT)/stalk8.usda
+	@echo "animation: examples/$(DEMO_OUT)/stalk8.glb (glTF) and stalk8.usda (OpenUSD)"
 	@echo "figure 4 (t = 4 s): examples/$(DEMO_OUT)/figure4.png, OBJ in examples/$(DEMO_OUT)/figure4/"
 
 test: $(STAMP)
