@@ -38,6 +38,7 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
+from .branch_math import advance_angle, drag_magnitude, swing, times_rest, twist
 from .kinematics import rest_swing_rotation
 
 
@@ -152,70 +153,30 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
         # ---- pass 1: frames, leaf forces, drag (parent before child) ----
         for i in range(n):
             p = parent[i]
-            q0 = rest[i, 0]; q1 = rest[i, 1]; q2 = rest[i, 2]
-            q3 = rest[i, 3]; q4 = rest[i, 4]; q5 = rest[i, 5]
-            q6 = rest[i, 6]; q7 = rest[i, 7]; q8 = rest[i, 8]
+            q = (rest[i, 0], rest[i, 1], rest[i, 2], rest[i, 3], rest[i, 4], rest[i, 5],
+                 rest[i, 6], rest[i, 7], rest[i, 8])
             if p >= 0:
-                # M = R_parent Q_i
-                a0 = frame[p, 0]; a1 = frame[p, 1]; a2 = frame[p, 2]
-                a3 = frame[p, 3]; a4 = frame[p, 4]; a5 = frame[p, 5]
-                a6 = frame[p, 6]; a7 = frame[p, 7]; a8 = frame[p, 8]
-                m0 = a0 * q0 + a1 * q3 + a2 * q6
-                m1 = a0 * q1 + a1 * q4 + a2 * q7
-                m2 = a0 * q2 + a1 * q5 + a2 * q8
-                m3 = a3 * q0 + a4 * q3 + a5 * q6
-                m4 = a3 * q1 + a4 * q4 + a5 * q7
-                m5 = a3 * q2 + a4 * q5 + a5 * q8
-                m6 = a6 * q0 + a7 * q3 + a8 * q6
-                m7 = a6 * q1 + a7 * q4 + a8 * q7
-                m8 = a6 * q2 + a7 * q5 + a8 * q8
+                m = times_rest((frame[p, 0], frame[p, 1], frame[p, 2], frame[p, 3], frame[p, 4],
+                                frame[p, 5], frame[p, 6], frame[p, 7], frame[p, 8]), q)
             else:
-                m0 = q0; m1 = q1; m2 = q2
-                m3 = q3; m4 = q4; m5 = q5
-                m6 = q6; m7 = q7; m8 = q8
+                m = q
             tb = bend[i]
             tr = rot[i]
             theta = math.sqrt(tb * tb + tr * tr)
+            c = 1.0
+            s = 0.0
             if theta != 0.0:
-                # S = M Rot(u, theta), u = (-tr, tb, 0) / theta
-                ux = -tr / theta
-                uy = tb / theta
                 c = math.cos(theta)
                 s = math.sin(theta)
-                oc = 1.0 - c
-                r00 = c + oc * ux * ux
-                r01 = oc * ux * uy
-                r02 = s * uy
-                r11 = c + oc * uy * uy
-                r12 = -s * ux
-                # Rot = [[r00, r01, r02], [r01, r11, r12], [-r02, -r12, c]]
-                s0 = m0 * r00 + m1 * r01 - m2 * r02
-                s1 = m0 * r01 + m1 * r11 - m2 * r12
-                s2 = m0 * r02 + m1 * r12 + m2 * c
-                s3 = m3 * r00 + m4 * r01 - m5 * r02
-                s4 = m3 * r01 + m4 * r11 - m5 * r12
-                s5 = m3 * r02 + m4 * r12 + m5 * c
-                s6 = m6 * r00 + m7 * r01 - m8 * r02
-                s7 = m6 * r01 + m7 * r11 - m8 * r12
-                s8 = m6 * r02 + m7 * r12 + m8 * c
-            else:
-                s0 = m0; s1 = m1; s2 = m2
-                s3 = m3; s4 = m4; s5 = m5
-                s6 = m6; s7 = m7; s8 = m8
-            swing_x[i, 0] = s0; swing_x[i, 1] = s3; swing_x[i, 2] = s6
-            swing_y[i, 0] = s1; swing_y[i, 1] = s4; swing_y[i, 2] = s7
-            # R = S Rz(psi): x' = c x + s y, y' = -s x + c y, z' = z
-            cp = cos_psi[i]
-            sp = sin_psi[i]
-            f0 = cp * s0 + sp * s1
-            f1 = cp * s1 - sp * s0
-            f3 = cp * s3 + sp * s4
-            f4 = cp * s4 - sp * s3
-            f6 = cp * s6 + sp * s7
-            f7 = cp * s7 - sp * s6
-            frame[i, 0] = f0; frame[i, 1] = f1; frame[i, 2] = s2
-            frame[i, 3] = f3; frame[i, 4] = f4; frame[i, 5] = s5
-            frame[i, 6] = f6; frame[i, 7] = f7; frame[i, 8] = s8
+            sw = swing(m, tb, tr, theta, c, s)
+            swing_x[i, 0] = sw[0]; swing_x[i, 1] = sw[3]; swing_x[i, 2] = sw[6]
+            swing_y[i, 0] = sw[1]; swing_y[i, 1] = sw[4]; swing_y[i, 2] = sw[7]
+            f = twist(sw, cos_psi[i], sin_psi[i])
+            for q_ in range(9):
+                frame[i, q_] = f[q_]
+            f0 = f[0]; f1 = f[1]; s2 = f[2]
+            f3 = f[3]; f4 = f[4]; s5 = f[5]
+            f6 = f[6]; f7 = f[7]; s8 = f[8]
 
             lx = 0.0
             ly = 0.0
@@ -236,11 +197,7 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             acc[i, 2] = lz
 
             if speed > 0.0:
-                # |R e_z x V^|, R e_z = (s2, s5, s8)
-                cx = s5 * hz - s8 * hy
-                cy = s8 * hx - s2 * hz
-                cz = s2 * hy - s5 * hx
-                g = drag[i] * speed2 * math.sqrt(cx * cx + cy * cy + cz * cz)
+                g = drag_magnitude(sw, hx, hy, hz, drag[i], speed2)
                 dragf[i, 0] = g * hx
                 dragf[i, 1] = g * hy
                 dragf[i, 2] = g * hz
@@ -264,12 +221,8 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             kfa = absorbed[i]
             fb = fx * swing_x[i, 0] + fy * swing_x[i, 1] + fz * swing_x[i, 2]
             fr = fx * swing_y[i, 0] + fy * swing_y[i, 1] + fz * swing_y[i, 2]
-            vb = bend_vel[i]
-            vr = rot_vel[i]
-            vb = vb + kfa * fb - bend[i] * bend_k[i] - damping * vb
-            vr = vr + kfa * fr - rot[i] * rot_k[i] - damping * vr
-            tb = bend[i] + vb * dt
-            tr = rot[i] + vr * dt
+            tb, vb = advance_angle(bend[i], bend_vel[i], kfa, fb, bend_k[i], damping, dt)
+            tr, vr = advance_angle(rot[i], rot_vel[i], kfa, fr, rot_k[i], damping, dt)
             bend_vel[i] = vb
             rot_vel[i] = vr
             bend[i] = tb

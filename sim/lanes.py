@@ -8,8 +8,7 @@ single-run kernel gives (tests/test_sim_lanes.py checks them bit for bit). The
 parameters a lane may change (k_FA, k_fp, k_bs, k_rs, drag, leaf scale) are
 (B,) arrays shared by every lane unless `LaneModel.with_lane_parameters` gives
 them a lane axis; the structure (parents, rest rotations, leaf normals) is
-always shared, never copied per lane. The numba kernel is `lanes_kernel`
-(imported on first use, so importing this module is cheap); the layout and
+always shared, never copied per lane. The numba kernel is `lanes_kernel`; the layout and
 what the compiler makes of it: docs/engine.md.
 """
 
@@ -25,37 +24,21 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
 from .constants import THREADS_ENV
+from .kernel import KernelModel, prepare   # numba: the engine compiles on first use
 from .run import check_held_angles
 
 LANE_PARAMETERS = ("absorbed", "propagated", "bend_k", "rot_k", "drag", "leaf_scale")
 
 
 @dataclass(frozen=True)
-class LaneModel:
-    """A tree flattened for the lanes kernel (the fields of `kernel.KernelModel`).
-
-    Lane parameters (`LANE_PARAMETERS`) are (B,) (leaf_scale (F,)) when shared by
-    every lane, or (B, W) ((F, W)) with one column per lane.
+class LaneModel(KernelModel):
+    """A tree flattened for the lanes kernel: the fields of `kernel.KernelModel`, whose lane
+    parameters (`LANE_PARAMETERS`) are (B,) (leaf_scale (F,)) when shared by every lane, or
+    (B, W) ((F, W)) with one column per lane.
     """
-
-    parent: np.ndarray
-    rest: np.ndarray
-    cos_psi: np.ndarray
-    sin_psi: np.ndarray
-    absorbed: np.ndarray
-    propagated: np.ndarray
-    bend_k: np.ndarray
-    rot_k: np.ndarray
-    drag: np.ndarray
-    leaf_start: np.ndarray
-    leaf_scale: np.ndarray
-    leaf_normal: np.ndarray
-    damping: float
 
     @classmethod
     def from_tree(cls, tree: Tree, damping: float = 0.0) -> "LaneModel":
-        from .kernel import prepare   # numba: only when a simulation is prepared
-
         k = prepare(tree, damping)
         return cls(**{f: getattr(k, f) for f in cls.__dataclass_fields__})
 

@@ -18,11 +18,9 @@ shorter) and the blocks are distributed over threads with numba's ``prange``.
 A lane's arithmetic never depends on the other lanes, on its block or on the
 thread that runs it, so the output is the same bit for bit for any thread count.
 
-Two departures from the single kernel's code shape, neither changing a value:
-the rotation Rot(u, theta) is built for every lane and selected where
-theta != 0 (a vector blend instead of a branch), and cos/sin are computed in a
-lane loop of their own (scalar libm calls; the arithmetic loops around them
-are vectorised). Compiled without fastmath, with numpy's error model.
+The per-branch arithmetic is `branch_math`'s, shared with the single kernel; cos
+and sin are computed in a lane loop of their own. Compiled without fastmath, with
+numpy's error model (docs/engine.md says what LLVM made of the lane loops).
 """
 
 from __future__ import annotations
@@ -33,6 +31,8 @@ import numba
 import numpy as np
 from numba import prange
 from numba.extending import overload
+
+from .branch_math import advance_angle, drag_magnitude, swing, times_rest, twist
 
 
 def param(a, i, lane):
@@ -112,9 +112,8 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
             # ---- pass 1: frames, leaf forces, drag (parent before child) ----
             for i in range(n):
                 p = parent[i]
-                q0 = rest[i, 0]; q1 = rest[i, 1]; q2 = rest[i, 2]
-                q3 = rest[i, 3]; q4 = rest[i, 4]; q5 = rest[i, 5]
-                q6 = rest[i, 6]; q7 = rest[i, 7]; q8 = rest[i, 8]
+                q = (rest[i, 0], rest[i, 1], rest[i, 2], rest[i, 3], rest[i, 4], rest[i, 5],
+                     rest[i, 6], rest[i, 7], rest[i, 8])
                 cp = cos_psi[i]
                 spsi = sin_psi[i]
                 for k in range(BLOCK):
@@ -128,63 +127,22 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                 for k in range(BLOCK):
                     l = l0 + k
                     if p >= 0:
-                        a0 = frame[p, 0, k]; a1 = frame[p, 1, k]; a2 = frame[p, 2, k]
-                        a3 = frame[p, 3, k]; a4 = frame[p, 4, k]; a5 = frame[p, 5, k]
-                        a6 = frame[p, 6, k]; a7 = frame[p, 7, k]; a8 = frame[p, 8, k]
-                        m0 = a0 * q0 + a1 * q3 + a2 * q6
-                        m1 = a0 * q1 + a1 * q4 + a2 * q7
-                        m2 = a0 * q2 + a1 * q5 + a2 * q8
-                        m3 = a3 * q0 + a4 * q3 + a5 * q6
-                        m4 = a3 * q1 + a4 * q4 + a5 * q7
-                        m5 = a3 * q2 + a4 * q5 + a5 * q8
-                        m6 = a6 * q0 + a7 * q3 + a8 * q6
-                        m7 = a6 * q1 + a7 * q4 + a8 * q7
-                        m8 = a6 * q2 + a7 * q5 + a8 * q8
+                        m = times_rest((frame[p, 0, k], frame[p, 1, k], frame[p, 2, k],
+                                        frame[p, 3, k], frame[p, 4, k], frame[p, 5, k],
+                                        frame[p, 6, k], frame[p, 7, k], frame[p, 8, k]), q)
                     else:
-                        m0 = q0; m1 = q1; m2 = q2
-                        m3 = q3; m4 = q4; m5 = q5
-                        m6 = q6; m7 = q7; m8 = q8
-                    t = th[k]
-                    moving = t != 0.0
-                    ts = t if moving else 1.0
-                    ux = -rot_l[i, k] / ts
-                    uy = bend_l[i, k] / ts
-                    c = cth[k]
-                    s = sth[k]
-                    oc = 1.0 - c
-                    r00 = c + oc * ux * ux
-                    r01 = oc * ux * uy
-                    r02 = s * uy
-                    r11 = c + oc * uy * uy
-                    r12 = -s * ux
-                    s0 = m0 * r00 + m1 * r01 - m2 * r02 if moving else m0
-                    s1 = m0 * r01 + m1 * r11 - m2 * r12 if moving else m1
-                    s2 = m0 * r02 + m1 * r12 + m2 * c if moving else m2
-                    s3 = m3 * r00 + m4 * r01 - m5 * r02 if moving else m3
-                    s4 = m3 * r01 + m4 * r11 - m5 * r12 if moving else m4
-                    s5 = m3 * r02 + m4 * r12 + m5 * c if moving else m5
-                    s6 = m6 * r00 + m7 * r01 - m8 * r02 if moving else m6
-                    s7 = m6 * r01 + m7 * r11 - m8 * r12 if moving else m7
-                    s8 = m6 * r02 + m7 * r12 + m8 * c if moving else m8
-                    swx[i, 0, k] = s0; swx[i, 1, k] = s3; swx[i, 2, k] = s6
-                    swy[i, 0, k] = s1; swy[i, 1, k] = s4; swy[i, 2, k] = s7
-                    f0 = cp * s0 + spsi * s1
-                    f1 = cp * s1 - spsi * s0
-                    f3 = cp * s3 + spsi * s4
-                    f4 = cp * s4 - spsi * s3
-                    f6 = cp * s6 + spsi * s7
-                    f7 = cp * s7 - spsi * s6
-                    frame[i, 0, k] = f0; frame[i, 1, k] = f1; frame[i, 2, k] = s2
-                    frame[i, 3, k] = f3; frame[i, 4, k] = f4; frame[i, 5, k] = s5
-                    frame[i, 6, k] = f6; frame[i, 7, k] = f7; frame[i, 8, k] = s8
+                        m = q
+                    sw = swing(m, bend_l[i, k], rot_l[i, k], th[k], cth[k], sth[k])
+                    swx[i, 0, k] = sw[0]; swx[i, 1, k] = sw[3]; swx[i, 2, k] = sw[6]
+                    swy[i, 0, k] = sw[1]; swy[i, 1, k] = sw[4]; swy[i, 2, k] = sw[7]
+                    f = twist(sw, cp, spsi)
+                    for q_ in range(9):
+                        frame[i, q_, k] = f[q_]
                     acc[i, 0, k] = 0.0
                     acc[i, 1, k] = 0.0
                     acc[i, 2, k] = 0.0
-                    # |R e_z x V^|, R e_z = (s2, s5, s8); zero where there is no wind
-                    cx = s5 * hz[k] - s8 * hy[k]
-                    cy = s8 * hx[k] - s2 * hz[k]
-                    cz = s2 * hy[k] - s5 * hx[k]
-                    g = param(drag, i, l) * sp2[k] * math.sqrt(cx * cx + cy * cy + cz * cz)
+                    # zero where there is no wind (V^ = 0)
+                    g = drag_magnitude(sw, hx[k], hy[k], hz[k], param(drag, i, l), sp2[k])
                     dragf[i, 0, k] = g * hx[k]
                     dragf[i, 1, k] = g * hy[k]
                     dragf[i, 2, k] = g * hz[k]
@@ -219,12 +177,8 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                     kfa = param(absorbed, i, l)
                     fb = fx * swx[i, 0, k] + fy * swx[i, 1, k] + fz * swx[i, 2, k]
                     fr = fx * swy[i, 0, k] + fy * swy[i, 1, k] + fz * swy[i, 2, k]
-                    vb = vb_l[i, k]
-                    vr = vr_l[i, k]
-                    vb = vb + kfa * fb - bend_l[i, k] * param(bend_k, i, l) - damping * vb
-                    vr = vr + kfa * fr - rot_l[i, k] * param(rot_k, i, l) - damping * vr
-                    tb = bend_l[i, k] + vb * dt
-                    tr = rot_l[i, k] + vr * dt
+                    tb, vb = advance_angle(bend_l[i, k], vb_l[i, k], kfa, fb, param(bend_k, i, l), damping, dt)
+                    tr, vr = advance_angle(rot_l[i, k], vr_l[i, k], kfa, fr, param(rot_k, i, l), damping, dt)
                     vb_l[i, k] = vb
                     vr_l[i, k] = vr
                     bend_l[i, k] = tb
