@@ -18,13 +18,7 @@ import one way, bottom to top (tests/test_package_graph.py keeps it so):
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version as _version
 from typing import TYPE_CHECKING, Any
-
-try:
-    __version__ = _version("plantlod")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0+unknown"
 
 __all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "RunFailure", "Tree",
            "__version__", "compare", "derive", "read_angles", "read_lsystem", "read_tree",
@@ -50,6 +44,15 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and editors only
 def __getattr__(name: str) -> Any:
     import importlib
 
+    if name == "__version__":       # read from the installed metadata on first use (25 ms)
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("plantlod")
+        except PackageNotFoundError:  # a source tree that was never installed
+            value = "0+unknown"
+        globals()["__version__"] = value
+        return value
     if name == "simplify":
         # the subpackage plantlod.simplify is callable as plantlod.api.simplify, so that
         # the name stays one object once any of its modules has been imported
