@@ -20,3 +20,4 @@ JSON_SIGNIFICANT_DIGITS = 10  # compare --json rounds floats to this many digits
 TABLE_FLOAT_FORMAT = "%.4g"   # compare's table
 # Tree files store floats exactly (shortest repr round-trips), so that
 # `derive | simulate -` and `simulate x.lsys` see identical numbers.
+AXIOM_LINE_CHARS = 10_000          # a longer axiom is written on indented lines of this length

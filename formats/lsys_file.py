@@ -10,6 +10,8 @@ builds, and writing is deterministic.
 
 from __future__ import annotations
 
+from .constants import AXIOM_LINE_CHARS
+
 from plantlod.lsys.expr import format_expr, format_number
 from plantlod.lsys.parse import HEADER_KEYS, parse_lsys
 from plantlod.lsys.system import (
@@ -93,6 +95,23 @@ def _header_lines(system: LSystem) -> list[str]:
     return lines
 
 
+def axiom_lines(modules: list[str]) -> list[str]:
+    """``axiom: MODULES`` on one line, or, when longer than AXIOM_LINE_CHARS, ``axiom:`` and
+    the modules on indented lines of at most that length (split between modules)."""
+    text = "".join(modules)
+    if len(text) <= AXIOM_LINE_CHARS:
+        return [f"axiom: {text}"]
+    lines, current, size = ["axiom:"], [], 0
+    for m in modules:
+        if current and size + len(m) > AXIOM_LINE_CHARS:
+            lines.append(_INDENT + "".join(current))
+            current, size = [], 0
+        current.append(m)
+        size += len(m)
+    lines.append(_INDENT + "".join(current))
+    return lines
+
+
 def write_lsys(system: LSystem, header_comment: str | None = None) -> str:
     """The canonical text of ``system``, ending in a newline.
 
@@ -107,7 +126,7 @@ def write_lsys(system: LSystem, header_comment: str | None = None) -> str:
     blocks.append([f"define {name} = {format_number(value)}" for name, value in system.defines])
     blocks.append([_format_branch(b) for b in system.branches]
                   + [_format_leaf(leaf) for leaf in system.leaves])
-    blocks.append([f"axiom: {format_modules(system.axiom)}"])
+    blocks.append(axiom_lines([format_modules((m,)) for m in system.axiom]))
     for title, rules in (("productions", system.productions),
                          ("interpretation", system.interpretation)):
         if rules:

@@ -555,6 +555,7 @@ class _FileParser:
         self.override_pos: dict[tuple[int, ...], Pos] = {}
         self.groups: list[tuple[tuple[int, ...], str]] = []
         self.group_pos: dict[tuple[int, ...], Pos] = {}
+        self.axiom_lines: list[Module] | None = None     # an axiom given on indented lines
         self.section: str | None = None
 
     def run(self) -> LSystem:
@@ -584,6 +585,12 @@ class _FileParser:
             after = m.end()
             if word == "axiom":
                 self.section = None
+                if not line[after:].strip() and self.axiom is None and self.axiom_lines is None:
+                    # `axiom:` alone: the modules follow on indented lines (long axioms)
+                    self.axiom_pos = cur.pos()
+                    self.axiom_lines = []
+                    self.section = "axiom"
+                    return None
                 return self._axiom(cur, after)
             if word in SECTIONS:
                 return self._section_start(cur, word, after)
@@ -614,6 +621,13 @@ class _FileParser:
                 return self._override(cur)
             if self.section == "groups":
                 return self._group(cur)
+            if self.section == "axiom":
+                if not cur.text[:1].isspace():
+                    raise cur.error("an axiom continued on the next lines is indented; expected "
+                                    "'  MODULES' under 'axiom:'")
+                cur.skip_ws()
+                self.axiom_lines.extend(_modules(cur))
+                return None
             self.rules[self.section].append(_production(cur, self.defines))
             return None
         cur.skip_ws()
@@ -763,12 +777,14 @@ class _FileParser:
             _check_not_negative(cur, key, out[tok.text], value_start)
 
     def _axiom(self, cur: _Cursor, after: int) -> None:
-        if self.axiom is not None:
+        if self.axiom is not None or self.axiom_lines is not None:
             raise cur.error(f"duplicate 'axiom:' (first given at {_where(self.axiom_pos)}); "
                             "expected one axiom")
         self.axiom_pos = cur.pos()
         cur.i = after
-        modules = _modules(cur)
+        self._set_axiom(cur, _modules(cur))
+
+    def _set_axiom(self, cur: _Cursor, modules: tuple[Module, ...]) -> None:
         if not modules:
             raise cur.error("the axiom is empty; expected at least one module")
         _check_brackets(modules)
@@ -835,6 +851,10 @@ class _FileParser:
 
     def _finish(self) -> LSystem:
         start = Pos(self.source, 1, 1)
+        if self.axiom_lines is not None:
+            pos = self.axiom_pos
+            self._set_axiom(_Cursor("axiom:", self.source, pos.line, start=len("axiom:")),
+                            tuple(self.axiom_lines))
         for key in REQUIRED_HEADER_KEYS:
             if key not in self.header:
                 raise _error(start, f"missing required header key '{key}'; expected a line "

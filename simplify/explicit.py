@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
@@ -169,7 +170,7 @@ def _unturn(angles: tuple[float, float, float]) -> str:
 class Skeleton:
     """One level's axiom and what its parameters are fitted with.
 
-    axiom          : the axiom's text (derivation length 0)
+    axiom          : the axiom's text (derivation length 0); modules: the same, one per module
     branch_address : (G,) axiom address of each group's branch
     leaf_address   : per group, the axiom addresses of its equivalent leaves
     leaf_area      : per group, their areas (m^2, summing to the group's leaf area)
@@ -178,6 +179,7 @@ class Skeleton:
     """
 
     axiom: str
+    modules: list[str]
     branch_address: list[str]
     leaf_address: list[list[str]]
     leaf_area: list[np.ndarray]
@@ -255,7 +257,7 @@ def explicit_skeleton(original: Tree, grouping: Grouping) -> Skeleton:
         emit("[")
         place(g, np.eye(3), np.zeros(3))
         emit("]")
-    return Skeleton("".join(tokens), branch_address, leaf_address, leaf_area, length, paths)
+    return Skeleton("".join(tokens), tokens, branch_address, leaf_address, leaf_area, length, paths)
 
 
 def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 0.0) -> np.ndarray:
@@ -355,7 +357,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                 lines.append(f"  {a}: area={format_number(area)}")
         lines.sort(key=lambda line: int(line.split(":")[0]))
         groups = [f"  {a}: {r}" for a, r in zip(sk.branch_address, root_address)]
-        return "\n".join(head) + "\n\n" + "\n".join(declarations) + f"\n\naxiom: {sk.axiom}\n\n" \
+        return "\n".join(head) + "\n\n" + "\n".join(declarations) + "\n\n" \
+            + "\n".join(axiom_lines(sk.modules)) + "\n\n" \
             + "overrides:\n" + "\n".join(lines) + "\n\ngroups:\n" + "\n".join(groups) + "\n"
 
     ones = np.ones(grouping.count)

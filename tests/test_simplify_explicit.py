@@ -119,3 +119,20 @@ def test_unequal_strengths_keep_the_period():
     for wind in ((2.0, 0.0, 0.0), (0.0, 2.0, 0.0)):
         doc = plantlod.compare(original, level, wind=wind, dt=0.01, duration=20.0)
         assert doc["comparisons"][0]["period_error_major"] < 0.02
+
+
+def test_a_long_axiom_is_written_on_indented_lines_and_read_back(monkeypatch):
+    import plantlod.formats.lsys_file as lsys_file
+    from plantlod.formats.lsys_file import write_lsys
+
+    system, tree = _tree("eval/twin_draw.lsys")
+    text, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=_header(system),
+                                       level=1, dt=0.01, duration=2.0)
+    parsed = parse_lsys(text, "t")
+    monkeypatch.setattr(lsys_file, "AXIOM_LINE_CHARS", 40)
+    short = write_lsys(parsed)
+    assert "\naxiom:\n  " in short and max(len(l) for l in short.splitlines()
+                                            if l.startswith("  ") and "=" not in l) <= 60
+    again = parse_lsys(short, "again")
+    assert again == parsed
+    assert build(again).tree.address == level.address
