@@ -21,9 +21,11 @@ from .io import open_output, say
 @click.option("--cache", "cache_dir", default=None, metavar="DIR",
               help="Folder of cached level chains (default: $PLANTLOD_CACHE or ~/.cache/plantlod).")
 @click.option("--no-cache", is_flag=True, help="Simplify every tree file anew; keep nothing.")
+@click.option("--angles", "angles_path", default=None, metavar="STORE.zarr",
+              help="Also write every tree's angles at its level (zarr, float32, chunked by batch and time).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
-def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, threads):
+def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path, threads):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
@@ -55,7 +57,34 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, threa
         if show:
             click.echo(f"\rscene: {done}/{total} batches", err=True, nl=done == total)
 
-    report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress)
+    store = None
+    if angles_path is not None:
+        import os
+        import shutil
+        import tempfile
+
+        if os.path.exists(angles_path):
+            raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
+        folder = os.path.dirname(os.path.abspath(angles_path))
+        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=".zarr", dir=folder)
+        os.rmdir(tmp)
+    try:
+        if angles_path is not None:
+            import numpy as np
+
+            from plantlod.scene.store import open_store
+
+            store = open_store(tmp, np.zeros(len(spec.trees), dtype=np.int16))
+        report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
+                           angles=store)
+        if store is not None:
+            store["levels"][:] = np.asarray(report.pop("_levels"), dtype=np.int16)
+            os.replace(tmp, angles_path)          # all or nothing
+    except BaseException:
+        if angles_path is not None and os.path.exists(tmp):
+            shutil.rmtree(tmp)
+        raise
+    report.pop("_levels", None)
     with open_output(report_path) as out:
         out.write(json.dumps(report, indent=2, sort_keys=False) + "\n")
     say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "

@@ -8,3 +8,5 @@ FRAME_RATE = 30.0              # frames per second: levels are chosen, and error
 TIP_ERROR_DIRECTIONS = (0.0, 90.0, 180.0, 270.0)
 CACHE_ENV = "PLANTLOD_CACHE"   # overrides the per-user cache folder
 VERIFY_LANES = 16             # full-detail trees run at once by --verify (bounds memory)
+STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
+STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk

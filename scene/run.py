@@ -91,8 +91,11 @@ def choose_levels(scene: Scene, chains: dict, budget: float) -> list[TreeRun]:
 
 
 def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: bool = False,
-              progress=None) -> dict:
-    """Run ``scene``; the report document of docs/scene.md."""
+              progress=None, angles=None) -> dict:
+    """Run ``scene``; the report document of docs/scene.md.
+
+    angles : an open zarr group (`scene.store`) that receives every batch's angles
+    """
     from plantlod.sim.lanes import LaneModel, run_lanes
 
     begin = time.perf_counter()
@@ -122,6 +125,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         bend, rot = run_lanes(LaneModel.from_tree(tree), winds[members], scene.dt, steps,
                               every=every, threads=threads, addresses=tree.address)
         spent += tree.n_branches * steps * len(members)
+        if angles is not None:
+            from .store import write_batch
+
+            write_batch(angles, n, file, level, members, tree, bend, rot, every * scene.dt)
         if verify:
             for lane, k in enumerate(members):
                 level_tips[k] = pose(tree, bend[lane], rot[lane]).tip
@@ -155,6 +162,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "simulated_seconds_per_wall_second": scene.duration / simulate_s if simulate_s > 0 else None,
         "wall_s": time.perf_counter() - begin,
     }
+    report["_levels"] = levels.tolist()                 # for the caller's store; not reported
     if verify:
         report["max_error_px"] = float(np.nanmax(errors)) if np.isfinite(errors).any() else 0.0
         report["mean_error_px"] = float(np.nanmean(errors)) if np.isfinite(errors).any() else 0.0

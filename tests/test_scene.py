@@ -117,3 +117,41 @@ def test_angles_do_not_depend_on_threads(tmp_path):
     one = run_scene(scene, cache=tmp_path / "c", threads=1)
     two = run_scene(scene, cache=tmp_path / "c", threads=2)
     assert one["branch_steps_spent"] == two["branch_steps_spent"]
+
+
+def test_angles_store_holds_every_tree_at_its_level(tmp_path):
+    import zarr
+
+    from plantlod.scene.levels import level_chain
+    from plantlod.scene.run import tree_winds
+    from plantlod.sim.run import simulate_arrays
+    from plantlod.sim.wind import KeyframeWind
+
+    path = _scene(tmp_path, BASE)
+    store = tmp_path / "a.zarr"
+    report = json.loads(run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles",
+                                str(store)).stdout)
+    group = zarr.open_group(str(store), mode="r")
+    levels = group["levels"][:]
+    assert len(levels) == report["trees"] and "_levels" not in report
+    seen = []
+    scene = read_scene(path)
+    winds = tree_winds(scene, scene.steps)
+    for name in group.group_keys():
+        batch = group[name]
+        trees = batch["trees"][:].tolist()
+        seen += trees
+        assert all(levels[k] == batch.attrs["level"] for k in trees)
+        # one lane against a single run of that tree in its own wind (model.md 4: step k uses V(t_{k-1}))
+        k = trees[0]
+        chain, _ = level_chain(scene.trees[k].file, report["level_wind_speed"], scene.dt,
+                               scene.duration, tmp_path / "c")
+        tree = chain.trees[int(levels[k])]
+        times = np.arange(scene.steps) * scene.dt
+        single = simulate_arrays(tree, scene.dt, scene.steps, KeyframeWind(times, winds[k]),
+                                 every=int(round(1 / (30 * scene.dt))))
+        np.testing.assert_array_equal(batch["bend"][0], single.bend[1:].astype(np.float32))
+    assert sorted(seen) == list(range(report["trees"]))
+    # an existing store is never overwritten
+    again = run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles", str(store), exit_code=2)
+    assert "exists" in again.stderr
