@@ -23,9 +23,12 @@ from .io import open_output, say
 @click.option("--no-cache", is_flag=True, help="Simplify every tree file anew; keep nothing.")
 @click.option("--angles", "angles_path", default=None, metavar="STORE.zarr",
               help="Also write every tree's angles at its level (zarr, float32, chunked by batch and time).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run the batches on the Dask cluster of this scheduler (tcp://host:8786).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
-def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path, threads):
+def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path,
+          scheduler, threads):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
@@ -76,7 +79,7 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
 
             store = open_store(tmp, np.zeros(len(spec.trees), dtype=np.int16))
         report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
-                           angles=store)
+                           angles=store, scheduler=scheduler)
         if store is not None:
             store["levels"][:] = np.asarray(report.pop("_levels"), dtype=np.int16)
             os.replace(tmp, angles_path)          # all or nothing

@@ -31,12 +31,14 @@ class Chain:
     """Levels 0 (the original) .. last of one tree file.
 
     trees      : one Tree per level
+    texts      : the L-system text of every level (level 0: the file's), for other processes
     tip_error_m: (L,) metres, the worst tip error (max) of each level in the scene's wind
     groups     : per level, (B0,) the level branch holding each original branch
     tips       : per level, (B_l,) the original branch whose tip each level branch stands for
     """
 
     trees: list[Tree]
+    texts: list[str]
     tip_error_m: np.ndarray
     groups: list[np.ndarray]
     tips: list[np.ndarray]
@@ -94,7 +96,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
         trees.append(tree)
         groups.append(g)
         tips.append(np.array([p[-1] for p in main_paths(original, g, tree.n_branches)], dtype=np.int64))
-    return Chain(trees, errors, groups, tips)
+    return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips)
 
 
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float):

@@ -91,11 +91,15 @@ def choose_levels(scene: Scene, chains: dict, budget: float) -> list[TreeRun]:
 
 
 def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: bool = False,
-              progress=None, angles=None) -> dict:
+              progress=None, angles=None, scheduler: str | None = None) -> dict:
     """Run ``scene``; the report document of docs/scene.md.
 
-    angles : an open zarr group (`scene.store`) that receives every batch's angles
+    angles    : an open zarr group (`scene.store`) that receives every batch's angles
+    scheduler : the address of a Dask scheduler: the batches run on its workers, each
+                writing its own groups of the store (nothing gathered through this process)
     """
+    if scheduler is not None and verify:
+        raise InputError("--verify runs in this process; expected it without --scheduler")
     from plantlod.sim.lanes import LaneModel, run_lanes
 
     begin = time.perf_counter()
@@ -119,7 +123,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     spent = full = 0
     started = time.perf_counter()
     level_tips: dict[int, np.ndarray] = {}            # tree -> (frames, B_level, 3), with verify
-    for n, ((file, level), members) in enumerate(sorted(batches.items())):
+    ordered = sorted(batches.items())
+    if scheduler is not None:
+        spent = _run_on_cluster(scheduler, scene, chains, ordered, winds, every, angles)
+    for n, ((file, level), members) in enumerate(ordered if scheduler is None else []):
         chain = chains[pathlib.Path(file)]
         tree = chain.trees[level]
         bend, rot = run_lanes(LaneModel.from_tree(tree), winds[members], scene.dt, steps,
@@ -167,6 +174,46 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         report["max_error_px"] = float(np.nanmax(errors)) if np.isfinite(errors).any() else 0.0
         report["mean_error_px"] = float(np.nanmean(errors)) if np.isfinite(errors).any() else 0.0
     return report
+
+
+def simulate_batch(text: str, source: str, winds: np.ndarray, dt: float, steps: int, every: int,
+                   store: str | None, index: int, file: str, level: int, members: list[int]) -> int:
+    """One batch, wherever it runs (a Dask worker): build the level's tree from its text,
+    step its lanes, write its group of the store; returns the branch-steps spent."""
+    from plantlod.lsys.build import build
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.sim.lanes import LaneModel, run_lanes
+
+    tree = build(parse_lsys(text, source)).tree
+    bend, rot = run_lanes(LaneModel.from_tree(tree), winds, dt, steps, every=every,
+                          addresses=tree.address)
+    if store is not None:
+        import zarr
+
+        from .store import write_batch
+
+        write_batch(zarr.open_group(store, mode="r+"), index, file, level, members, tree, bend,
+                    rot, every * dt)
+    return tree.n_branches * steps * len(members)
+
+
+def _run_on_cluster(address: str, scene: Scene, chains: dict, ordered, winds: np.ndarray,
+                    every: int, angles) -> int:
+    """Every batch as a task of the Dask cluster at ``address`` (dask.distributed)."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler needs dask.distributed: pip install 'plantlod[cluster]'") from None
+    store = None if angles is None else str(angles.store.root)
+    with Client(address, timeout="30s") as client:
+        futures = []
+        for n, ((file, level), members) in enumerate(ordered):
+            chain = chains[pathlib.Path(file)]
+            futures.append(client.submit(
+                simulate_batch, chain.texts[level], f"{pathlib.Path(file).name} level {level}",
+                winds[members], scene.dt, scene.steps, every, store, n, file, level, members,
+                pure=False))
+        return int(sum(client.gather(futures)))
 
 
 def _verify(scene: Scene, chains: dict, runs: list[TreeRun], winds: np.ndarray, every: int,

@@ -155,3 +155,26 @@ def test_angles_store_holds_every_tree_at_its_level(tmp_path):
     # an existing store is never overwritten
     again = run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles", str(store), exit_code=2)
     assert "exists" in again.stderr
+
+
+def test_a_local_dask_cluster_gives_the_same_store(tmp_path):
+    """Two worker processes write their own batches; the store equals the in-process one."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    import zarr
+
+    path = _scene(tmp_path, BASE)
+    cache = str(tmp_path / "c")
+    run_cli("scene", path, "--cache", cache, "--angles", str(tmp_path / "here.zarr"))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        far = json.loads(run_cli("scene", path, "--cache", cache, "--angles",
+                                 str(tmp_path / "there.zarr"), "--scheduler",
+                                 cluster.scheduler_address).stdout)
+    here = zarr.open_group(str(tmp_path / "here.zarr"), mode="r")
+    there = zarr.open_group(str(tmp_path / "there.zarr"), mode="r")
+    assert sorted(here.group_keys()) == sorted(there.group_keys())
+    for name in here.group_keys():
+        for array in ("bend", "rotation", "trees"):
+            np.testing.assert_array_equal(here[name][array][:], there[name][array][:])
+    assert np.array_equal(here["levels"][:], there["levels"][:])
+    assert far["branch_steps_spent"] < far["branch_steps_full"]
