@@ -23,12 +23,14 @@ from .io import open_output, say
 @click.option("--no-cache", is_flag=True, help="Simplify every tree file anew; keep nothing.")
 @click.option("--angles", "angles_path", default=None, metavar="STORE.zarr",
               help="Also write every tree's angles at its level (zarr, float32, chunked by batch and time).")
+@click.option("--plot", "plot_path", default=None, metavar="FILE.png",
+              help="A picture: the scene from above coloured by level, and the cost against full detail.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the batches on the Dask cluster of this scheduler (tcp://host:8786).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
 def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path,
-          scheduler, threads):
+          plot_path, scheduler, threads):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
@@ -81,13 +83,23 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
                            angles=store, scheduler=scheduler)
         if store is not None:
-            store["levels"][:] = np.asarray(report.pop("_levels"), dtype=np.int16)
+            store["levels"][:] = np.asarray(report["_levels"], dtype=np.int16)
             os.replace(tmp, angles_path)          # all or nothing
     except BaseException:
         if angles_path is not None and os.path.exists(tmp):
             shutil.rmtree(tmp)
         raise
-    report.pop("_levels", None)
+    levels = report.pop("_levels", None)
+    if plot_path is not None:
+        import numpy as np
+
+        from plantlod.scene.plot import scene_png
+
+        steps = max(spec.steps, 1)
+        png = scene_png(spec, np.asarray(levels), report["branch_steps_spent"] / steps,
+                        report["branch_steps_full"] / steps)
+        with open_output(plot_path, binary=True) as out:
+            out.write(png)
     with open_output(report_path) as out:
         out.write(json.dumps(report, indent=2, sort_keys=False) + "\n")
     say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "

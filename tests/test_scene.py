@@ -178,3 +178,14 @@ def test_a_local_dask_cluster_gives_the_same_store(tmp_path):
             np.testing.assert_array_equal(here[name][array][:], there[name][array][:])
     assert np.array_equal(here["levels"][:], there["levels"][:])
     assert far["branch_steps_spent"] < far["branch_steps_full"]
+
+
+def test_plot_is_a_png_and_refused_before_anything_runs_when_unwritable(tmp_path):
+    path = _scene(tmp_path, BASE)
+    png = tmp_path / "s.png"
+    run_cli("scene", path, "--cache", str(tmp_path / "c"), "--plot", str(png), "--report",
+            str(tmp_path / "r.json"))
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    bad = run_cli("scene", path, "--cache", str(tmp_path / "c"), "--plot",
+                  str(tmp_path / "no" / "such" / "dir" / "s.png"), exit_code=None)
+    assert bad.exit_code in (1, 2) and len(bad.stderr.strip().splitlines()) >= 1
