@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from .io import open_output, say
+from .io import check_output_path, open_output, say
 
 
 @click.command()
@@ -51,6 +51,8 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
 
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache do not go together")
+    for path in (report_path, plot_path):
+        check_output_path(path)                 # refuse an unwritable output before running
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
