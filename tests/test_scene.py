@@ -55,7 +55,7 @@ def test_pixels_by_hand():
 
 def test_levels_chosen_by_distance_behind_and_at_the_camera(tmp_path):
     scene = read_scene(_scene(tmp_path, BASE))
-    chain = Chain(trees=[None] * 4, tip_error_m=np.array([0.0, 0.001, 0.01, 0.1]), groups=[], tips=[])
+    chain = Chain(trees=[None] * 4, texts=[""] * 4, tip_error_m=np.array([0.0, 0.001, 0.01, 0.1]), groups=[], tips=[])
     chains = {t.file: chain for t in scene.trees}
     from dataclasses import replace
     ppm10 = float(scene.camera.pixels_per_metre(10.0))          # 93.5 px per metre at 10 m
