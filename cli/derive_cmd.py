@@ -43,14 +43,20 @@ def derive(file, output, fmt, steps, max_modules):
     built = build(system, steps, max_modules=max_modules)
     for message in built.warnings:
         warn(f"{display_name(file)}: {message}")
-    with open_output(output) as out:
-        if fmt == "string":
-            from plantlod.formats.derived_string import format_derived
-            for chunk in format_derived(built.derived):
-                out.write(chunk)
-        else:
-            from plantlod.formats.treefile import write_tree
-            write_tree(built.tree, out)
+    from plantlod.formats.npz import is_npz, tree_bytes
+
+    if is_npz(output) and fmt == "tree":
+        with open_output(output, binary=True) as out:
+            out.write(tree_bytes(built.tree))
+    else:
+        with open_output(output) as out:
+            if fmt == "string":
+                from plantlod.formats.derived_string import format_derived
+                for chunk in format_derived(built.derived):
+                    out.write(chunk)
+            else:
+                from plantlod.formats.treefile import write_tree
+                write_tree(built.tree, out)
     tree = built.tree
     seconds = time.perf_counter() - start
     say(f"derive: {count(len(built.derived), 'module')}, {count(tree.n_branches, 'branch')}, "

@@ -53,13 +53,26 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     start = time.perf_counter()
     chunks = run_simulation(tree, settings.dt, settings.steps, settings.wind,
                             every=every, damping=settings.damping)
-    with open_output(output) as out:
-        writer = AnglesCsvWriter(out, tree.address, degrees=degrees)
-        if show:
-            _write_with_progress(writer, chunks, settings.steps, settings.dt)
-        else:
-            for chunk in chunks:
-                writer.write(*chunk)
+    from plantlod.formats.npz import angles_bytes, is_npz
+
+    if is_npz(output):
+        if degrees:
+            raise click.UsageError("--degrees applies to CSV output; an .npz holds radians")
+        import numpy as np
+
+        parts = list(chunks)
+        with open_output(output, binary=True) as out:
+            out.write(angles_bytes(np.concatenate([c.times for c in parts]), tree.address,
+                                   np.concatenate([c.bend for c in parts]),
+                                   np.concatenate([c.rot for c in parts])))
+    else:
+        with open_output(output) as out:
+            writer = AnglesCsvWriter(out, tree.address, degrees=degrees)
+            if show:
+                _write_with_progress(writer, chunks, settings.steps, settings.dt)
+            else:
+                for chunk in chunks:
+                    writer.write(*chunk)
     seconds = time.perf_counter() - start
     branch_steps = tree.n_branches * settings.steps
     rate = branch_steps / seconds if seconds > 0 else float("inf")
