@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .io import display_name, say
+from .io import check_output_path, display_name, say
 from .loading import load_tree
 
 
@@ -33,6 +33,7 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     from plantlod.simplify.compare import angles_in_tree_order
     import io
 
+    check_output_path(output)                     # a missing folder is refused before any work
     frames = None
     if frames_text is not None:
         try:

@@ -16,6 +16,13 @@ FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
 def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: np.ndarray,
                      fps: float = 30.0, frames: tuple[int, int] | None = None) -> None:
     """Write ``tree`` moving by ``bend``/``rot`` (K, B) at ``times`` (K,) to ``path``, atomically."""
+    import math
+
+    if frames is not None:
+        count = int(math.floor(float(times[-1]) * fps + 1e-9)) + 1
+        if not 0 <= frames[0] < frames[1] <= count:
+            raise InputError(f"--frames {frames[0]}:{frames[1]} is outside the run's {count} frames "
+                             f"(0:{count} at {fps:g} fps)")
     ext = os.path.splitext(path)[1].lower()
     if ext not in FORMATS:
         raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "

@@ -135,3 +135,13 @@ def test_unknown_extension_is_exit_2(run, tmp_path):
     result = run_cli("export", str(folder / "t.jsonl"), str(folder / "a.csv"), "-o",
                      str(tmp_path / "x.fbx"), exit_code=2)
     assert "cannot tell the format" in result.stderr and not (tmp_path / "x.fbx").exists()
+
+
+def test_frames_outside_the_run_and_a_missing_folder_are_exit_2(run, tmp_path):
+    folder, _, _ = run
+    args = ["export", str(folder / "t.jsonl"), str(folder / "a.csv")]
+    result = run_cli(*args, "-o", str(tmp_path / "x.glb"), "--frames", "100:200", exit_code=2)
+    assert "outside the run's 46 frames" in result.stderr and not (tmp_path / "x.glb").exists()
+    result = run_cli(*args, "-o", str(tmp_path / "no" / "x.glb"), exit_code=2)
+    assert "output directory does not exist" in result.stderr
+    assert not list(tmp_path.glob(".plantlod-*"))
