@@ -114,6 +114,10 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     from plantlod.simplify.explicit import merge_levels
     from plantlod.simplify.pipeline import Options, simplify_explicit
 
+    from plantlod.lsys.errors import InputError
+
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise InputError("--levels needs a directory; this is a file", folder)
     last = len(merge_levels(build(system).tree)) - 1
     os.makedirs(folder, exist_ok=True)
     for k in range(1, last + 1):

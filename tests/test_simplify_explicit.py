@@ -136,3 +136,15 @@ def test_a_long_axiom_is_written_on_indented_lines_and_read_back(monkeypatch):
     again = parse_lsys(short, "again")
     assert again == parsed
     assert build(again).tree.address == level.address
+
+
+def test_levels_writes_every_level_and_refuses_a_file(tmp_path):
+    run_cli("simplify", "examples/stalk8.lsys", "--levels", str(tmp_path / "lv"), "--duration", "2")
+    assert sorted(p.name for p in (tmp_path / "lv").iterdir()) == ["level1.lsys", "level2.lsys",
+                                                                    "level3.lsys"]
+    counts = [build(parse_lsys((tmp_path / "lv" / f"level{k}.lsys").read_text(), "l")).tree.n_branches
+              for k in (1, 2, 3)]
+    assert counts == [4, 2, 1]
+    (tmp_path / "file").write_text("")
+    result = run_cli("simplify", "examples/stalk8.lsys", "--levels", str(tmp_path / "file"), exit_code=2)
+    assert "needs a directory" in result.stderr
