@@ -127,6 +127,8 @@ def simulate(tree: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0), dt: float = 0.01
         raise InputError(f"every must be an integer >= 1, got {every!r}")
     check_stability(tree, dt, damping)
     many = isinstance(wind, list)
+    if many and not wind:
+        raise InputError("an empty list of winds; expected at least one wind")
     winds = [_wind(w) for w in (wind if many else [wind])]
     time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
     if not many:
@@ -248,7 +250,10 @@ def _wind(wind: Any):
 
     if hasattr(wind, "sample"):
         return wind
-    vector = np.asarray(wind, dtype=np.float64)
+    try:
+        vector = np.asarray(wind, dtype=np.float64)
+    except (TypeError, ValueError):
+        vector = np.zeros(0)
     if vector.shape != (3,) or not np.all(np.isfinite(vector)):
         raise InputError(f"a wind is (vx, vy, vz) in m/s or a wind object, got {wind!r}")
     return ConstantWind(vector)

@@ -92,3 +92,10 @@ def test_import_is_lazy_and_public_names_are_listed():
         assert getattr(plantlod, name) is not None
     assert plantlod.__version__
     assert callable(plantlod.simplify) and plantlod.simplify.pipeline is not None
+
+
+@pytest.mark.parametrize("wind", [[], "x", (1.0, float("nan"), 0.0), [(1, 0, 0), (2, 0)]])
+def test_bad_winds_are_input_errors(wind):
+    tree = plantlod.derive(plantlod.read_lsystem(ROOT / "examples" / "stalk8.lsys"))
+    with pytest.raises(plantlod.InputError):
+        plantlod.simulate(tree, wind=wind, dt=0.01, steps=5)
