@@ -17,7 +17,7 @@ import io
 import math
 import os
 from dataclasses import dataclass
-from typing import IO, Any, Sequence, Union
+from typing import IO, Any, Union
 
 import numpy as np
 

@@ -1,0 +1,85 @@
+"""`plantlod compare`'s exports: OBJ frames of the posed trees side by side and the PNG
+(docs/compare.md, "OBJ files" and "The plot"). Every picture time is checked and the PNG
+rendered (`prepare_pictures`) before the command writes its first output."""
+
+from __future__ import annotations
+
+import os
+
+from plantlod.lsys.errors import InputError
+from plantlod.simplify.constants import DEFAULT_PLOT_TIME
+
+from .io import open_output, say
+
+
+def _sample_index(times, t: float, option: str) -> int:
+    """The sample nearest to t (the earlier of two equally near); InputError outside the run."""
+    import numpy as np
+
+    if not times[0] - 1e-9 <= t <= times[-1] + 1e-9:
+        raise InputError(f"{option} {t:g} s is outside the run, {times[0]:g} to {times[-1]:g} s; "
+                         f"expected a time inside it")
+    k = int(np.searchsorted(times, t))
+    if k == len(times) or (k > 0 and t - times[k - 1] <= times[k] - t):
+        k -= 1
+    return k
+
+
+def prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
+    """Check every picture time against the run and render the PNG, before anything is written.
+
+    Returns (offsets, [(t, sample index)] for --at, the PNG bytes or None).
+    """
+    from plantlod.export.obj import rest_layout
+    from plantlod.sim.kinematics import rest_height
+
+    trees = [r.tree for r in runs]
+    offsets = rest_layout(trees, [rest_height(t) for t in trees])
+    times = runs[0].times
+    at_frames = [(t, _sample_index(times, t, "--at")) for t in at_times]
+    png = None
+    if plot_path is not None:
+        from plantlod.simplify.plot import plot_comparison
+
+        if plot_at is None:
+            t_plot = at_times[0] if at_times else min(DEFAULT_PLOT_TIME, float(times[-1]))
+        else:
+            t_plot = plot_at
+        k = _sample_index(times, t_plot, "--plot-at")
+        png = plot_comparison(comparisons, trees, [os.path.basename(r.name) for r in runs],
+                              [r.bend[k] for r in runs], [r.rot[k] for r in runs], offsets,
+                              float(times[k]))
+    return offsets, at_frames, png
+
+
+def write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
+    from plantlod.export.obj import obj_text, posed_meshes
+
+    offsets, at_frames, png = pictures
+    trees = [r.tree for r in runs]
+    names = ["original"] + [f"simplified_{i}" for i in range(1, len(runs))]
+    times = runs[0].times
+
+    def frame(k: int) -> str:
+        meshes = posed_meshes(trees, names, [r.bend[k] for r in runs], [r.rot[k] for r in runs],
+                              offsets)
+        return obj_text(meshes)
+
+    written = 0
+    if obj_dir is not None:
+        os.makedirs(obj_dir, exist_ok=True)    # created only once every run succeeded
+    for t, k in at_frames:
+        with open_output(os.path.join(obj_dir, f"frame_t{t:g}.obj")) as out:
+            out.write(frame(k))
+        written += 1
+    if every is not None:
+        for number, k in enumerate(range(0, len(times), every)):
+            with open_output(os.path.join(obj_dir, f"frame_{number:05d}.obj")) as out:
+                out.write(frame(k))
+            written += 1
+    if obj_dir is not None:
+        say(f"compare: wrote {written} OBJ file(s) to {obj_dir}")
+    if png is not None:
+        with open_output(plot_path, binary=True) as out:
+            out.write(png)
+        say(f"compare: wrote {plot_path}")
