@@ -30,9 +30,11 @@ def _wind_range(ctx, param, value):
 @click.argument("input_path", metavar="FILE")
 @click.option("-o", "--output", default=None, metavar="OUT.lsys",
               help="Write the level-n .lsys here (atomically) instead of stdout.")
-@click.option("-n", "--level", type=click.IntRange(min=1), default=None,
+@click.option("-l", "--level", type=click.IntRange(min=1), default=None,
               help="Level n (grammar form: the result derives N - n steps, 1 <= n < N; "
                    "explicit form: down to the level of one branch).")
+@click.option("-n", "level_n", type=click.IntRange(min=1), default=None, hidden=True,
+              help="Old spelling of --level (-n means the derivation length in the other commands).")
 @click.option("--form", type=click.Choice(["auto", "grammar", "explicit"]), default="auto",
               show_default=True,
               help="grammar: same productions, N - n steps; explicit: groups merged from the "
@@ -59,7 +61,7 @@ def _wind_range(ctx, param, value):
               help="Calibration budget: candidate trees simulated (each at every wind).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: only when stderr is a terminal).")
-def simplify(input_path, output, level, form, levels_dir, method, calibrate, wind_range, dt,
+def simplify(input_path, output, level, level_n, form, levels_dir, method, calibrate, wind_range, dt,
              duration, evaluations, progress):
     """Write a level-n L-system that sways like FILE's tree.
 
@@ -78,6 +80,14 @@ def simplify(input_path, output, level, form, levels_dir, method, calibrate, win
     from plantlod.simplify.pipeline import Options, simplify as run_simplify
 
     require_together(click.get_current_context(), {"evaluations": ("calibrate",)})
+    if level_n is not None:
+        if level is not None:
+            raise click.UsageError("give the level once: --level N (-n is its old spelling)")
+        from .io import warn
+
+        warn("simplify -n N is now --level N (or -l N): -n means the derivation length in "
+             "derive, simulate and compare")
+        level = level_n
     if (level is None) == (levels_dir is None):
         raise click.UsageError("give --level N, or --levels DIR for every level of the explicit form")
     system = read_lsys(input_path)
