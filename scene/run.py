@@ -246,18 +246,13 @@ def _verify(scene: Scene, chains: dict, runs: list[TreeRun], winds: np.ndarray, 
 
 
 def check_scene(scene: Scene) -> None:
-    """Refuse what the runner cannot do (bad input, exit 2)."""
+    """Refuse what the runner cannot do (bad input, exit 2): no time step, or a dt too large
+    for some tree."""
+    from plantlod.formats.lsys_file import read_lsys
+    from plantlod.lsys.build import build
     from plantlod.sim.stability import check_stability
 
     if scene.steps < 1:
         raise InputError("the scene's duration is shorter than one time step", scene.source)
     for path in sorted({t.file for t in scene.trees}):
-        from plantlod.formats.lsys_file import read_lsys
-
-        check_stability(build_tree(read_lsys(str(path))), scene.dt)
-
-
-def build_tree(system):
-    from plantlod.lsys.build import build
-
-    return build(system).tree
+        check_stability(build(read_lsys(str(path))).tree, scene.dt)

@@ -18,7 +18,6 @@ from .constants import POSE_BLOCK_BRANCH_SAMPLES, RUNS_BATCH_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose, rest_height
-from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import wind_from_speed
 
 from .closed_form import GroupMap
