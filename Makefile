@@ -4,6 +4,8 @@
 #   make bench  run the benchmarks and print their figures
 #   make golden regenerate the golden files (review the diff like code)
 #   make lod-table  the table of every level's errors on the evaluation trees
+#   make test-browser  install Debian's chromium if missing, run the page tests in it
+#   make view-picture  docs/view.png: a frame of `plantlod view` (original and levels)
 
 PYTHON ?= python3
 VENV   := .venv
@@ -11,7 +13,7 @@ PY     := $(VENV)/bin/python
 PLANTLOD := $(VENV)/bin/plantlod
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench golden lod-table clean
+.PHONY: demo test test-browser bench golden lod-table view-picture clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -31,11 +33,43 @@ demo: $(STAMP)
 	    -o examples/$(DEMO_OUT)/stalk8.csv
 	$(PLANTLOD) export examples/stalk8.lsys examples/$(DEMO_OUT)/stalk8.csv -o examples/$(DEMO_OUT)/stalk8.glb
 	$(PLANTLOD) export examples/stalk8.lsys examples/$(DEMO_OUT)/stalk8.csv -o examples/$(DEMO_OUT)/stalk8.usda
+	$(PLANTLOD) simplify examples/stalk8.lsys --level 1 -o examples/$(DEMO_OUT)/stalk8-level1.lsys
+	$(PLANTLOD) simulate examples/$(DEMO_OUT)/stalk8-level1.lsys --dt 0.01 --duration 10 \
+	    --wind-speed 5 -o examples/$(DEMO_OUT)/stalk8-level1.csv
+	$(PLANTLOD) export examples/$(DEMO_OUT)/stalk8-level1.lsys examples/$(DEMO_OUT)/stalk8-level1.csv \
+	    -o examples/$(DEMO_OUT)/stalk8-level1.glb
+	$(PLANTLOD) view examples/$(DEMO_OUT)/stalk8.glb examples/$(DEMO_OUT)/stalk8-level1.glb \
+	    -o examples/$(DEMO_OUT)/stalk8.html
 	@echo "animation: examples/$(DEMO_OUT)/stalk8.glb (glTF) and stalk8.usda (OpenUSD)"
+	@echo "page: examples/$(DEMO_OUT)/stalk8.html (open it in a browser: original and level 1)"
 	@echo "figure 4 (t = 4 s): examples/$(DEMO_OUT)/figure4.png, OBJ in examples/$(DEMO_OUT)/figure4/"
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# make test-browser: the tests that open `plantlod view`'s page in headless Chromium
+# (in make test too, skipped with a reason where chromium is absent)
+test-browser: $(STAMP)
+	command -v chromium >/dev/null || { $$(command -v sudo) apt-get update -qq && \
+	    $$(command -v sudo) apt-get install -y -qq chromium; }
+	$(PY) -m pytest -q -m browser -rs tests
+
+# make view-picture: docs/view.png, a frame of the page for abop_1_24c and its levels 1, 2
+VIEW := out/view
+view-picture: $(STAMP)
+	mkdir -p $(VIEW)
+	$(PLANTLOD) simplify examples/abop_1_24c.lsys --level 1 -o $(VIEW)/abop_1_24c-level1.lsys
+	$(PLANTLOD) simplify examples/abop_1_24c.lsys --level 2 -o $(VIEW)/abop_1_24c-level2.lsys
+	for f in examples/abop_1_24c.lsys $(VIEW)/abop_1_24c-level1.lsys $(VIEW)/abop_1_24c-level2.lsys; do \
+	    b=$$(basename $$f .lsys); \
+	    $(PLANTLOD) simulate $$f --dt 0.01 --duration 6 --wind-speed 8 -o $(VIEW)/$$b.csv && \
+	    $(PLANTLOD) export $$f $(VIEW)/$$b.csv -o $(VIEW)/$$b.glb || exit 1; done
+	$(PLANTLOD) view $(VIEW)/abop_1_24c.glb $(VIEW)/abop_1_24c-level1.glb \
+	    $(VIEW)/abop_1_24c-level2.glb --title "abop_1_24c: original, level 1, level 2 at 8 m/s" \
+	    -o $(VIEW)/abop_1_24c.html
+	chromium --headless --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader \
+	    --virtual-time-budget=8000 --window-size=1000,560 --screenshot=docs/view.png \
+	    "file://$(abspath $(VIEW))/abop_1_24c.html#t=3"
 
 bench: $(STAMP)
 	$(PY) bench/run.py

@@ -20,6 +20,7 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
+from plantlod.formats.atomic import usual_file_mode
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -113,13 +114,6 @@ def _special_target(path: str) -> bool:
     return not stat.S_ISREG(mode)
 
 
-def _usual_file_mode() -> int:
-    """0o666 minus the umask: the mode `open()` would give a new file (mkstemp gives 0o600)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
 def check_output_path(path: str | None) -> None:
     """Refuse now what `open_output` would refuse later (a missing directory, a directory
     as the target), so that a command can check every output before writing the first."""
@@ -167,7 +161,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
         with _write_errors(path):
             with _open_stream(fd, binary) as out:
                 yield out
-            os.chmod(tmp, _usual_file_mode())
+            os.chmod(tmp, usual_file_mode())
             os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

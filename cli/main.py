@@ -20,6 +20,7 @@ from .export_cmd import export
 from .scene_cmd import scene
 from .simplify_cmd import simplify
 from .simulate_cmd import simulate
+from .view_cmd import view
 
 
 class PlantlodGroup(click.Group):
@@ -71,6 +72,7 @@ def cli():
       compare   amplitude, period and tip errors; OBJ frames and pictures
       scene     many trees, each at the level its camera distance allows
       export    one tree's motion as glTF or OpenUSD
+      view      an HTML page playing exported trees side by side
 
     \b
     Example:
@@ -80,7 +82,7 @@ def cli():
     """
 
 
-for command in (derive, simulate, simplify, compare, scene, export):
+for command in (derive, simulate, simplify, compare, scene, export, view):
     cli.add_command(command)
 
 

@@ -6,3 +6,6 @@ OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without childr
 OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
 OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)
 GLTF_CYLINDER_SIDES = 8        # sides of a branch tube in glTF
+
+# --- the view page (export/view.py) ---------------------------------------------------------
+VIEW_TITLE = "plantlod: original and levels side by side"

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
 
@@ -27,10 +26,9 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     if ext not in FORMATS:
         raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "
                          f"{', '.join(FORMATS)}", path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=ext, dir=folder)
-    os.close(fd)
-    try:
+    from plantlod.formats.atomic import atomic_path
+
+    with atomic_path(path, suffix=ext) as tmp:
         if ext in (".glb", ".gltf"):
             from .gltf import gltf_bytes, gltf_document
 
@@ -42,8 +40,3 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
             from .usd import write_usd
 
             write_usd(tmp, tree, times, bend, rot, fps, frames)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise

@@ -177,7 +177,8 @@ def gltf_document(tree: Tree, times: np.ndarray, bend: np.ndarray, rot: np.ndarr
         channels.append(g.AnimationChannel(sampler=len(samplers) - 1,
                                            target=g.AnimationChannelTarget(node=branch_node[i],
                                                                            path="rotation")))
-    doc = g.GLTF2(asset=g.Asset(generator="plantlod", version="2.0"), scene=0,
+    doc = g.GLTF2(asset=g.Asset(generator="plantlod", version="2.0",
+                                  extras={"plantlod": {"branches": int(tree.n_branches)}}), scene=0,
                   scenes=[g.Scene(nodes=[0])], nodes=nodes, meshes=meshes,
                   accessors=accessors, bufferViews=views,
                   buffers=[g.Buffer(byteLength=len(blob))],

@@ -21,11 +21,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 __all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "RunFailure", "Tree",
-           "__version__", "compare", "derive", "read_angles", "read_lsystem", "read_tree",
-           "simplify", "simulate", "write_angles", "write_lsystem", "write_tree"]
+           "__version__", "compare", "derive", "export_animation", "read_angles", "read_lsystem",
+           "read_tree", "simplify", "simulate", "write_angles", "write_lsystem", "write_tree",
+           "write_view"]
 
 _FROM = {
-    **{name: "plantlod.api" for name in ("Angles", "compare", "derive", "read_angles",
+    **{name: "plantlod.api" for name in ("Angles", "compare", "derive", "export_animation",
+                                         "read_angles", "write_view",
                                          "read_lsystem", "read_tree", "simulate",
                                          "write_angles", "write_lsystem", "write_tree")},
     "InputError": "plantlod.lsys.errors", "PlantlodError": "plantlod.lsys.errors",
@@ -34,8 +36,9 @@ _FROM = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and editors only
-    from plantlod.api import (Angles, compare, derive, read_angles, read_lsystem, read_tree,
-                              simplify, simulate, write_angles, write_lsystem, write_tree)
+    from plantlod.api import (Angles, compare, derive, export_animation, read_angles,
+                              read_lsystem, read_tree, simplify, simulate, write_angles,
+                              write_lsystem, write_tree, write_view)
     from plantlod.lsys.errors import InputError, PlantlodError, RunFailure
     from plantlod.lsys.system import LSystem
     from plantlod.lsys.tree import Tree

@@ -231,6 +231,39 @@ def compare(original: Tree | LSystem, *simplified: Tree | LSystem, wind: Any = (
 
 # --- helpers -------------------------------------------------------------------------------
 
+# --- animation out ---------------------------------------------------------------------------
+
+def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLike, *,
+                     fps: float = 30.0, frames: tuple[int, int] | None = None) -> None:
+    """Write ``tree`` moving by ``angles`` (one run, (T, B)) to ``path`` as glTF 2.0
+    (.glb, .gltf) or OpenUSD (.usda, .usdc, .usd), chosen by the extension; frames at
+    ``fps``, resampled linearly; ``frames`` (A, B) keeps frames A to B-1 (docs/export.md).
+    The file appears whole or not at all."""
+    from plantlod.export.files import export_animation as write
+    from plantlod.simplify.compare import angles_in_tree_order
+
+    tree = derive(tree) if isinstance(tree, LSystem) else tree
+    if np.ndim(angles.bend) != 2:
+        raise InputError("export_animation takes one run: select a lane first (angles.bend[w])")
+    bend, rot = angles_in_tree_order(tree, list(angles.addresses), np.asarray(angles.bend),
+                                     np.asarray(angles.rotation), "angles")
+    write(os.fspath(path), tree, np.asarray(angles.time), bend, rot, fps, frames)
+
+
+def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
+               wind_direction: float = 0.0, title: str | None = None) -> str:
+    """One self-contained HTML page playing the glTF files ``gltf_paths`` side by side
+    (the original first, then its levels); written when a target is given. The wind arrow
+    points toward ``wind_direction`` degrees (0 = +x, 90 = +y). docs/export.md, "Watching"."""
+    from plantlod.export.constants import VIEW_TITLE
+    from plantlod.export.view import view_page_from_files
+
+    paths = [gltf_paths] if isinstance(gltf_paths, (str, os.PathLike)) else list(gltf_paths)
+    page = view_page_from_files(paths, wind_direction, title or VIEW_TITLE)
+    _write_text(page, path_or_file)
+    return page
+
+
 def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
     if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
         raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
@@ -279,19 +312,12 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
     if hasattr(path_or_file, "write"):
         path_or_file.write(text)          # type: ignore[union-attr]
         return
-    path = os.fspath(path_or_file)
-    folder = os.path.dirname(os.path.abspath(path))
-    import tempfile
+    from plantlod.formats.atomic import atomic_path
 
-    fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as out:
+    with atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
+        with open(tmp, "w", encoding="utf-8", newline="") as out:
             out.write(text)
-        os.replace(tmp, path)          # all or nothing: no partial file under the name
-    except BaseException:
-        os.unlink(tmp)
-        raise
-
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",
-           "simulate", "read_angles", "write_angles", "simplify", "compare"]
+           "simulate", "read_angles", "write_angles", "simplify", "compare",
+           "export_animation", "write_view"]

@@ -1,0 +1,92 @@
+"""A self-contained HTML page that plays glTF trees side by side (`plantlod view`).
+
+The page (export/viewer/page.html) inlines everything it needs, so it opens from disk
+with no network: three.js (bundled from its npm release by export/viewer/vendor.sh,
+MIT, export/viewer/LICENSE-three.txt), the viewer script (export/viewer/viewer.js) and
+every tree as a base64 GLB. docs/export.md, "Watching", describes the page.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import re
+from importlib import resources
+from typing import Sequence
+
+from plantlod.lsys.errors import InputError
+
+from .constants import VIEW_TITLE
+
+
+def glb_from_file(path: str, name: str | None = None) -> tuple[bytes, int | None]:
+    """The GLB bytes of a .glb or .gltf file (external buffers folded in) and its branch count.
+
+    The count is what `plantlod export` records in the asset's extras (``plantlod.branches``);
+    None for a glTF written by another program. A file that is not glTF is an InputError.
+    """
+    import pygltflib as g
+
+    shown = name or path
+    try:
+        doc = g.GLTF2.load(path)
+    except FileNotFoundError:
+        raise InputError("no such file", shown) from None
+    except IsADirectoryError:
+        raise InputError("is a directory; expected a .glb or .gltf file", shown) from None
+    except Exception as exc:                   # pygltflib raises what its parsers raise
+        raise InputError(f"not a glTF file ({type(exc).__name__}: {exc})", shown) from None
+    if doc is None or not doc.nodes:
+        raise InputError("not a glTF file with nodes (expected `plantlod export` output)", shown)
+    try:
+        doc.convert_buffers(g.BufferFormat.BINARYBLOB)
+    except Exception as exc:
+        raise InputError(f"cannot read the glTF's buffers ({exc})", shown) from None
+    extras = doc.asset.extras if isinstance(doc.asset.extras, dict) else {}
+    branches = extras.get("plantlod", {}).get("branches") if isinstance(extras.get("plantlod"), dict) else None
+    return b"".join(doc.save_to_bytes()), (int(branches) if isinstance(branches, int) else None)
+
+
+def view_page(trees: Sequence[tuple[str, bytes, int | None]], wind_direction_deg: float = 0.0,
+              title: str = VIEW_TITLE) -> str:
+    """The page's HTML text for ``trees``, each (name, GLB bytes, branch count or None),
+    drawn left to right; the wind arrow points toward ``wind_direction_deg`` (0 = +x,
+    90 = +y, as simulate's --wind-direction)."""
+    folder = resources.files("plantlod.export") / "viewer"
+    data = {
+        "title": title,
+        "wind_direction_deg": float(wind_direction_deg),
+        "trees": [{"name": name, "branches": branches,
+                   "glb": base64.b64encode(glb).decode("ascii")} for name, glb, branches in trees],
+    }
+    parts = {
+        # "</" may not appear inside a <script> element; JSON allows "<\\/" for it
+        "DATA": json.dumps(data, separators=(",", ":")).replace("</", "<\\/"),
+        "THREE": (folder / "three-bundle.js").read_text(encoding="utf-8"),
+        "VIEWER": (folder / "viewer.js").read_text(encoding="utf-8"),
+        "TITLE": _html_text(title),
+    }
+    # one pass over the template: odd pieces are the names between {{ }}, and text once
+    # inserted is never searched again
+    pieces = re.split(r"\{\{(" + "|".join(parts) + r")\}\}",
+                      (folder / "page.html").read_text(encoding="utf-8"))
+    return "".join(parts[p] if k % 2 else p for k, p in enumerate(pieces))
+
+
+def view_page_from_files(paths: Sequence[str | os.PathLike], wind_direction_deg: float = 0.0,
+                         title: str = VIEW_TITLE, names: Sequence[str] | None = None) -> str:
+    """`view_page` of .glb / .gltf files, labelled by their file names."""
+    trees = []
+    for k, path in enumerate(paths):
+        path = os.fspath(path)
+        label = names[k] if names is not None else os.path.basename(path)
+        glb, branches = glb_from_file(path)
+        trees.append((label, glb, branches))
+    if not trees:
+        raise InputError("no trees to show; give at least one .glb or .gltf file")
+    return view_page(trees, wind_direction_deg, title)
+
+
+def _html_text(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
