@@ -48,11 +48,11 @@ def _expected_tips(tree, angles, k):
     return pose(tree, bend, rot).tip
 
 
-def test_gltf_tips_follow_the_model(run):
+def _gltf_tips(path, tree, k):
+    """Tips (B, 3) at frame k of a .glb, its node transforms composed here (Y up)."""
     import pygltflib
 
-    folder, tree, angles = run
-    doc = pygltflib.GLTF2().load(str(folder / "t.glb"))
+    doc = pygltflib.GLTF2().load(str(path))
     blob = doc.binary_blob()
 
     def read(accessor):
@@ -65,26 +65,49 @@ def test_gltf_tips_follow_the_model(run):
     for ch in doc.animations[0].channels:
         sampler = doc.animations[0].samplers[ch.sampler]
         animated[ch.target.node] = read(sampler.output)
+    world = {}
+
+    def walk(n, m, t):
+        node = doc.nodes[n]
+        q = animated[n][k] if n in animated else (node.rotation or [0, 0, 0, 1])
+        r_local = _quat_matrix(np.asarray(q, dtype=np.float64))
+        t_world = t + m @ np.asarray(node.translation or [0, 0, 0], dtype=np.float64)
+        m_world = m @ r_local
+        world[n] = (m_world, t_world)
+        for c in node.children or []:
+            walk(c, m_world, t_world)
+
+    walk(0, np.eye(3), np.zeros(3))
+    names = {doc.nodes[n].name: n for n in world}
+    return np.array([world[names[a]][1] + world[names[a]][0] @ [0, 0, tree.length[i]]
+                     for i, a in enumerate(tree.address)])
+
+
+def _y_up(model):
+    return np.stack([model[:, 0], model[:, 2], -model[:, 1]], axis=1)   # Z up -> Y up
+
+
+def test_gltf_tips_follow_the_model(run):
+    folder, tree, angles = run
     for k in (0, 17, 45):
-        world = {}
+        tips = _gltf_tips(folder / "t.glb", tree, k)
+        np.testing.assert_allclose(tips, _y_up(_expected_tips(tree, angles, k)), atol=1e-5)
 
-        def walk(n, m, t):
-            node = doc.nodes[n]
-            q = animated[n][k] if n in animated else (node.rotation or [0, 0, 0, 1])
-            r_local = _quat_matrix(np.asarray(q, dtype=np.float64))
-            t_world = t + m @ np.asarray(node.translation or [0, 0, 0], dtype=np.float64)
-            m_world = m @ r_local
-            world[n] = (m_world, t_world)
-            for c in node.children or []:
-                walk(c, m_world, t_world)
 
-        walk(0, np.eye(3), np.zeros(3))
-        names = {doc.nodes[n].name: n for n in world}
-        tips = np.array([world[names[a]][1] + world[names[a]][0] @ [0, 0, tree.length[i]]
-                         for i, a in enumerate(tree.address)])
-        model = _expected_tips(tree, angles, k)
-        y_up = np.stack([model[:, 0], model[:, 2], -model[:, 1]], axis=1)   # Z up -> Y up
-        np.testing.assert_allclose(tips, y_up, atol=1e-5)
+def test_a_level_file_exports_the_same_way(tmp_path):
+    """A simplified tree (explicit form: chords as rest geometry, groups) is a TREE like any."""
+    system = plantlod.read_lsystem(ROOT / "examples" / "stalk8.lsys")
+    level = plantlod.simplify(system, level=1, form="explicit", duration=5.0)
+    plantlod.write_lsystem(level, tmp_path / "level1.lsys")
+    tree = plantlod.derive(level)
+    angles = plantlod.simulate(tree, wind=(0.0, 7.0, 0.0), dt=0.01, steps=200)
+    plantlod.write_angles(angles, tmp_path / "level1.csv")
+    run_cli("export", str(tmp_path / "level1.lsys"), str(tmp_path / "level1.csv"), "-o",
+            str(tmp_path / "level1.glb"))
+    assert tree.n_branches == 4
+    for k in (0, 30, 60):
+        tips = _gltf_tips(tmp_path / "level1.glb", tree, k)
+        np.testing.assert_allclose(tips, _y_up(_expected_tips(tree, angles, k)), atol=1e-5)
 
 
 def test_usd_tips_follow_the_model(run):
