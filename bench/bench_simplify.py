@@ -52,7 +52,7 @@ def _simplified(system, level, method, calibrate):
 
 def _sweep(original, tree, speeds, directions, duration, every=2):
     """{(speed, direction): Report} and the original's largest |combined angle| per speed."""
-    from plantlod.simplify.closed_form import group_map
+    from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase
     gmap = group_map(original, tree)
     steps = int(round(duration / DT))

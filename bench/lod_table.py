@@ -41,7 +41,7 @@ def measure(path: str, max_level: int = 3) -> list[str]:
     """Markdown rows for one tree."""
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
-    from plantlod.simplify.closed_form import group_map
+    from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase
     from plantlod.simplify.explicit import merge_levels
     from plantlod.simplify.pipeline import Options, simplify

@@ -100,7 +100,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
 
 
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float):
-    from plantlod.simplify.closed_form import group_map
+    from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase
     from plantlod.simplify.explicit import explicit_system_text, merge_levels
 

@@ -24,7 +24,7 @@ MATCH_TILTED_DIRECTIONS = 8   # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION
 FIT_ELEVATION = 0.2           # rad
 MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
 SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
-# Global static refinement of the derived parameters (simplify/closed_form.py):
+# Global static refinement of the derived parameters (simplify/refine.py):
 REFINE_DIRECTIONS = 8        # horizontal wind directions of the refinement
 REFINE_TILTED_DIRECTIONS = 4  # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION in the refinement
 REFINE_LOG_RANGE = 8.0       # each refined value stays within e^±8 of its sequential value

@@ -20,7 +20,7 @@ from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose, rest_height
 from plantlod.sim.wind import wind_from_speed
 
-from .closed_form import GroupMap
+from .targets import GroupMap
 from .groups import combined_angles
 from .measures import Report, compare_groups
 

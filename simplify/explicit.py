@@ -336,7 +336,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
 
-    from .closed_form import GroupMap, closed_form
+    from .targets import GroupMap
+    from .closed_form import closed_form
     from .groups import assign_stated_groups
 
     sk = explicit_skeleton(original, grouping)

@@ -31,7 +31,8 @@ from plantlod.lsys.tree import Tree
 from plantlod.sim.stability import check_stability
 
 from .calibrate import calibrate
-from .closed_form import GroupMap, closed_form, group_map
+from .targets import GroupMap, group_map
+from .closed_form import closed_form
 from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
 from .levels import check_level, level_system, round_sig, write_parameters
 from .measures import Report

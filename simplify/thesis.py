@@ -18,7 +18,8 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
-from .closed_form import GroupMap, LevelParameters, static_targets
+from .targets import GroupMap, static_targets
+from .closed_form import LevelParameters
 from .static import horizontal_directions, rest_frames, static_angles, static_parts
 
 

@@ -67,7 +67,7 @@ def test_nothing_to_merge(tmp_path):
 
 def _worst(level, calibrate, winds):
     """Worst section-6 figures of the simplified stalk, measured at ``winds`` (speed, direction)."""
-    from plantlod.simplify.closed_form import group_map
+    from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase, summarize
     result = simplify(read_lsys("examples/stalk8.lsys"), Options(level=level, calibrate=calibrate))
     tree = build(parse_lsys(result.text)).tree

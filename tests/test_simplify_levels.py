@@ -12,7 +12,7 @@ from plantlod.lsys.build import build
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import occurrence_numbers
-from plantlod.simplify.closed_form import group_map
+from plantlod.simplify.targets import group_map
 from plantlod.simplify.levels import (equivalent_leaf_rules, level_system, round_sig,
                                       write_parameters)
 

@@ -1,4 +1,4 @@
-"""The global static refinement of closed_form (`_StaticModel`) against independent computations.
+"""The global static refinement of closed_form (`refine.StaticModel`) against independent computations.
 
 - its forward model against simplify/static.py run on the *written* level-n
   file (a different path: the tree built from the text, overrides resolved);
@@ -16,8 +16,9 @@ from plantlod.formats.lsys_file import read_lsys
 from plantlod.simplify.constants import (FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS,
                                      REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS)
 from plantlod.lsys.tree import leaf_keys
-from plantlod.simplify import closed_form as cf
-from plantlod.simplify.closed_form import closed_form, static_targets
+from plantlod.simplify import refine as cf
+from plantlod.simplify.targets import static_targets
+from plantlod.simplify.closed_form import closed_form
 from plantlod.simplify.static import fit_directions, static_angles, static_parts
 from plantlod.sim.wind import wind_from_speed
 from simplify_util import (assert_close_where_counted, level_case, settled, settled_combined,
@@ -27,16 +28,16 @@ SPEEDS = (0.5, 20.0)
 
 
 def capture_model(monkeypatch):
-    """Run closed_form and keep the _StaticModel it builds and the x it starts from."""
+    """Run closed_form and keep the StaticModel it builds and the x it starts from."""
     seen = {}
-    original_refine = cf._StaticModel.refine
+    original_refine = cf.StaticModel.refine
 
     def spy(self, kappa, p, c, area):
         seen["model"] = self
         seen["x"] = np.log(np.concatenate([kappa, p, c, area]))
         return original_refine(self, kappa, p, c, area)
 
-    monkeypatch.setattr(cf._StaticModel, "refine", spy)
+    monkeypatch.setattr(cf.StaticModel, "refine", spy)
     return seen
 
 

@@ -15,7 +15,8 @@ import pytest
 
 from plantlod.formats.lsys_file import read_lsys
 from plantlod.lsys.build import build
-from plantlod.simplify.closed_form import closed_form, group_map
+from plantlod.simplify.targets import group_map
+from plantlod.simplify.closed_form import closed_form
 from plantlod.simplify.levels import level_system, write_parameters
 from plantlod.simplify.static import horizontal_directions, static_angles_at, static_parts
 from plantlod.simplify.thesis import thesis_parameters
