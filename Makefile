@@ -69,7 +69,8 @@ view-picture: $(STAMP)
 	    -o $(VIEW)/abop_1_24c.html
 	chromium --headless --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader \
 	    --virtual-time-budget=8000 --window-size=1000,560 --screenshot=docs/view.png \
-	    "file://$(abspath $(VIEW))/abop_1_24c.html#t=3"
+	    "file://$(abspath $(VIEW))/abop_1_24c.html#t=3" 2>/dev/null
+	@echo "docs/view.png: a frame of $(VIEW)/abop_1_24c.html at t = 3 s"
 
 bench: $(STAMP)
 	$(PY) bench/run.py

@@ -103,7 +103,7 @@
     var arrowLength = 0.25 * span;
     var arrowMiddle = new T.Vector3(centre.x, all.min.y + 0.005 * span, all.max.z + 0.12 * span);
     var arrow = new T.ArrowHelper(toward, arrowMiddle.clone().addScaledVector(toward, -arrowLength / 2),
-      arrowLength, 0x2f6fd0, 0.3 * arrowLength, 0.15 * arrowLength);
+      arrowLength, 0x2f6fd0, 0.2 * arrowLength, 0.1 * arrowLength);
     scene.add(arrow);
     document.getElementById('wind').textContent =
       'wind toward ' + (data.wind_direction_deg || 0) + '\u00b0 (blue arrow; 0\u00b0 = +x, 90\u00b0 = +y)';
@@ -143,7 +143,9 @@
       var v = new T.Vector3().setFromMatrixPosition(p.root.matrixWorld);
       v.y += p.height;                                   // above the tree's rest top
       v.project(camera);
-      p.label.style.left = (rect.left + (v.x + 1) / 2 * rect.width) + 'px';
+      var half = p.label.offsetWidth / 2 + 4;            // kept inside the canvas
+      var x = Math.min(Math.max((v.x + 1) / 2 * rect.width, half), rect.width - half);
+      p.label.style.left = (rect.left + x) + 'px';
       p.label.style.top = (rect.top + (1 - v.y) / 2 * rect.height - 26) + 'px';
     });
   }
