@@ -27,10 +27,13 @@ from .io import check_output_path, open_output, say
               help="A picture: the scene from above coloured by level, and the cost against full detail.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the batches on the Dask cluster of this scheduler (tcp://host:8786).")
+@click.option("--frame-rate", type=click.FloatRange(min=0, min_open=True, max=10000), default=30.0,
+              show_default=True, help="Frames per second: levels are chosen (and errors "
+              "verified) per frame.")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
 def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path,
-          plot_path, scheduler, threads):
+          plot_path, scheduler, frame_rate, threads):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
@@ -64,10 +67,9 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         if show:
             click.echo(f"\rscene: {done}/{total} batches", err=True, nl=done == total)
 
-    store = None
+    tmp = None
     if angles_path is not None:
         import os
-        import shutil
         import tempfile
 
         if os.path.exists(angles_path):
@@ -76,30 +78,22 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=".zarr", dir=folder)
         os.rmdir(tmp)
     try:
-        if angles_path is not None:
-            import numpy as np
-
-            from plantlod.scene.store import open_store
-
-            store = open_store(tmp, np.zeros(len(spec.trees), dtype=np.int16))
         report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
-                           angles=store, scheduler=scheduler)
-        if store is not None:
-            store["levels"][:] = np.asarray(report["_levels"], dtype=np.int16)
+                           store_path=tmp, scheduler=scheduler, frame_rate=frame_rate)
+        if tmp is not None:
             os.replace(tmp, angles_path)          # all or nothing
     except BaseException:
-        if angles_path is not None and os.path.exists(tmp):
+        if tmp is not None and os.path.exists(tmp):
+            import shutil
+
             shutil.rmtree(tmp)
         raise
-    levels = report.pop("_levels", None)
+    levels = report.pop("_levels")
+    in_use = report.pop("_branches_in_use")
     if plot_path is not None:
-        import numpy as np
-
         from plantlod.scene.plot import scene_png
 
-        steps = max(spec.steps, 1)
-        png = scene_png(spec, np.asarray(levels), report["branch_steps_spent"] / steps,
-                        report["branch_steps_full"] / steps)
+        png = scene_png(spec, levels, in_use, report["branches_full"], 1.0 / frame_rate)
         with open_output(plot_path, binary=True) as out:
             out.write(png)
     with open_output(report_path) as out:

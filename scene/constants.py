@@ -10,3 +10,5 @@ CACHE_ENV = "PLANTLOD_CACHE"   # overrides the per-user cache folder
 VERIFY_LANES = 16             # full-detail trees run at once by --verify (bounds memory)
 STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
+HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
+SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally

@@ -5,6 +5,7 @@
     budget_px = 1
     [wind]    speed = 5, direction = 0, gust_strength = 0, gust_seed = 0, front_speed = 0
     [camera]  position = [0, -50, 2], target = [0, 0, 2], fov_deg = 60, height_px = 1080
+              (or, moving: [[camera.key]] t = 0, position = [...], target = [...], one per key)
     [[tree]]  file = "stalk8.lsys", position = [0, 0, 0], heading = 0, scale = 1
     [scatter] files = ["a.lsys", "b.lsys"], count = 100, seed = 1,
               area = [x0, y0, x1, y1], min_spacing = 5
@@ -30,7 +31,8 @@ from .constants import MAX_SCATTER_TRIES, MAX_TREES
 
 TOP_KEYS = {"dt", "duration", "budget_px", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
-CAMERA_KEYS = {"position", "target", "fov_deg", "height_px"}
+CAMERA_KEYS = {"position", "target", "fov_deg", "height_px", "key"}
+CAMERA_KEY_KEYS = {"t", "position", "target"}
 TREE_KEYS = {"file", "seed", "position", "heading", "scale"}
 SCATTER_KEYS = {"files", "count", "seed", "area", "min_spacing", "scale"}
 
@@ -47,12 +49,35 @@ class Placed:
 
 @dataclass(frozen=True)
 class Camera:
-    """A pinhole camera: position and target (m), vertical field of view (deg), image height (px)."""
+    """A pinhole camera: vertical field of view (deg), image height (px), and its position
+    and target (m), fixed or keyed in time.
+
+    position, target : (3,) the first key's (what a fixed camera has)
+    key_t            : (K,) s, increasing; key_position, key_target (K, 3); K = 1 when fixed.
+    Between keys both are interpolated linearly, before the first and after the last held.
+    """
 
     position: np.ndarray
     target: np.ndarray
     fov_deg: float
     height_px: int
+    key_t: np.ndarray | None = None
+    key_position: np.ndarray | None = None
+    key_target: np.ndarray | None = None
+
+    @property
+    def moving(self) -> bool:
+        return self.key_t is not None and len(self.key_t) > 1
+
+    def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Position and target (T, 3) m at times ``t`` (T,) s."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        if not self.moving:
+            return (np.broadcast_to(self.position, (len(t), 3)),
+                    np.broadcast_to(self.target, (len(t), 3)))
+        pos = np.stack([np.interp(t, self.key_t, self.key_position[:, i]) for i in range(3)], 1)
+        tgt = np.stack([np.interp(t, self.key_t, self.key_target[:, i]) for i in range(3)], 1)
+        return pos, tgt
 
     def pixels_per_metre(self, distance: np.ndarray) -> np.ndarray:
         """model.md 7: p = e H / (2 d tan(fov / 2)), per metre of e, at distance d (m)."""
@@ -176,13 +201,7 @@ def read_scene(path: str) -> Scene:
     if not isinstance(cam_t, dict):
         raise r.error("missing [camera] (position, target, fov_deg, height_px)", "camera")
     r.keys(cam_t, CAMERA_KEYS, "[camera]")
-    camera = Camera(np.array(r.vector(cam_t, "position", 3)), np.array(r.vector(cam_t, "target", 3)),
-                    r.number(cam_t, "fov_deg", 60.0, low=0, low_open=True),
-                    int(r.number(cam_t, "height_px", 1080, low=1, integer=True)))
-    if camera.fov_deg >= 180:
-        raise r.error(f"'fov_deg' must be below 180, got {camera.fov_deg:g}", "fov_deg")
-    if np.allclose(camera.position, camera.target):
-        raise r.error("the camera's target is its position; expected a direction to look in", "target")
+    camera = _camera(r, cam_t)
 
     trees: list[Placed] = []
     entries = data.get("tree", [])
@@ -201,6 +220,39 @@ def read_scene(path: str) -> Scene:
     if len(trees) > MAX_TREES:
         raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
     return Scene(path, trees, wind, camera, budget, dt, duration)
+
+
+def _camera(r: _Reader, cam_t: dict) -> Camera:
+    """[camera]: a fixed position and target, or [[camera.key]] entries (t, position, target)."""
+    fov = r.number(cam_t, "fov_deg", 60.0, low=0, low_open=True)
+    if fov >= 180:
+        raise r.error(f"'fov_deg' must be below 180, got {fov:g}", "fov_deg")
+    height = int(r.number(cam_t, "height_px", 1080, low=1, integer=True))
+    keys = cam_t.get("key")
+    if keys is None:
+        pos, tgt = np.array(r.vector(cam_t, "position", 3)), np.array(r.vector(cam_t, "target", 3))
+        if np.allclose(pos, tgt):
+            raise r.error("the camera's target is its position; expected a direction to look in",
+                          "target")
+        return Camera(pos, tgt, fov, height)
+    if "position" in cam_t or "target" in cam_t:
+        raise r.error("[camera] has both position/target and [[camera.key]] entries; expected "
+                      "one or the other", "position" if "position" in cam_t else "target")
+    if not isinstance(keys, list) or not keys or not all(isinstance(k, dict) for k in keys):
+        raise r.error("camera keys are [[camera.key]] tables (t, position, target)", "key")
+    times, positions, targets = [], [], []
+    for key in keys:
+        r.keys(key, CAMERA_KEY_KEYS, "[[camera.key]]")
+        times.append(r.number(key, "t", low=0))
+        positions.append(r.vector(key, "position", 3))
+        targets.append(r.vector(key, "target", 3))
+        if np.allclose(positions[-1], targets[-1]):
+            raise r.error(f"the camera key at t = {times[-1]:g} s looks at its own position",
+                          "target")
+    if any(b <= a for a, b in zip(times, times[1:])):
+        raise r.error("camera keys must have increasing times 't'", "t")
+    kt, kp, ktg = np.array(times), np.array(positions), np.array(targets)
+    return Camera(kp[0], ktg[0], fov, height, kt, kp, ktg)
 
 
 def _scatter(r: _Reader, table, folder: pathlib.Path) -> list[Placed]:

@@ -85,6 +85,11 @@ def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
     return _chain(path, data, texts, np.asarray(errors)), False
 
 
+def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray) -> Chain:
+    """A chain rebuilt from its level texts (level 0 the original's), as a worker does."""
+    return _chain(pathlib.Path(source), texts[0].encode("utf-8"), texts[1:], tip_error_m)
+
+
 def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
     from plantlod.simplify.groups import assign_groups, main_paths
 

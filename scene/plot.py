@@ -11,8 +11,13 @@ import numpy as np
 from .file import Scene
 
 
-def scene_png(scene: Scene, levels: np.ndarray, spent_per_step: float, full_per_step: float) -> bytes:
-    """PNG bytes. levels: (N,) each tree's level; *_per_step: branch-steps per time step."""
+def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
+              frame_s: float) -> bytes:
+    """PNG bytes. levels: (N, F) each tree's level per frame (the map shows frame 0);
+    in_use: (F,) branches simulated during each frame; full: branches at full detail;
+    frame_s: seconds per frame."""
+    levels = np.asarray(levels)
+    first = levels[:, 0] if levels.ndim == 2 and levels.shape[1] else np.zeros(len(scene.trees))
     import matplotlib
 
     matplotlib.use("Agg")
@@ -20,7 +25,8 @@ def scene_png(scene: Scene, levels: np.ndarray, spent_per_step: float, full_per_
 
     fig, (top, cost) = plt.subplots(1, 2, figsize=(11, 5), gridspec_kw={"width_ratios": [3, 2]})
     xy = np.array([t.position[:2] for t in scene.trees])
-    shown = top.scatter(xy[:, 0], xy[:, 1], c=levels, cmap="viridis_r", s=6, vmin=0)
+    shown = top.scatter(xy[:, 0], xy[:, 1], c=first, cmap="viridis_r", s=6, vmin=0,
+                        vmax=max(int(levels.max()) if levels.size else 0, 1))
     fig.colorbar(shown, ax=top, label="level (0 = full tree)")
     cam = scene.camera
     view = (cam.target - cam.position)[:2]
@@ -33,21 +39,26 @@ def scene_png(scene: Scene, levels: np.ndarray, spent_per_step: float, full_per_
         top.plot([cam.position[0], cam.position[0] + reach * math.cos(a)],
                  [cam.position[1], cam.position[1] + reach * math.sin(a)], color="tab:red", lw=1)
     top.plot(*cam.position[:2], marker="^", color="tab:red", ms=9)
-    pad = 0.05 * max(np.ptp(xy[:, 0]), np.ptp(xy[:, 1]), 1.0)
-    top.set_xlim(min(xy[:, 0].min(), cam.position[0]) - pad, max(xy[:, 0].max(), cam.position[0]) + pad)
-    top.set_ylim(min(xy[:, 1].min(), cam.position[1]) - pad, max(xy[:, 1].max(), cam.position[1]) + pad)
+    if cam.moving:                                     # the camera's path, keys marked
+        top.plot(cam.key_position[:, 0], cam.key_position[:, 1], color="tab:red", lw=1,
+                 ls="--", marker=".")
+    seen = np.vstack([xy, (cam.key_position if cam.moving else cam.position[None])[:, :2]])
+    pad = 0.05 * max(np.ptp(seen[:, 0]), np.ptp(seen[:, 1]), 1.0)
+    top.set_xlim(seen[:, 0].min() - pad, seen[:, 0].max() + pad)
+    top.set_ylim(seen[:, 1].min() - pad, seen[:, 1].max() + pad)
     top.set_aspect("equal")
-    top.set_title(f"{len(scene.trees):,} trees, budget {scene.budget_px:g} px")
+    top.set_title(f"{len(scene.trees):,} trees, budget {scene.budget_px:g} px (levels at t = 0)")
     top.set_xlabel("x (m)")
     top.set_ylabel("y (m)")
-    frames = np.arange(max(scene.steps, 1)) * scene.dt
-    cost.plot(frames, np.full_like(frames, full_per_step), label="full detail")
-    cost.plot(frames, np.full_like(frames, spent_per_step), label="at the chosen levels")
+    t = np.arange(len(in_use)) * frame_s
+    cost.step(t, np.full_like(t, float(full)), where="post", label="full detail")
+    cost.step(t, in_use, where="post", label="at the chosen levels")
     cost.set_yscale("log")
     cost.set_xlabel("t (s)")
-    cost.set_ylabel("branch-steps per time step")
+    cost.set_ylabel("branches simulated")
     cost.legend()
-    cost.set_title(f"{full_per_step / max(spent_per_step, 1):.1f}x fewer")
+    spent = float(np.mean(in_use)) if len(in_use) else float(full)
+    cost.set_title(f"{full / max(spent, 1e-9):.1f}x fewer")
     fig.tight_layout()
     out = io.BytesIO()
     fig.savefig(out, format="png", dpi=100, metadata={"Software": None})

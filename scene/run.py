@@ -1,18 +1,18 @@
-"""Run a scene (model.md 7): every tree at the coarsest level its distance allows.
+"""Run a scene (model.md 7): every tree, frame by frame, at the coarsest level its distance allows.
 
 1. Levels: the chain of every distinct tree file, with each level's tip error (max),
    from the cache or simplified now (`scene.levels`).
-2. Selection: a tree at distance d from a fixed camera shows a level's error e
-   (metres, times the tree's scale) as p = e H / (2 d tan(fov / 2)) pixels; it runs at
-   the coarsest level with p <= the budget. A tree behind the camera runs at the
-   coarsest level; a tree at distance 0 at full detail.
-3. Engine: trees of one file and level step together as lanes of one `run_lanes`
-   call on all cores, each with its own wind: the scene's wind turned into the tree's
-   frame (its heading), with gusts, and delayed by the time a front travelling at
-   `front_speed` takes to reach it along the wind.
-4. With ``verify``, every tree also runs at full detail, and the largest distance between
-   each group tip and its level branch's tip, per frame, is turned into pixels by the
-   same formula: the error actually spent.
+2. Schedule: per tree and frame (``frame_rate`` per second) the level, with hysteresis
+   (`scene.schedule`); the camera may be keyed in time.
+3. Engine: the trees of one file run in batches of up to STORE_BATCH_TREES. A batch's run
+   is cut into epochs at the frames where any of its trees switches level; within an
+   epoch the trees at one level step together as lanes of one `run_lanes` call on all
+   cores, each in its own wind (the scene's wind turned into the tree's frame, with gusts,
+   delayed by a front travelling at ``front_speed``). At a switch the tree's state is
+   carried to the new level (`scene.switch`). Results do not depend on the thread count.
+4. With ``verify``, every tree also runs at full detail; per frame, the largest distance
+   between each group tip and its level branch's tip is turned into pixels by the same
+   formula at that frame's distance: the error actually spent.
 """
 
 from __future__ import annotations
@@ -20,25 +20,40 @@ from __future__ import annotations
 import math
 import pathlib
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from plantlod.lsys.errors import InputError
 from plantlod.sim.kinematics import pose
 
-from .constants import FRAME_RATE, VERIFY_LANES
+from .constants import FRAME_RATE, STORE_BATCH_TREES, VERIFY_LANES
 from .file import Scene
-from .levels import Chain, level_chain
+from .levels import Chain, chain_from_texts, level_chain
+from .schedule import distances, frame_times, level_schedule
+from .switch import Transfer
 
 
 @dataclass
-class TreeRun:
-    """What one tree did: its chosen level, distance (m), and verified error (px, NaN if not verified)."""
+class Batch:
+    """Trees of one file that run together: scene indices ``members`` (n,), their rows
+    ``first`` .. first+n-1 in the file's store arrays, and their levels (n, F) per frame."""
 
-    level: int
-    distance: float
-    error_px: float = math.nan
+    file: str
+    file_index: int
+    members: list[int]
+    first: int
+    schedule: np.ndarray
+
+
+@dataclass
+class BatchResult:
+    """Branch-steps spent, level switches, and with verify each member's level tips:
+    per member a list of (row0, level, tips (K, B_l, 3))."""
+
+    spent: int = 0
+    switches: int = 0
+    tips: list = field(default_factory=list)
 
 
 def tree_winds(scene: Scene, steps: int) -> np.ndarray:
@@ -68,40 +83,98 @@ def tree_winds(scene: Scene, steps: int) -> np.ndarray:
     return out
 
 
-def choose_levels(scene: Scene, chains: dict, budget: float) -> list[TreeRun]:
-    """The coarsest level within the pixel budget for every tree (module doc, step 2)."""
-    cam = scene.camera
-    view = cam.target - cam.position
-    runs = []
-    for tree in scene.trees:
-        chain: Chain = chains[tree.file]
-        offset = np.asarray(tree.position) - cam.position
-        d = float(np.linalg.norm(offset))
-        last = len(chain.trees) - 1
-        if d == 0.0:
-            runs.append(TreeRun(0, d))
+def frame_steps(scene: Scene, frame_rate: float) -> int:
+    """Time steps per frame: the frame period in steps, at least 1."""
+    return max(1, int(round(1.0 / (frame_rate * scene.dt))))
+
+
+def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,
+              steps: int, every: int, *, threads: int | None = None, store=None,
+              keep_tips: bool = False, models: dict | None = None) -> BatchResult:
+    """Step one batch through its schedule (module doc, step 3).
+
+    winds : (n, steps, 3) m/s, each member's wind in its own frame
+    store : a zarr group (`scene.store`) receiving the angles, or None
+    """
+    from plantlod.sim.lanes import new_state, run_lanes
+
+    from .store import write_block
+
+    models = {} if models is None else models
+    sched = batch.schedule
+    n, frames = sched.shape
+    cuts = [0] + [f for f in range(1, frames) if np.any(sched[:, f] != sched[:, f - 1])] + [frames]
+    states = [new_state(_model(models, chain, int(sched[i, 0])), 1)[0] for i in range(n)]
+    result = BatchResult(tips=[[] for _ in range(n)] if keep_tips else [])
+    for fa, fb in zip(cuts[:-1], cuts[1:]):
+        s0, s1 = fa * every, min(fb * every, steps)
+        if s1 <= s0:
             continue
-        if float(np.dot(offset, view)) <= 0.0:           # behind the camera: nothing shows
-            runs.append(TreeRun(last, d))
-            continue
-        px = chain.tip_error_m * tree.scale * float(cam.pixels_per_metre(d))
-        ok = np.flatnonzero(px <= budget)
-        runs.append(TreeRun(int(ok.max()) if ok.size else 0, d))
-    return runs
+        rows = (s1 - s0) // every
+        for level in np.unique(sched[:, fa]).tolist():
+            idx = np.flatnonzero(sched[:, fa] == level)
+            tree = chain.trees[level]
+            state = np.stack([states[i] for i in idx])
+            bend, rot = run_lanes(_model(models, chain, level), winds[idx, s0:s1], dt, s1 - s0,
+                                  every=every, state=state, threads=threads,
+                                  addresses=tree.address)
+            for j, i in enumerate(idx.tolist()):
+                states[i] = state[j]
+            result.spent += tree.n_branches * (s1 - s0) * len(idx)
+            if store is not None and rows:
+                block_b = np.full((n, rows, tree.n_branches), np.nan)
+                block_r = np.full((n, rows, tree.n_branches), np.nan)
+                block_b[idx], block_r[idx] = bend, rot
+                write_block(store, batch.file_index, level, batch.first, fa, block_b, block_r)
+            if keep_tips and level > 0 and rows:
+                for j, i in enumerate(idx.tolist()):
+                    result.tips[i].append((fa, level, pose(tree, bend[j], rot[j]).tip))
+        if fb < frames:                                   # switches at the cut
+            for i in np.flatnonzero(sched[:, fb] != sched[:, fb - 1]).tolist():
+                a, b = int(sched[i, fb - 1]), int(sched[i, fb])
+                states[i] = transfer.carry(a, b, states[i], winds[i, min(fb * every, steps - 1)])
+                result.switches += 1
+    return result
+
+
+def _model(models: dict, chain: Chain, level: int):
+    from plantlod.sim.lanes import LaneModel
+
+    if level not in models:
+        models[level] = LaneModel.from_tree(chain.trees[level])
+    return models[level]
+
+
+def make_batches(scene: Scene, chains: dict, every: int, budget: float
+                 ) -> tuple[list[Batch], np.ndarray, list]:
+    """The batches of every file, the levels (N, F) and per file (name, members, trees)."""
+    times = frame_times(scene, every)
+    levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
+    batches, files = [], []
+    for fi, path in enumerate(sorted({t.file for t in scene.trees})):
+        members = [k for k, t in enumerate(scene.trees) if t.file == path]
+        chain: Chain = chains[path]
+        sched = level_schedule(scene, members, chain.tip_error_m, times, budget)
+        levels[members] = sched
+        files.append((str(path), members, chain.trees))
+        for lo in range(0, len(members), STORE_BATCH_TREES):
+            batches.append(Batch(str(path), fi, members[lo:lo + STORE_BATCH_TREES], lo,
+                                 sched[lo:lo + STORE_BATCH_TREES]))
+    return batches, levels, files
 
 
 def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: bool = False,
-              progress=None, angles=None, scheduler: str | None = None) -> dict:
-    """Run ``scene``; the report document of docs/scene.md.
+              progress=None, store_path: str | None = None, scheduler: str | None = None,
+              frame_rate: float = FRAME_RATE) -> dict:
+    """Run ``scene``; the report document of docs/scene.md, and its levels (N, F) under the
+    private key ``_levels`` (for the plot; the CLI removes it).
 
-    angles    : an open zarr group (`scene.store`) that receives every batch's angles
-    scheduler : the address of a Dask scheduler: the batches run on its workers, each
-                writing its own groups of the store (nothing gathered through this process)
+    store_path : a new zarr store (`scene.store`) to receive every tree's angles
+    scheduler  : the address of a Dask scheduler: the batches run on its workers, each
+                 writing its own chunks of the store (nothing gathered through this process)
     """
     if scheduler is not None and verify:
         raise InputError("--verify runs in this process; expected it without --scheduler")
-    from plantlod.sim.lanes import LaneModel, run_lanes
-
     begin = time.perf_counter()
     chains, cached = {}, 0
     steps = scene.steps
@@ -114,41 +187,42 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache)
         chains[path] = chain
         cached += hit
-    runs = choose_levels(scene, chains, scene.budget_px)
-    every = max(1, int(round(1.0 / (FRAME_RATE * scene.dt))))
-    frames = steps // every
-    batches: dict[tuple, list[int]] = {}
-    for k, (tree, run) in enumerate(zip(scene.trees, runs)):
-        batches.setdefault((str(tree.file), run.level), []).append(k)
-    spent = full = 0
-    started = time.perf_counter()
-    level_tips: dict[int, np.ndarray] = {}            # tree -> (frames, B_level, 3), with verify
-    ordered = sorted(batches.items())
-    if scheduler is not None:
-        spent = _run_on_cluster(scheduler, scene, chains, ordered, winds, every, angles)
-    for n, ((file, level), members) in enumerate(ordered if scheduler is None else []):
-        chain = chains[pathlib.Path(file)]
-        tree = chain.trees[level]
-        bend, rot = run_lanes(LaneModel.from_tree(tree), winds[members], scene.dt, steps,
-                              every=every, threads=threads, addresses=tree.address)
-        spent += tree.n_branches * steps * len(members)
-        if angles is not None:
-            from .store import write_batch
+    every = frame_steps(scene, frame_rate)
+    batches, levels, files = make_batches(scene, chains, every, scene.budget_px)
+    rows = steps // every
+    store = None
+    if store_path is not None:
+        from .store import open_store
 
-            write_batch(angles, n, file, level, members, tree, bend, rot, every * scene.dt)
+        store = open_store(store_path, levels, files, rows, every * scene.dt)
+    started = time.perf_counter()
+    spent = switches = 0
+    errors = np.full(len(scene.trees), np.nan)
+    if scheduler is not None:
+        spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
+                                          store_path)
+    transfers = {path: Transfer(chain.trees, chain.groups) for path, chain in chains.items()}
+    models: dict = {}
+    for n, batch in enumerate(batches if scheduler is None else []):
+        chain = chains[pathlib.Path(batch.file)]
+        result = run_batch(chain, transfers[pathlib.Path(batch.file)], batch,
+                           winds[batch.members], scene.dt, steps, every, threads=threads,
+                           store=store, keep_tips=verify,
+                           models=models.setdefault(batch.file, {}))
+        spent += result.spent
+        switches += result.switches
         if verify:
-            for lane, k in enumerate(members):
-                level_tips[k] = pose(tree, bend[lane], rot[lane]).tip
+            errors[batch.members] = _verify(scene, chain, batch, winds, every, result.tips,
+                                            threads)
         if progress:
             progress(n + 1, len(batches))
-    for tree in scene.trees:
-        full += chains[tree.file].trees[0].n_branches * steps
     simulate_s = time.perf_counter() - started
-    if verify:
-        _verify(scene, chains, runs, winds, every, level_tips, threads)
-    levels = np.array([r.level for r in runs])
-    top = int(levels.max())
-    errors = np.array([r.error_px for r in runs])
+    full = sum(chains[t.file].trees[0].n_branches for t in scene.trees) * steps
+    counts = {path: np.array([t.n_branches for t in chain.trees]) for path, chain in chains.items()}
+    in_use = np.zeros(levels.shape[1])
+    for k, t in enumerate(scene.trees):
+        in_use += counts[t.file][levels[k]]
+    top = int(levels.max()) if levels.size else 0
     report = {
         "scene": scene.source,
         "trees": len(scene.trees),
@@ -158,91 +232,95 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "level_wind_speed": speed,
         "dt": scene.dt,
         "duration": scene.duration,
-        "frames": frames,
+        "frame_rate": frame_rate,
+        "frames": rows,
+        "camera": "keyed" if scene.camera.moving else "fixed",
         "branches_full": int(sum(chains[t.file].trees[0].n_branches for t in scene.trees)),
-        "branches_spent": int(sum(chains[t.file].trees[r.level].n_branches
-                                  for t, r in zip(scene.trees, runs))),
+        "branches_spent": float(round(in_use.mean(), 3)) if in_use.size else 0.0,
         "branch_steps_full": int(full),
         "branch_steps_spent": int(spent),
         "speedup": full / spent if spent else math.inf,
         "level_share": {str(k): float(np.mean(levels == k)) for k in range(top + 1)},
+        "switches": int(switches),
         "simulated_seconds_per_wall_second": scene.duration / simulate_s if simulate_s > 0 else None,
         "wall_s": time.perf_counter() - begin,
     }
-    report["_levels"] = levels.tolist()                 # for the caller's store; not reported
     if verify:
         report["max_error_px"] = float(np.nanmax(errors)) if np.isfinite(errors).any() else 0.0
         report["mean_error_px"] = float(np.nanmean(errors)) if np.isfinite(errors).any() else 0.0
+    report["_levels"] = levels
+    report["_branches_in_use"] = in_use
     return report
 
 
-def simulate_batch(text: str, source: str, winds: np.ndarray, dt: float, steps: int, every: int,
-                   store: str | None, index: int, file: str, level: int, members: list[int]) -> int:
-    """One batch, wherever it runs (a Dask worker): build the level's tree from its text,
-    step its lanes, write its group of the store; returns the branch-steps spent."""
-    from plantlod.lsys.build import build
-    from plantlod.lsys.parse import parse_lsys
-    from plantlod.sim.lanes import LaneModel, run_lanes
-
-    tree = build(parse_lsys(text, source)).tree
-    bend, rot = run_lanes(LaneModel.from_tree(tree), winds, dt, steps, every=every,
-                          addresses=tree.address)
+def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batch: Batch,
+                   winds: np.ndarray, dt: float, steps: int, every: int,
+                   store: str | None) -> tuple[int, int]:
+    """One batch, wherever it runs (a Dask worker): rebuild the chain from its texts, step
+    the batch through its schedule, write its chunks of the store; returns the branch-steps
+    spent and the switches."""
+    chain = chain_from_texts(source, texts, np.asarray(tip_error_m))
+    group = None
     if store is not None:
         import zarr
 
-        from .store import write_batch
+        group = zarr.open_group(store, mode="r+")
+    result = run_batch(chain, Transfer(chain.trees, chain.groups), batch, winds, dt, steps,
+                       every, threads=1, store=group)
+    return result.spent, result.switches
 
-        write_batch(zarr.open_group(store, mode="r+"), index, file, level, members, tree, bend,
-                    rot, every * dt)
-    return tree.n_branches * steps * len(members)
 
-
-def _run_on_cluster(address: str, scene: Scene, chains: dict, ordered, winds: np.ndarray,
-                    every: int, angles) -> int:
+def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batch],
+                    winds: np.ndarray, every: int, store: str | None) -> tuple[int, int]:
     """Every batch as a task of the Dask cluster at ``address`` (dask.distributed)."""
     try:
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler needs dask.distributed: pip install 'plantlod[cluster]'") from None
-    store = None if angles is None else str(angles.store.root)
     with Client(address, timeout="30s") as client:
         futures = []
-        for n, ((file, level), members) in enumerate(ordered):
-            chain = chains[pathlib.Path(file)]
+        for batch in batches:
+            chain = chains[pathlib.Path(batch.file)]
             futures.append(client.submit(
-                simulate_batch, chain.texts[level], f"{pathlib.Path(file).name} level {level}",
-                winds[members], scene.dt, scene.steps, every, store, n, file, level, members,
-                pure=False))
-        return int(sum(client.gather(futures)))
+                simulate_batch, chain.texts, chain.tip_error_m.tolist(), batch.file, batch,
+                winds[batch.members], scene.dt, scene.steps, every, store, pure=False))
+        done = client.gather(futures)
+    return int(sum(d[0] for d in done)), int(sum(d[1] for d in done))
 
 
-def _verify(scene: Scene, chains: dict, runs: list[TreeRun], winds: np.ndarray, every: int,
-            level_tips: dict, threads) -> None:
-    """Each tree's error in pixels: its level's branch tips against the full tree's group tips,
-    the full trees run a few lanes at a time (VERIFY_LANES) so memory stays bounded."""
+def _verify(scene: Scene, chain: Chain, batch: Batch, winds: np.ndarray, every: int,
+            tips: list, threads) -> np.ndarray:
+    """Each member's largest error in pixels over the run: its level's branch tips against
+    the full tree's group tips, per frame, at that frame's distance (0 px behind the camera).
+    The full trees run VERIFY_LANES at a time so that memory stays bounded."""
     from plantlod.sim.lanes import LaneModel, run_lanes
 
-    cam = scene.camera
-    by_file: dict[str, list[int]] = {}
-    for k, (tree, run) in enumerate(zip(scene.trees, runs)):
-        if run.level == 0:
-            run.error_px = 0.0
-        else:
-            by_file.setdefault(str(tree.file), []).append(k)
-    for file, members in sorted(by_file.items()):
-        chain = chains[pathlib.Path(file)]
-        model = LaneModel.from_tree(chain.trees[0])
-        for lo in range(0, len(members), VERIFY_LANES):
-            part = members[lo:lo + VERIFY_LANES]
-            bend, rot = run_lanes(model, winds[part], scene.dt, scene.steps, every=every,
-                                  threads=threads, addresses=chain.trees[0].address)
-            for lane, k in enumerate(part):
-                tree, run = scene.trees[k], runs[k]
-                tips_full = pose(chain.trees[0], bend[lane], rot[lane]).tip[:, chain.tips[run.level]]
-                worst_m = float(np.linalg.norm(level_tips[k] - tips_full, axis=-1).max()) * tree.scale
-                ahead = float(np.dot(np.asarray(tree.position) - cam.position,
-                                     cam.target - cam.position)) > 0
-                run.error_px = worst_m * float(cam.pixels_per_metre(run.distance)) if ahead else 0.0
+    out = np.zeros(len(batch.members))
+    need = [i for i in range(len(batch.members)) if tips[i]]
+    if not need:
+        return out
+    full_tree = chain.trees[0]
+    model = LaneModel.from_tree(full_tree)
+    times = frame_times(scene, every)
+    d, ahead = distances(scene, batch.members, times)
+    for lo in range(0, len(need), VERIFY_LANES):
+        part = need[lo:lo + VERIFY_LANES]
+        lanes = [batch.members[i] for i in part]
+        bend, rot = run_lanes(model, winds[lanes], scene.dt, scene.steps, every=every,
+                              threads=threads, addresses=full_tree.address)
+        for lane, i in enumerate(part):
+            full_tips = pose(full_tree, bend[lane], rot[lane]).tip          # (R, B0, 3)
+            scale = scene.trees[batch.members[i]].scale
+            worst = 0.0
+            for row0, level, level_tips in tips[i]:
+                k = level_tips.shape[0]
+                gap = np.linalg.norm(level_tips - full_tips[row0:row0 + k][:, chain.tips[level]],
+                                     axis=-1).max(axis=1) * scale           # (k,) m
+                ppm = scene.camera.pixels_per_metre(d[i, row0:row0 + k])
+                px = np.where(ahead[i, row0:row0 + k], gap * ppm, 0.0)
+                worst = max(worst, float(px.max()) if k else 0.0)
+            out[i] = worst
+    return out
 
 
 def check_scene(scene: Scene) -> None:

@@ -1,14 +1,17 @@
-"""A scene's angles as a zarr store (docs/scene.md, "--angles"): one group per batch of trees
-that stepped together (one file at one level), so every writer fills whole chunks of its own.
+"""A scene's angles as a zarr store (docs/scene.md, "--angles").
 
     STORE.zarr/
-      levels              (N,) int16    each tree's level (the camera is fixed: one per run)
-      batch_<k>/bend      (W, T, B) float32 radians, chunked (BATCH_TREES, TIME_CHUNK, B)
-      batch_<k>/rotation  (W, T, B) float32
-      batch_<k>/trees     (W,) int32    which scene trees the lanes are
-      batch_<k>           attrs: file, level, addresses, dt (s between rows)
+      levels                    (N, F) int16  each tree's level during each frame
+      file_<i>/trees            (n,) int32    the scene trees of file i, in row order
+      file_<i>/level_<l>/bend   (n, R, B_l) float32 rad, NaN where the tree ran at another level
+      file_<i>/level_<l>/rotation
+      file_<i>                  attrs: file; level_<l> attrs: addresses
+      (root attrs: dt, the seconds between rows)
 
-Rows are frames 1 .. T (t = k · dt; the rest state at t = 0 is not stored).
+Row r (0-based) is time (r + 1) · every · dt, the end of frame r; the rest state at t = 0
+is not stored. A tree's angles at row r are in the level group ``levels[k, r]`` names.
+Chunks are (STORE_BATCH_TREES, STORE_TIME_CHUNK, B_l): the trees of one batch fill their
+own chunks, so workers of a cluster never write the same chunk.
 """
 
 from __future__ import annotations
@@ -18,26 +21,47 @@ import numpy as np
 from .constants import STORE_BATCH_TREES, STORE_TIME_CHUNK
 
 
-def open_store(path: str, levels: np.ndarray):
-    """A new zarr group at ``path`` (replacing nothing: the caller writes to a fresh folder)."""
+def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], list]],
+               rows: int, dt: float):
+    """Create the store at ``path`` (a new folder): every array, filled with NaN.
+
+    levels : (N, F) int16; files: per file its name, its scene trees (row order) and its
+    level trees (for the branch counts and addresses); rows: R; dt: seconds between rows.
+    """
     import zarr
 
     group = zarr.open_group(path, mode="w-")
-    arr = group.create_array("levels", shape=levels.shape, dtype="int16", chunks=levels.shape)
+    group.attrs["dt"] = float(dt)
+    arr = group.create_array("levels", shape=levels.shape, dtype="int16",
+                             chunks=(min(max(len(levels), 1), STORE_BATCH_TREES),
+                                     max(1, min(levels.shape[1], STORE_TIME_CHUNK))))
     arr[:] = levels
+    for i, (name, members, trees) in enumerate(files):
+        sub = group.create_group(f"file_{i}")
+        sub.attrs["file"] = name
+        t = sub.create_array("trees", shape=(len(members),), dtype="int32",
+                             chunks=(max(len(members), 1),))
+        t[:] = np.asarray(members, dtype=np.int32)
+        for level, tree in enumerate(trees):
+            lv = sub.create_group(f"level_{level}")
+            lv.attrs["addresses"] = list(tree.address)
+            shape = (len(members), rows, tree.n_branches)
+            chunks = (min(max(len(members), 1), STORE_BATCH_TREES), max(1, min(rows, STORE_TIME_CHUNK)),
+                      max(tree.n_branches, 1))
+            for name_ in ("bend", "rotation"):
+                lv.create_array(name_, shape=shape, dtype="float32", chunks=chunks,
+                                fill_value=np.nan)
     return group
 
 
-def write_batch(group, index: int, file: str, level: int, members: list[int], tree,
-                bend: np.ndarray, rot: np.ndarray, dt: float) -> None:
-    """Write one batch: ``bend``/``rot`` (W, T, B) float64, stored as float32."""
-    sub = group.create_group(f"batch_{index}")
-    sub.attrs.update({"file": file, "level": int(level), "addresses": list(tree.address),
-                      "dt": float(dt)})
-    w, t, b = bend.shape
-    chunks = (min(w, STORE_BATCH_TREES), max(1, min(t, STORE_TIME_CHUNK)), max(b, 1))
-    for name, values in (("bend", bend), ("rotation", rot)):
-        arr = sub.create_array(name, shape=bend.shape, dtype="float32", chunks=chunks)
-        arr[:] = values.astype(np.float32)
-    trees = sub.create_array("trees", shape=(w,), dtype="int32", chunks=(max(w, 1),))
-    trees[:] = np.asarray(members, dtype=np.int32)
+def write_block(group, file_index: int, level: int, first: int, row0: int,
+                bend: np.ndarray, rot: np.ndarray) -> None:
+    """Rows row0 .. row0+K-1 of a batch's trees (rows first .. first+n-1 of file
+    ``file_index``'s arrays) at ``level``: ``bend``/``rot`` (n, K, B) float64, NaN for the
+    trees that ran at another level then. One write per array, within the batch's chunks."""
+    if bend.shape[1] == 0:
+        return
+    lv = group[f"file_{file_index}/level_{level}"]
+    n, k = bend.shape[:2]
+    lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
+    lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)

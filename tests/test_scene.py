@@ -13,7 +13,8 @@ from golden_util import ROOT, run_cli
 from plantlod.lsys.errors import InputError
 from plantlod.scene.file import Camera, read_scene
 from plantlod.scene.levels import Chain
-from plantlod.scene.run import choose_levels, run_scene
+from plantlod.scene.run import run_scene
+from plantlod.scene.schedule import level_schedule
 
 STALK = str(ROOT / "examples" / "stalk8.lsys")
 TWIN = str(ROOT / "examples" / "eval" / "twin_draw.lsys")
@@ -55,8 +56,7 @@ def test_pixels_by_hand():
 
 def test_levels_chosen_by_distance_behind_and_at_the_camera(tmp_path):
     scene = read_scene(_scene(tmp_path, BASE))
-    chain = Chain(trees=[None] * 4, texts=[""] * 4, tip_error_m=np.array([0.0, 0.001, 0.01, 0.1]), groups=[], tips=[])
-    chains = {t.file: chain for t in scene.trees}
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
     from dataclasses import replace
     ppm10 = float(scene.camera.pixels_per_metre(10.0))          # 93.5 px per metre at 10 m
     trees = [replace(scene.trees[0], position=(0.0, -30.0, 1.7)),   # 10 m ahead
@@ -64,10 +64,58 @@ def test_levels_chosen_by_distance_behind_and_at_the_camera(tmp_path):
              replace(scene.trees[0], position=(0.0, -50.0, 1.7)),   # behind
              replace(scene.trees[0], position=(0.0, -40.0, 1.7))]   # at the camera
     scene = replace(scene, trees=trees)
-    runs = choose_levels(scene, chains, 1.0)
+    levels = level_schedule(scene, [0, 1, 2, 3], errors, np.zeros(1), 1.0)
     # at 10 m: 0.01 m -> 0.935 px <= 1 (level 2), 0.1 m -> 9.35 px; at 40 m: 0.1 m -> 2.3 px
     assert 0.01 * ppm10 <= 1.0 < 0.1 * ppm10 / 4
-    assert [r.level for r in runs] == [2, 2, 3, 0]
+    assert levels[:, 0].tolist() == [2, 2, 3, 0]
+
+
+def _keyed_scene(tmp_path, keys, duration=2.0):
+    body = BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "").replace(
+        "duration = 2", f"duration = {duration}")
+    for t, y in keys:
+        body += f"[[camera.key]]\nt = {t}\nposition = [0, {y}, 1.7]\ntarget = [0, 0, 1.7]\n"
+    return read_scene(_scene(tmp_path, body, "keyed.toml"))
+
+
+def test_a_keyed_camera_moves_linearly_between_keys_and_holds_beyond(tmp_path):
+    scene = _keyed_scene(tmp_path, [(0.5, -10), (1.5, -30)])
+    pos, tgt = scene.camera.at(np.array([0.0, 0.5, 1.0, 1.25, 1.5, 9.0]))
+    np.testing.assert_allclose(pos[:, 1], [-10, -10, -20, -25, -30, -30])
+    np.testing.assert_allclose(tgt, np.tile([0, 0, 1.7], (6, 1)))
+
+
+def test_hysteresis_stops_a_tree_at_a_boundary_from_flickering(tmp_path):
+    """A camera swaying 2 cm around the distance where level 2 just fits: without
+    hysteresis the tree would switch every time the camera crosses; with it, never back."""
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -10.0)])
+    boundary = 0.01 * float(scene.camera.pixels_per_metre(1.0))      # d where 0.01 m = 1 px
+    from dataclasses import replace
+    times = np.arange(60) / 30.0
+    sway = boundary + 0.02 * np.sin(2 * np.pi * times)                # crosses it 3 times
+    keys = np.stack([np.zeros(60), -sway, np.full(60, 1.7)], axis=1)
+    cam = replace(scene.camera, key_t=times, key_position=keys,
+                  key_target=np.tile([0.0, 1.0, 1.7], (60, 1)), position=keys[0],
+                  target=np.array([0.0, 1.0, 1.7]))
+    scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    levels = level_schedule(scene, [0], errors, times, 1.0)[0]
+    within = errors[2] * cam.pixels_per_metre(sway) <= 1.0
+    naive_switches = int(np.sum(within[1:] != within[:-1]))
+    assert naive_switches >= 3
+    # finer at once whenever level 2 would overspend; coarser again only at <= 0.8 px
+    assert np.all(errors[levels] * cam.pixels_per_metre(sway) <= 1.0 + 1e-12)
+    assert int(np.sum(levels[1:] != levels[:-1])) <= 1
+
+
+def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_path):
+    scene = _keyed_scene(tmp_path, [(0.0, -22.0), (1.5, -150.0), (3.0, -22.0)], duration=3.0)
+    report = run_scene(scene, cache=tmp_path / "c", verify=True)
+    assert report["camera"] == "keyed" and report["switches"] >= 10
+    levels = report["_levels"]
+    assert levels.shape == (13, 100) and len(np.unique(levels)) >= 3   # 3 steps a frame
+    assert report["max_error_px"] <= report["budget_px"] + 1e-9
+    assert report["branch_steps_spent"] < report["branch_steps_full"]
 
 
 @pytest.mark.parametrize("body, message", [
@@ -76,6 +124,13 @@ def test_levels_chosen_by_distance_behind_and_at_the_camera(tmp_path):
     (BASE.replace("speed = 5", "speed = -1"), "'speed' must be >= 0"),
     (BASE.replace(STALK, "missing.lsys"), "not found"),
     (BASE.replace("target = [0, 0, 1.7]", "target = [0, -40, 1.7]"), "target is its position"),
+    (BASE + "[[camera.key]]\nt = 0\nposition = [0, 1, 1]\ntarget = [0, 0, 1]\n",
+     "both position/target and [[camera.key]]"),
+    (BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "")
+     + "[[camera.key]]\nt = 1\nposition = [0, 1, 1]\ntarget = [0, 0, 1]\n"
+     + "[[camera.key]]\nt = 1\nposition = [0, 2, 1]\ntarget = [0, 0, 1]\n", "increasing times"),
+    (BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "")
+     + "[[camera.key]]\nt = 0\nposition = [0, 1, 1]\nlook = [0, 0, 1]\n", "unknown key 'look'"),
     ("budget_px = 0\n" + BASE, "'budget_px' is 0"),
     (BASE.replace("count = 12", "count = 5000"), "cannot place"),
     ("dt = [\n", "not valid TOML"),
@@ -133,28 +188,63 @@ def test_angles_store_holds_every_tree_at_its_level(tmp_path):
                                 str(store)).stdout)
     group = zarr.open_group(str(store), mode="r")
     levels = group["levels"][:]
-    assert len(levels) == report["trees"] and "_levels" not in report
+    assert levels.shape[0] == report["trees"] and "_levels" not in report
     seen = []
     scene = read_scene(path)
     winds = tree_winds(scene, scene.steps)
+    every = int(round(1 / (30 * scene.dt)))
     for name in group.group_keys():
-        batch = group[name]
-        trees = batch["trees"][:].tolist()
+        trees = group[name]["trees"][:].tolist()
         seen += trees
-        assert all(levels[k] == batch.attrs["level"] for k in trees)
-        # one lane against a single run of that tree in its own wind (model.md 4: step k uses V(t_{k-1}))
-        k = trees[0]
-        chain, _ = level_chain(scene.trees[k].file, report["level_wind_speed"], scene.dt,
-                               scene.duration, tmp_path / "c")
-        tree = chain.trees[int(levels[k])]
-        times = np.arange(scene.steps) * scene.dt
-        single = simulate_arrays(tree, scene.dt, scene.steps, KeyframeWind(times, winds[k]),
-                                 every=int(round(1 / (30 * scene.dt))))
-        np.testing.assert_array_equal(batch["bend"][0], single.bend[1:].astype(np.float32))
+        for row, k in enumerate(trees[:3]):
+            level = int(levels[k, 0])
+            assert np.all(levels[k] == level)                 # a fixed camera: one level
+            # the tree's rows hold numbers at its level and NaN at every other
+            for other in group[name].group_keys():
+                values = group[name][other]["bend"][row]
+                assert np.isnan(values).all() != (other == f"level_{level}")
+            # against a single run of that tree in its own wind (model.md 4)
+            chain, _ = level_chain(scene.trees[k].file, report["level_wind_speed"], scene.dt,
+                                   scene.duration, tmp_path / "c")
+            times = np.arange(scene.steps) * scene.dt
+            single = simulate_arrays(chain.trees[level], scene.dt, scene.steps,
+                                     KeyframeWind(times, winds[k]), every=every)
+            np.testing.assert_array_equal(group[name][f"level_{level}"]["bend"][row],
+                                          single.bend[1:].astype(np.float32))
     assert sorted(seen) == list(range(report["trees"]))
     # an existing store is never overwritten
     again = run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles", str(store), exit_code=2)
     assert "exists" in again.stderr
+
+
+def _store_arrays(group):
+    out = {"levels": group["levels"][:]}
+    for name in group.group_keys():
+        out[name + "/trees"] = group[name]["trees"][:]
+        for level in group[name].group_keys():
+            for array in ("bend", "rotation"):
+                out[f"{name}/{level}/{array}"] = group[name][level][array][:]
+    return out
+
+
+def test_a_moving_camera_gives_the_same_store_for_any_thread_count(tmp_path):
+    import zarr
+
+    body = BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "") + (
+        "[[camera.key]]\nt = 0\nposition = [0, -22, 1.7]\ntarget = [0, 0, 1.7]\n"
+        "[[camera.key]]\nt = 2\nposition = [0, -120, 1.7]\ntarget = [0, 0, 1.7]\n")
+    path = _scene(tmp_path, body)
+    stores = []
+    for threads in ("1", "2"):
+        out = tmp_path / f"t{threads}.zarr"
+        run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles", str(out),
+                "--threads", threads)
+        stores.append(_store_arrays(zarr.open_group(str(out), mode="r")))
+    assert stores[0].keys() == stores[1].keys()
+    for key in stores[0]:
+        np.testing.assert_array_equal(stores[0][key], stores[1][key])
+    levels = stores[0]["levels"]
+    assert np.any(levels[:, 1:] != levels[:, :-1])           # it did switch
 
 
 def test_a_local_dask_cluster_gives_the_same_store(tmp_path):
@@ -170,13 +260,11 @@ def test_a_local_dask_cluster_gives_the_same_store(tmp_path):
         far = json.loads(run_cli("scene", path, "--cache", cache, "--angles",
                                  str(tmp_path / "there.zarr"), "--scheduler",
                                  cluster.scheduler_address).stdout)
-    here = zarr.open_group(str(tmp_path / "here.zarr"), mode="r")
-    there = zarr.open_group(str(tmp_path / "there.zarr"), mode="r")
-    assert sorted(here.group_keys()) == sorted(there.group_keys())
-    for name in here.group_keys():
-        for array in ("bend", "rotation", "trees"):
-            np.testing.assert_array_equal(here[name][array][:], there[name][array][:])
-    assert np.array_equal(here["levels"][:], there["levels"][:])
+    here = _store_arrays(zarr.open_group(str(tmp_path / "here.zarr"), mode="r"))
+    there = _store_arrays(zarr.open_group(str(tmp_path / "there.zarr"), mode="r"))
+    assert here.keys() == there.keys()
+    for key in here:
+        np.testing.assert_array_equal(here[key], there[key])
     assert far["branch_steps_spent"] < far["branch_steps_full"]
 
 

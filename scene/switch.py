@@ -1,0 +1,125 @@
+"""Carrying a tree's state across a level switch (model.md 7).
+
+State is (4, B) [θb, θ̇b, θr, θ̇r] (rad, rad/s) per branch of the level running.
+
+- **Fine to coarse** (from the full tree): each simplified branch takes its group's
+  combined angles and rates (`groups.combined_angles`, the same sum model.md 5 defines
+  for the targets), carried from the group root's swing frame into the branch's own
+  (explicit-form chords turn it: `groups.swing_turns`).
+- **Coarse to fine** (to the full tree): the members of each group share the group's
+  combined angle in proportion to their static deflection under the current wind,
+  s_j = (θb_j, θr_j) static (`simplify.static`): θb_j = α_g sb_j, θr_j = β_g sr_j with the
+  two numbers (α_g, β_g) per group solved so that the members' combined angles are the
+  group's again (a 2 x 2 system; rates the same way). Where the wind is calm, or a
+  component has no static deflection in a group, its main-path members share equally.
+- Between two simplified levels the state goes through the full tree: coarse to fine,
+  then fine to coarse. Every map is linear in the state; carrying a level's state to the
+  full tree and back gives it unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plantlod.lsys.tree import Tree
+from plantlod.simplify.groups import carry_angles, combined_angles, main_paths, swing_turns
+from plantlod.simplify.static import rest_frames, static_angles, static_parts
+
+from .constants import SHARE_FLOOR
+
+
+class Transfer:
+    """State maps between the levels of one chain (`levels.Chain`)."""
+
+    def __init__(self, trees: list[Tree], groups: list[np.ndarray]):
+        self.original = trees[0]
+        self.trees = trees
+        self.groups = [np.asarray(g, dtype=np.int64) for g in groups]
+        self.frames0 = rest_frames(self.original)
+        self._paths: dict[int, list[np.ndarray]] = {}
+        self._turn: dict[int, np.ndarray] = {}
+
+    def paths(self, level: int) -> list[np.ndarray]:
+        if level not in self._paths:
+            self._paths[level] = main_paths(self.original, self.groups[level],
+                                            self.trees[level].n_branches)
+        return self._paths[level]
+
+    def turn(self, level: int) -> np.ndarray:
+        """(G, 3, 3) W_0^T W'_g: from level branch g's swing frame to its group root's."""
+        if level not in self._turn:
+            self._turn[level] = swing_turns(self.original, self.trees[level], self.paths(level))
+        return self._turn[level]
+
+    def carry(self, a: int, b: int, state: np.ndarray, wind: np.ndarray) -> np.ndarray:
+        """The state (4, B_a) of level ``a`` as a state (4, B_b) of level ``b``; ``wind`` (3,)
+        m/s is the wind the tree feels now, in its own frame (for the static shares)."""
+        if a == b:
+            return state.copy()
+        full = state if a == 0 else self.to_original(a, state, wind)
+        return full.copy() if b == 0 else self.to_level(b, full)
+
+    def to_level(self, level: int, full: np.ndarray) -> np.ndarray:
+        """Fine to coarse: each level branch takes its group's combined angles and rates."""
+        paths, back = self.paths(level), np.transpose(self.turn(level), (0, 2, 1))
+        out = np.empty((4, self.trees[level].n_branches))
+        for rb, rr in ((0, 2), (1, 3)):                    # angles, then rates
+            cb, cr = combined_angles(self.original, paths, full[rb], full[rr])
+            out[rb], out[rr] = carry_angles(back, cb, cr)
+        return out
+
+    def to_original(self, level: int, state: np.ndarray, wind: np.ndarray) -> np.ndarray:
+        """Coarse to fine: members share their group's combined angle by static deflection."""
+        paths, groups = self.paths(level), self.groups[level]
+        back = np.transpose(self.turn(level), (0, 2, 1))
+        sb, sr = self._shares(level, wind)
+        ab, ar = combined_angles(self.original, paths, sb, np.zeros_like(sr))   # (G,) each
+        bb, br = combined_angles(self.original, paths, np.zeros_like(sb), sr)
+        det = ab * br - bb * ar
+        diagonal = np.abs(det) <= 1e-12 * np.maximum(np.abs(ab * br), np.finfo(float).tiny)
+        g = np.where(groups >= 0, groups, 0)
+        inside = groups >= 0
+        out = np.zeros((4, self.original.n_branches))
+        for rb, rr in ((0, 2), (1, 3)):                    # angles, then rates
+            cb, cr = _uncarry(back, state[rb], state[rr])  # the group's combined values
+            with np.errstate(divide="ignore", invalid="ignore"):
+                alpha = np.where(diagonal, cb / ab, (cb * br - bb * cr) / det)
+                beta = np.where(diagonal, cr / br, (ab * cr - ar * cb) / det)
+            alpha = np.where(np.isfinite(alpha), alpha, 0.0)
+            beta = np.where(np.isfinite(beta), beta, 0.0)
+            out[rb] = np.where(inside, alpha[g] * sb, 0.0)
+            out[rr] = np.where(inside, beta[g] * sr, 0.0)
+        return out
+
+    def _shares(self, level: int, wind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Static (θb, θr) (B0,) of the original under ``wind``; per group and component, a
+        deflection too small to share by (or none: calm) is replaced by 1 on the main path."""
+        wind = np.asarray(wind, dtype=np.float64)
+        speed = float(np.linalg.norm(wind))
+        b0 = self.original.n_branches
+        if speed > 0:
+            parts = static_parts(self.original, (wind / speed)[None], self.frames0)
+            sb, sr = static_angles(self.original, speed * parts.leaf + speed ** 2 * parts.drag,
+                                   self.frames0)
+            sb, sr = sb[0].copy(), sr[0].copy()
+        else:
+            sb, sr = np.zeros(b0), np.zeros(b0)
+        groups = self.groups[level]
+        for s in (sb, sr):
+            size = np.zeros(self.trees[level].n_branches)
+            np.maximum.at(size, np.where(groups >= 0, groups, 0), np.abs(s))
+            largest = float(np.abs(s).max()) if b0 else 0.0
+            for g, path in enumerate(self.paths(level)):
+                if size[g] <= SHARE_FLOOR * largest or size[g] == 0.0:
+                    s[groups == g] = 0.0
+                    s[path] = 1.0
+        return sb, sr
+
+
+def _uncarry(back: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (Θb, Θr) that `carry_angles(back, Θb, Θr)` turns into (bend, rot): its 2 x 2 map
+    inverted exactly, so that coarse -> fine -> coarse returns the state it started from."""
+    a, b = back[:, 1, 1], -back[:, 1, 0]                 # bend' = a Θb + b Θr
+    c, d = -back[:, 0, 1], back[:, 0, 0]                 # rot'  = c Θb + d Θr
+    det = a * d - b * c
+    return (d * bend - b * rot) / det, (a * rot - c * bend) / det

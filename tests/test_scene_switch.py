@@ -1,0 +1,72 @@
+"""State carried across a level switch (model.md 7, scene/switch.py): fine to coarse is the
+group's combined angles (on a straight stalk: plain sums, computed here by hand); coarse to
+fine shares them by static deflection and gives the level's state back exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from golden_util import ROOT
+from plantlod.scene.levels import level_chain
+from plantlod.scene.switch import Transfer
+from plantlod.simplify.static import static_angles, static_parts
+
+
+@pytest.fixture(scope="module")
+def chains(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("cache")
+    out = {}
+    for name in ("stalk8.lsys", "eval/twin_draw.lsys"):
+        chain, _ = level_chain(ROOT / "examples" / name, 5.0, 0.01, 2.0, cache)
+        out[name] = (chain, Transfer(chain.trees, chain.groups))
+    return out
+
+
+def test_fine_to_coarse_on_a_stalk_is_the_sum_over_each_group(chains):
+    chain, transfer = chains["stalk8.lsys"]
+    rng = np.random.default_rng(3)
+    full = rng.normal(scale=0.01, size=(4, chain.trees[0].n_branches))
+    for level in range(1, len(chain.trees)):
+        got = transfer.carry(0, level, full, np.array([5.0, 0.0, 0.0]))
+        by_hand = np.zeros((4, chain.trees[level].n_branches))
+        for row in range(4):
+            np.add.at(by_hand[row], chain.groups[level], full[row])
+        np.testing.assert_allclose(got, by_hand, atol=1e-15)
+
+
+@pytest.mark.parametrize("name", ["stalk8.lsys", "eval/twin_draw.lsys"])
+def test_a_level_state_through_the_full_tree_and_back_is_unchanged(chains, name):
+    chain, transfer = chains[name]
+    rng = np.random.default_rng(7)
+    for level in range(1, len(chain.trees)):
+        state = rng.normal(scale=0.02, size=(4, chain.trees[level].n_branches))
+        for wind in ([6.0, 1.0, 0.0], [0.0, 0.0, 0.0]):
+            full = transfer.carry(level, 0, state, np.array(wind))
+            np.testing.assert_allclose(transfer.carry(0, level, full, np.array(wind)), state,
+                                       rtol=1e-9, atol=1e-13)
+        if level + 1 < len(chain.trees):                  # between two levels, via the full tree
+            coarser = transfer.carry(level, level + 1, state, np.array([6.0, 1.0, 0.0]))
+            assert coarser.shape == (4, chain.trees[level + 1].n_branches)
+
+
+def test_coarse_to_fine_shares_by_static_deflection(chains):
+    chain, transfer = chains["stalk8.lsys"]
+    wind = np.array([7.0, 0.0, 0.0])
+    original = chain.trees[0]
+    parts = static_parts(original, (wind / 7.0)[None])
+    sb, _ = static_angles(original, 7.0 * parts.leaf + 49.0 * parts.drag)
+    level = 1
+    state = np.zeros((4, chain.trees[level].n_branches))
+    state[0] = 0.03 * (1 + np.arange(state.shape[1]))          # group bend angles
+    full = transfer.carry(level, 0, state, wind)
+    for g in range(state.shape[1]):
+        members = np.flatnonzero(chain.groups[level] == g)
+        assert full[0, members].sum() == pytest.approx(state[0, g], rel=1e-12)
+        np.testing.assert_allclose(full[0, members] / full[0, members].sum(),
+                                   sb[0, members] / sb[0, members].sum(), rtol=1e-12)
+    # calm air: the members share equally
+    calm = transfer.carry(level, 0, state, np.zeros(3))
+    for g in range(state.shape[1]):
+        members = np.flatnonzero(chain.groups[level] == g)
+        np.testing.assert_allclose(calm[0, members], state[0, g] / len(members), rtol=1e-12)
