@@ -1,5 +1,7 @@
 """The forest (examples/forest.toml, 1,000 trees): speedup, verified error, wall time against
-full detail, and full detail's throughput on 2 cores against 1.
+full detail, and full detail's throughput on 2 cores against 1; the same forest seen from a
+moving camera (examples/forest_walk.toml: levels switch per frame); and 10,000 trees
+(examples/forest10k.toml): peak memory and simulated seconds per wall second.
 
     .venv/bin/python bench/run.py scene        (level chains cached in ~/.cache/plantlod)
 """
@@ -7,7 +9,11 @@ full detail, and full detail's throughput on 2 cores against 1.
 from __future__ import annotations
 
 import dataclasses
+import json
 import pathlib
+import resource
+import subprocess
+import sys
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -46,3 +52,23 @@ def run(report) -> None:
            COMMAND.replace(" --verify", ""))
     report("forest: full detail 2 cores / 1 core", times[1] / times[2], "x", ">= 1.7",
            COMMAND + " --budget 1e-12 --threads 1|2")
+
+    walk = read_scene(str(ROOT / "examples" / "forest_walk.toml"))
+    doc = run_scene(walk, cache=default_cache(), verify=True)
+    command = "plantlod scene examples/forest_walk.toml --verify --report -"
+    report("forest, moving camera: speedup", doc["speedup"], "x", ">= 20", command)
+    report("forest, moving camera: verified max error", doc["max_error_px"], "px", "<= 1", command)
+    report("forest, moving camera: verified mean error", doc["mean_error_px"], "px", "", command)
+    report("forest, moving camera: level switches", doc["switches"], "", "", command)
+    # 10,000 trees in a process of its own, for its peak memory (ru_maxrss of children, KiB)
+    command = "plantlod scene examples/forest10k.toml --report -"
+    done = subprocess.run([str(pathlib.Path(sys.executable).with_name("plantlod")), "scene",
+                           str(ROOT / "examples" / "forest10k.toml"), "--report", "-"],
+                          capture_output=True, text=True, check=True)
+    doc = json.loads(done.stdout)
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024 ** 2
+    report("forest 10,000 trees: peak memory (largest child process)", peak, "GiB", "<= 8", command)
+    report("forest 10,000 trees: simulated s per wall s", doc["simulated_seconds_per_wall_second"],
+           "s/s", "> 1", command)
+    report("forest 10,000 trees: wall s (levels cached)", doc["wall_s"], "s", "", command)
+    report("forest 10,000 trees: speedup", doc["speedup"], "x", "", command)
