@@ -93,7 +93,10 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
     if plot_path is not None:
         from plantlod.scene.plot import scene_png
 
-        png = scene_png(spec, levels, in_use, report["branches_full"], 1.0 / frame_rate)
+        from plantlod.scene.run import frame_steps
+
+        png = scene_png(spec, levels, in_use, report["branches_full"],
+                        frame_steps(spec, frame_rate) * spec.dt)
         with open_output(plot_path, binary=True) as out:
             out.write(png)
     with open_output(report_path) as out:
