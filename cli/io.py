@@ -14,13 +14,12 @@ import io
 import os
 import stat
 import sys
-import tempfile
 from typing import IO, Iterator
 
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import usual_file_mode
+from plantlod.formats.atomic import atomic_path
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -149,26 +148,17 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             out.flush()
         return
     check_output_path(path)
-    directory = os.path.dirname(os.path.abspath(path))
     if _special_target(path):
         with _write_errors(path), _open_stream(path, binary) as out:
             yield out
         return
-    with _write_errors(path):
-        fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=".tmp", dir=directory)
-    _temporary.add(tmp)
-    try:
-        with _write_errors(path):
-            with _open_stream(fd, binary) as out:
+    with _write_errors(path), atomic_path(path) as tmp:
+        _temporary.add(tmp)
+        try:
+            with _open_stream(tmp, binary) as out:
                 yield out
-            os.chmod(tmp, usual_file_mode())
-            os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    finally:
-        _temporary.discard(tmp)
+        finally:
+            _temporary.discard(tmp)
 
 
 _temporary: set[str] = set()     # temporary files open_output holds right now
