@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .io import check_output_path, open_output, say
+from .io import open_output, say
 
 
 @click.command(name="view")
@@ -31,7 +31,6 @@ def view(gltf_paths, output, wind_direction, title):
 
     if not math.isfinite(wind_direction):
         raise click.BadParameter("expected a finite number of degrees", param_hint="--wind-direction")
-    check_output_path(output)
-    with open_output(output) as out:
+    with open_output(output) as out:          # refuses a bad target before any work
         write_view(list(gltf_paths), out, wind_direction=wind_direction, title=title)
     say(f"view: {len(gltf_paths)} tree(s) -> {output}")

@@ -20,7 +20,7 @@ from plantlod.lsys.errors import InputError
 from .constants import VIEW_TITLE
 
 
-def glb_from_file(path: str, name: str | None = None) -> tuple[bytes, int | None]:
+def glb_from_file(path: str) -> tuple[bytes, int | None]:
     """The GLB bytes of a .glb or .gltf file (external buffers folded in) and its branch count.
 
     The count is what `plantlod export` records in the asset's extras (``plantlod.branches``);
@@ -28,21 +28,20 @@ def glb_from_file(path: str, name: str | None = None) -> tuple[bytes, int | None
     """
     import pygltflib as g
 
-    shown = name or path
     try:
         doc = g.GLTF2.load(path)
     except FileNotFoundError:
-        raise InputError("no such file", shown) from None
+        raise InputError("no such file", path) from None
     except IsADirectoryError:
-        raise InputError("is a directory; expected a .glb or .gltf file", shown) from None
+        raise InputError("is a directory; expected a .glb or .gltf file", path) from None
     except Exception as exc:                   # pygltflib raises what its parsers raise
-        raise InputError(f"not a glTF file ({type(exc).__name__}: {exc})", shown) from None
+        raise InputError(f"not a glTF file ({type(exc).__name__}: {exc})", path) from None
     if doc is None or not doc.nodes:
-        raise InputError("not a glTF file with nodes (expected `plantlod export` output)", shown)
+        raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)
     try:
         doc.convert_buffers(g.BufferFormat.BINARYBLOB)
     except Exception as exc:
-        raise InputError(f"cannot read the glTF's buffers ({exc})", shown) from None
+        raise InputError(f"cannot read the glTF's buffers ({exc})", path) from None
     extras = doc.asset.extras if isinstance(doc.asset.extras, dict) else {}
     branches = extras.get("plantlod", {}).get("branches") if isinstance(extras.get("plantlod"), dict) else None
     return b"".join(doc.save_to_bytes()), (int(branches) if isinstance(branches, int) else None)
@@ -75,14 +74,12 @@ def view_page(trees: Sequence[tuple[str, bytes, int | None]], wind_direction_deg
 
 
 def view_page_from_files(paths: Sequence[str | os.PathLike], wind_direction_deg: float = 0.0,
-                         title: str = VIEW_TITLE, names: Sequence[str] | None = None) -> str:
+                         title: str = VIEW_TITLE) -> str:
     """`view_page` of .glb / .gltf files, labelled by their file names."""
     trees = []
-    for k, path in enumerate(paths):
-        path = os.fspath(path)
-        label = names[k] if names is not None else os.path.basename(path)
+    for path in map(os.fspath, paths):
         glb, branches = glb_from_file(path)
-        trees.append((label, glb, branches))
+        trees.append((os.path.basename(path), glb, branches))
     if not trees:
         raise InputError("no trees to show; give at least one .glb or .gltf file")
     return view_page(trees, wind_direction_deg, title)

@@ -15,7 +15,7 @@ import hashlib
 import json
 import os
 import pathlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +42,15 @@ class Chain:
     tip_error_m: np.ndarray
     groups: list[np.ndarray]
     tips: list[np.ndarray]
+    _lane_models: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def lane_model(self, level: int):
+        """The `sim.lanes.LaneModel` of level ``level``, built once."""
+        if level not in self._lane_models:
+            from plantlod.sim.lanes import LaneModel
+
+            self._lane_models[level] = LaneModel.from_tree(self.trees[level])
+        return self._lane_models[level]
 
 
 def default_cache() -> pathlib.Path:

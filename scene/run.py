@@ -90,7 +90,7 @@ def frame_steps(scene: Scene, frame_rate: float) -> int:
 
 def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,
               steps: int, every: int, *, threads: int | None = None, store=None,
-              keep_tips: bool = False, models: dict | None = None) -> BatchResult:
+              keep_tips: bool = False) -> BatchResult:
     """Step one batch through its schedule (module doc, step 3).
 
     winds : (n, steps, 3) m/s, each member's wind in its own frame
@@ -100,11 +100,10 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
 
     from .store import write_block
 
-    models = {} if models is None else models
     sched = batch.schedule
     n, frames = sched.shape
     cuts = [0] + [f for f in range(1, frames) if np.any(sched[:, f] != sched[:, f - 1])] + [frames]
-    states = [new_state(_model(models, chain, int(sched[i, 0])), 1)[0] for i in range(n)]
+    states = [new_state(chain.lane_model(int(sched[i, 0])), 1)[0] for i in range(n)]
     result = BatchResult(tips=[[] for _ in range(n)] if keep_tips else [])
     for fa, fb in zip(cuts[:-1], cuts[1:]):
         s0, s1 = fa * every, min(fb * every, steps)
@@ -115,7 +114,7 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
             idx = np.flatnonzero(sched[:, fa] == level)
             tree = chain.trees[level]
             state = np.stack([states[i] for i in idx])
-            bend, rot = run_lanes(_model(models, chain, level), winds[idx, s0:s1], dt, s1 - s0,
+            bend, rot = run_lanes(chain.lane_model(level), winds[idx, s0:s1], dt, s1 - s0,
                                   every=every, state=state, threads=threads,
                                   addresses=tree.address)
             for j, i in enumerate(idx.tolist()):
@@ -135,14 +134,6 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
                 states[i] = transfer.carry(a, b, states[i], winds[i, min(fb * every, steps - 1)])
                 result.switches += 1
     return result
-
-
-def _model(models: dict, chain: Chain, level: int):
-    from plantlod.sim.lanes import LaneModel
-
-    if level not in models:
-        models[level] = LaneModel.from_tree(chain.trees[level])
-    return models[level]
 
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
@@ -203,13 +194,11 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
     transfers = {path: Transfer(chain.trees, chain.groups) for path, chain in chains.items()}
-    models: dict = {}
     for n, batch in enumerate(batches if scheduler is None else []):
         chain = chains[pathlib.Path(batch.file)]
         result = run_batch(chain, transfers[pathlib.Path(batch.file)], batch,
                            winds[batch.members], scene.dt, steps, every, threads=threads,
-                           store=store, keep_tips=verify,
-                           models=models.setdefault(batch.file, {}))
+                           store=store, keep_tips=verify)
         spent += result.spent
         switches += result.switches
         if verify:
@@ -296,14 +285,14 @@ def _verify(scene: Scene, chain: Chain, batch: Batch, winds: np.ndarray, every: 
     """Each member's largest error in pixels over the run: its level's branch tips against
     the full tree's group tips, per frame, at that frame's distance (0 px behind the camera).
     The full trees run VERIFY_LANES at a time so that memory stays bounded."""
-    from plantlod.sim.lanes import LaneModel, run_lanes
+    from plantlod.sim.lanes import run_lanes
 
     out = np.zeros(len(batch.members))
     need = [i for i in range(len(batch.members)) if tips[i]]
     if not need:
         return out
     full_tree = chain.trees[0]
-    model = LaneModel.from_tree(full_tree)
+    model = chain.lane_model(0)
     times = frame_times(scene, every)
     d, ahead = distances(scene, batch.members, times)
     for lo in range(0, len(need), VERIFY_LANES):

@@ -105,14 +105,16 @@ class Transfer:
         else:
             sb, sr = np.zeros(b0), np.zeros(b0)
         groups = self.groups[level]
+        inside = groups >= 0
+        paths = self.paths(level)
         for s in (sb, sr):
             size = np.zeros(self.trees[level].n_branches)
-            np.maximum.at(size, np.where(groups >= 0, groups, 0), np.abs(s))
+            np.maximum.at(size, groups[inside], np.abs(s[inside]))
             largest = float(np.abs(s).max()) if b0 else 0.0
-            for g, path in enumerate(self.paths(level)):
-                if size[g] <= SHARE_FLOOR * largest or size[g] == 0.0:
-                    s[groups == g] = 0.0
-                    s[path] = 1.0
+            flat = (size <= SHARE_FLOOR * largest) | (size == 0.0)          # (G,)
+            s[inside & flat[np.where(inside, groups, 0)]] = 0.0
+            for g in np.flatnonzero(flat).tolist():
+                s[paths[g]] = 1.0
         return sb, sr
 
 
