@@ -43,12 +43,12 @@ def measure(path: str, max_level: int = 3) -> list[str]:
     from plantlod.lsys.build import build
     from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase
-    from plantlod.simplify.explicit import merge_levels
+    from plantlod.simplify.explicit import is_stalk, merge_levels
     from plantlod.simplify.pipeline import Options, simplify
 
     system = read_lsys(str(ROOT / path))
     original = build(system).tree
-    stalk = all(len(c) <= 1 for c in original.children()) and original.n_branches > 1
+    stalk = is_stalk(original)
     last = len(merge_levels(original)) - 1
     winds = [WindCase(s, d) for s in SPEEDS for d in DIRECTIONS]
     rows = []

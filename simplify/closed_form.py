@@ -24,13 +24,48 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree, leaf_keys
 
-from .constants import (FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS,
-                        REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS, SIMPLIFY_WIND_RANGE)
+from .constants import (EXPLICIT_REFINE_EVALUATIONS, EXPLICIT_REFINE_FLOOR,
+                        EXPLICIT_REFINE_PRIOR, FIT_ELEVATION, MATCH_DIRECTIONS,
+                        MATCH_TILTED_DIRECTIONS, REFINE_DIRECTIONS, REFINE_EVALUATIONS,
+                        REFINE_FLOOR, REFINE_PRIOR, REFINE_TILTED_DIRECTIONS,
+                        SIMPLIFY_WIND_RANGE)
 from .lengths import fit_lengths
 from .refine import StaticModel
 from .sequential_fit import sequential_solution, unit_leaf_forces
 from .static import angle_gains, fit_directions, own_drag_shape, rest_frames
 from .targets import GroupMap, group_strengths, static_targets
+
+
+@dataclass(frozen=True)
+class RefineSettings:
+    """How the refinement weighs errors (`refine.StaticModel`): floor (fraction of the
+    wind's largest target below which errors are absolute), prior (pull toward the
+    tips-down start), evaluations (budget)."""
+
+    floor: float
+    prior: float
+    evaluations: int
+
+
+# the grammar form: relative errors per component (the stalk's measure)
+GRAMMAR_REFINE = RefineSettings(REFINE_FLOOR, REFINE_PRIOR, REFINE_EVALUATIONS)
+# the explicit form: the motion error of model.md 6
+EXPLICIT_REFINE = RefineSettings(EXPLICIT_REFINE_FLOOR, EXPLICIT_REFINE_PRIOR,
+                                 EXPLICIT_REFINE_EVALUATIONS)
+
+
+def carried_gains(gains: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """Gains (G, 2, 3) of the chords' angles carried into their group roots' swing frames.
+
+    A chord's angles (θb', θr') are measured in its group root's frame W_0 as model.md 5
+    carries a member's: Ω = turn ω', ω' = (-θr', θb', 0), Θb = Ω_y, Θr = -Ω_x
+    (`groups.carry_angles`), a 2×2 map C per group:
+
+        C = [[turn_11, -turn_10], [-turn_01, turn_00]],   gains in W_0 = C · gains.
+    """
+    carry = np.stack([np.stack([turn[:, 1, 1], -turn[:, 1, 0]], -1),
+                      np.stack([-turn[:, 0, 1], turn[:, 0, 0]], -1)], 1)       # (G, 2, 2)
+    return np.einsum("gab,gbj->gaj", carry, gains)
 
 
 @dataclass
@@ -49,7 +84,9 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                 speeds: tuple[float, ...] = SIMPLIFY_WIND_RANGE,
                 turn: np.ndarray | None = None,
                 kappa_range: float | None = None,
-                strengths: tuple[np.ndarray, np.ndarray] | None = None) -> LevelParameters:
+                strengths: tuple[np.ndarray, np.ndarray] | None = None,
+                target_gain: np.ndarray | None = None,
+                settings: RefineSettings = GRAMMAR_REFINE) -> LevelParameters:
     """Parameters of the level-n tree ``skeleton`` (its arrays are read for geometry only).
 
     ``skeleton`` is the level-n tree as the skeleton system builds it
@@ -59,12 +96,16 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     (`refine.StaticModel.refine`): least squares on the relative errors of every
     group's static angles at the wind ``speeds`` (m/s), which is what the
     section-6 amplitude error is at small angles. The refinement is kept only
-    where it lowers the worst of those errors. ``turn`` (G, 3, 3) carries the
-    targets into chord frames (explicit form); ``strengths`` overrides k_bs', k_rs'.
+    where it lowers the worst of those errors. ``turn`` (G, 3, 3) = W_0^T W' of each
+    chord (explicit form): the chords' angles are fitted as `compare` measures them,
+    carried into their group roots' frames (`carried_gains`); ``strengths`` overrides
+    k_bs', k_rs'; ``target_gain`` (G, 2) scales each group's bend and rotation targets
+    (a group whose members swing with different periods: its amplitude over its static
+    angle, `explicit.dominant_strengths`); ``settings`` weighs the refinement's errors.
     """
     if directions is None:
         directions = fit_directions(MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS, FIT_ELEVATION)
-    targets = static_targets(original, gmap, directions, turn)
+    targets = static_targets(original, gmap, directions, target_gain)
     frames = rest_frames(skeleton)
     g_count = skeleton.n_branches
     kb, kr = group_strengths(original, gmap) if strengths is None else strengths
@@ -76,6 +117,8 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     tmp.bend_strength, tmp.rotation_strength = kb, kr
     tmp.force_absorbed = np.ones(g_count)
     gains = angle_gains(tmp, frames)                       # (G, 2, 3) per unit κ
+    if turn is not None:
+        gains = carried_gains(gains, turn)
     surface = 2.0 * math.pi * skeleton.radius * lengths    # (G,) m^2
     seq = sequential_solution(skeleton, gains, unit_leaf_forces(skeleton, frames, directions),
                               own_drag_shape(frames, directions), targets, surface,
@@ -86,9 +129,10 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
         model = StaticModel(skeleton, gains, unit_leaf_forces(skeleton, frames, rdirs),
                             np.asarray(skeleton.leaf_branch, dtype=np.int64),
                             own_drag_shape(frames, rdirs),
-                            static_targets(original, gmap, rdirs, turn),
-                            np.asarray(speeds, dtype=np.float64))
-        refined = model.refine(kfa, kfp, drag_c * surface, areas)
+                            static_targets(original, gmap, rdirs, target_gain),
+                            np.asarray(speeds, dtype=np.float64), settings.floor)
+        refined = model.refine(kfa, kfp, drag_c * surface, areas, settings.prior,
+                               settings.evaluations)
         if refined is not None:
             kfa, kfp, drag_area_, areas = refined
             drag_c = drag_area_ / surface

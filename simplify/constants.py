@@ -61,4 +61,11 @@ RUNS_BATCH_BYTES = 400_000_000  # angles held at once by simplify's measurement 
 # meets them. Level 3 and beyond are held to level 2's.
 LEVEL_BOUNDS = {1: (0.05, 0.02, 0.01), 2: (0.10, 0.04, 0.02)}
 SMALL_ANGLE_LIMIT = 0.1       # rad: the bounds apply while the original's combined angles stay below
+# The explicit form's refinement fits what its levels are held to, the motion error
+# (model.md 6: errors against the largest angle of the wind, so the floor is 1), with a
+# weaker pull toward the tips-down start and more evaluations (docs/simplify.md,
+# "The explicit form"; bench/lod_table.py measured the choice).
+EXPLICIT_REFINE_FLOOR = 1.0
+EXPLICIT_REFINE_PRIOR = 0.03
+EXPLICIT_REFINE_EVALUATIONS = 100
 KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA

@@ -109,6 +109,11 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     return levels
 
 
+def is_stalk(tree: Tree) -> bool:
+    """A chain: more than one branch, none with more than one child (held to relative bounds)."""
+    return tree.n_branches > 1 and all(len(c) <= 1 for c in tree.children())
+
+
 def equivalent_leaves(tree: Tree, frames, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Areas (k,) m^2 and world normals (k, 3) of at most three leaves whose leaf-force
     response sum A n n^T equals that of the leaves on ``members`` at rest (see module doc)."""
@@ -280,7 +285,7 @@ def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 
 def dominant_strengths(original: Tree, paths: list[np.ndarray],
                        weights: tuple[list[np.ndarray], list[np.ndarray]],
                        dt: float, duration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """k_bs', k_rs' and an amplitude factor per group (G,) from the members' own swings.
+    """k_bs', k_rs' (G,) and amplitude factors (G, 2) (bend, rotation) from the members' own swings.
 
     To first order each main-path member j swings on its own, from rest, around its
     static angle c_j (``weights``: per group, the members' static bend angles, and their
@@ -289,15 +294,15 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray],
     amplitude A are measured as model.md 6 measures them (over ``duration``); the
     group's branch gets the strength whose period is P,
     k' = 1000 (2 - 2 cos(2 pi dt / P)) / dt (the inverse of P = 2 pi dt / arccos(1 - s/2)),
-    and its k_FA is multiplied by A / sum_j c_j, since a single branch from rest swings
-    with an amplitude equal to its static angle. Where every member has one strength this
-    is that strength and a factor 1, exactly.
+    and its static target is multiplied by A / sum_j c_j, per component, since a single
+    branch from rest swings with an amplitude equal to its static angle. Where every member
+    has one strength this is that strength and a factor 1, exactly.
     """
     from .measures import amplitude, period
 
     steps = int(round(duration / dt))
     t = np.arange(steps + 1) * dt
-    gain = np.ones(len(paths))
+    gain = np.ones((len(paths), 2))
     out = []
     for which, strengths in enumerate((original.bend_strength, original.rotation_strength)):
         strengths = np.asarray(strengths, dtype=np.float64)
@@ -319,15 +324,14 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray],
                 p_measured = float(period(t, signal))
                 if math.isfinite(p_measured) and p_measured > 0:
                     values[g] = 1000.0 * 2.0 * (1.0 - math.cos(2.0 * math.pi * dt / p_measured)) / dt
-                if which == 0:
-                    gain[g] = float(amplitude(signal)) / float(c.sum())
+                gain[g, which] = float(amplitude(signal)) / float(c.sum())
         out.append(values)
     return out[0], out[1], gain
 
 
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
-                         refine: bool = False) -> tuple[str, Tree]:
+                         refine: bool = True) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
@@ -337,7 +341,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from plantlod.lsys.parse import parse_lsys
 
     from .targets import GroupMap
-    from .closed_form import closed_form
+    from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
     from .groups import assign_stated_groups
 
     sk = explicit_skeleton(original, grouping)
@@ -378,15 +382,16 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     bend, rot = static_angles(original, parts.leaf + parts.drag)
     weights = ([np.abs(bend[:, p]).mean(axis=0) for p in gmap.paths],
                [np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths])
-    kb, kr, amp = dominant_strengths(original, gmap.paths, weights, dt, duration)
+    kb, kr, gain = dominant_strengths(original, gmap.paths, weights, dt, duration)
     params = closed_form(original, skeleton, gmap, refine=refine,
                          turn=swing_turns(original, skeleton, gmap.paths),
-                         kappa_range=KAPPA_RANGE, strengths=(kb, kr))
+                         kappa_range=KAPPA_RANGE, strengths=(kb, kr), target_gain=gain,
+                         # a stalk keeps the relative bounds (issue 12): fit relative errors
+                         settings=GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE)
     fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
               "rotation_strength": kr}
     for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
         fitted[key] = params.branch[key]
-    fitted["force_absorbed"] = fitted["force_absorbed"] * amp
     back = np.argsort(to_group)                      # group number -> skeleton branch
     values = {k: v[back] for k, v in fitted.items()}
     # leaf areas as fitted (the model's only leaf-specific gain; docs/simplify.md)

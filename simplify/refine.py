@@ -46,11 +46,12 @@ class StaticModel:
 
     gains (G, 2, 3) per unit κ; per_leaf (D, K, 3) unit-area leaf forces;
     leaf_branch (K,) the branch of each; drag_shape (D, G, 3); targets: the
-    original's static angles; speeds (S,) m/s.
+    original's static angles; speeds (S,) m/s; floor: relative errors are taken against
+    at least this fraction of the largest target of each wind (1: the motion error).
     """
 
     def __init__(self, tree: Tree, gains, per_leaf, leaf_branch, drag_shape,
-                 targets: StaticTargets, speeds: np.ndarray):
+                 targets: StaticTargets, speeds: np.ndarray, floor: float = REFINE_FLOOR):
         self.parent = np.asarray(tree.parent, dtype=np.int64)
         self.levels = depth_levels(self.parent)
         self.gains, self.per_leaf, self.leaf_branch = gains, per_leaf, leaf_branch
@@ -59,7 +60,7 @@ class StaticModel:
         v = speeds[:, None, None, None]
         self.target = v * targets.leaf[None] + v * v * targets.drag[None]     # (S, D, G, 2)
         largest = np.abs(self.target).max(axis=(2, 3), keepdims=True)
-        self.weight = 1.0 / np.maximum(np.abs(self.target), REFINE_FLOOR * largest
+        self.weight = 1.0 / np.maximum(np.abs(self.target), floor * largest
                                        + np.finfo(float).tiny)
         self.pair_a, self.pair_h = ancestor_pairs(self.parent)
         # G_a ℓ_k and G_a s_h per pair, fixed by the geometry: (D, P, 2)
@@ -165,8 +166,11 @@ class StaticModel:
                                                       np.concatenate(blocks_c))),
                           shape=(n_rows + len(x), len(x))).tocsr()
 
-    def refine(self, kappa, p, c, area):
-        """Least-squares refinement of (κ, p', c', A) (G, G, G, K) from the sequential solution.
+    def refine(self, kappa, p, c, area, prior: float = REFINE_PRIOR,
+               evaluations: int = REFINE_EVALUATIONS):
+        """Least-squares refinement of (κ, p', c', A) (G, G, G, K) from the sequential solution;
+        ``prior`` weighs the pull of each log-value toward its start, ``evaluations`` bounds
+        the residual evaluations.
 
         Returns the refined values, or None where refining does not lower the
         worst weighted error (or there is nothing to refine).
@@ -178,12 +182,12 @@ class StaticModel:
             return np.log(np.maximum(vals, lo))
         x0 = np.concatenate([start(kappa), start(p), start(c), start(area)])
         self.x0 = x0
-        self.prior = REFINE_PRIOR
+        self.prior = prior
         if self.target.size == 0 or self.worst(x0) < REFINE_SKIP:
             return None
         fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
                             bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
-                            x_scale="jac", max_nfev=REFINE_EVALUATIONS,
+                            x_scale="jac", max_nfev=evaluations,
                             tr_options={"maxiter": REFINE_LSMR_ITERATIONS})
         x = fit.x
         if self.worst(x) >= self.worst(x0):

@@ -18,7 +18,7 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
-from .groups import assign_groups, carry_angles, combined_angles, main_paths
+from .groups import assign_groups, combined_angles, main_paths
 from .static import rest_frames, static_angles, static_parts
 
 
@@ -63,18 +63,17 @@ class StaticTargets:
 
 
 def static_targets(original: Tree, gmap: GroupMap, directions: np.ndarray,
-                   turn: np.ndarray | None = None) -> StaticTargets:
-    """The targets; with ``turn`` (G, 3, 3) = W_0^T W'_g (`groups.swing_turns`) the combined
-    angles are carried from each group root's swing frame into its branch's (by turn^T)."""
+                   gain: np.ndarray | None = None) -> StaticTargets:
+    """The targets, combined angles in each group root's swing frame W_0 (model.md 5),
+    each group's (bend, rotation) multiplied by ``gain`` (G, 2) where given."""
     frames = rest_frames(original)
     parts = static_parts(original, directions, frames)
     out = []
     for force in (parts.leaf, parts.drag):
         bend, rot = static_angles(original, force, frames)
         cb, cr = combined_angles(original, gmap.paths, bend, rot)
-        if turn is not None:
-            cb, cr = carry_angles(np.transpose(turn, (0, 2, 1)), cb, cr)
-        out.append(np.stack([cb, cr], axis=-1))
+        both = np.stack([cb, cr], axis=-1)
+        out.append(both if gain is None else both * gain[None])
     return StaticTargets(directions, out[0], out[1], parts.leaf[:, gmap.roots])
 
 

@@ -32,10 +32,10 @@ def capture_model(monkeypatch):
     seen = {}
     original_refine = cf.StaticModel.refine
 
-    def spy(self, kappa, p, c, area):
+    def spy(self, kappa, p, c, area, *settings):
         seen["model"] = self
         seen["x"] = np.log(np.concatenate([kappa, p, c, area]))
-        return original_refine(self, kappa, p, c, area)
+        return original_refine(self, kappa, p, c, area, *settings)
 
     monkeypatch.setattr(cf.StaticModel, "refine", spy)
     return seen
