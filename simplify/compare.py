@@ -21,11 +21,11 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
-from plantlod.sim.kinematics import pose, rest_height
+from plantlod.sim.kinematics import rest_height
 from .groups import assign_groups, carry_angles, combined_angles, main_paths, swing_turns
 from plantlod.simplify.measures import Report, Worst, compare_groups, window
 
-from .constants import POSE_BLOCK_BRANCH_SAMPLES, TIME_MATCH_RTOL
+from .constants import TIME_MATCH_RTOL
 
 
 @dataclass
@@ -124,19 +124,11 @@ def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name
 def tip_series(tree: Tree, bend: np.ndarray, rot: np.ndarray, branches: np.ndarray) -> np.ndarray:
     """Posed tips of the given branches at every sample: (K, n, 3) m.
 
-    bend, rot : (K, B) rad; branches : (n,) branch indices. Posed in blocks of
-    samples so that memory stays near POSE_BLOCK_BRANCH_SAMPLES * 200 bytes.
+    bend, rot : (K, B) rad; branches : (n,) branch indices (`plantlod.sim.tips_kernel`).
     """
-    bend = np.asarray(bend, dtype=np.float64)
-    rot = np.asarray(rot, dtype=np.float64)
-    branches = np.asarray(branches, dtype=np.int64)
-    k = bend.shape[0]
-    out = np.empty((k, len(branches), 3))
-    rows = max(1, POSE_BLOCK_BRANCH_SAMPLES // max(tree.n_branches, 1))
-    for lo in range(0, k, rows):
-        hi = min(k, lo + rows)
-        out[lo:hi] = pose(tree, bend[lo:hi], rot[lo:hi]).tip[:, branches, :]
-    return out
+    from plantlod.sim.tips_kernel import tips
+
+    return tips(tree, bend, rot, branches)
 
 
 # --- the comparison ----------------------------------------------------------------

@@ -9,9 +9,6 @@ MAJOR_AMPLITUDE_FRACTION = 0.10   # period error (major): components >= 10 % of 
 # Two runs' times agree when they differ by at most this much, relative to
 # max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
 TIME_MATCH_RTOL = 1e-9
-# `pose` needs about 200 bytes per branch and sample; tips are computed in
-# blocks of about this many branch-samples (~50 MB).
-POSE_BLOCK_BRANCH_SAMPLES = 1 << 18
 DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)
 
 # --- simplify (docs/simplify.md) ------------------------------------------------------
@@ -34,6 +31,7 @@ REFINE_PRIOR = 0.3           # pull of every log-value toward its sequential val
 REFINE_SKIP = 1e-9           # no refinement where the sequential solution is already this close
 REFINE_EVALUATIONS = 30      # residual evaluations of the least-squares refinement
 REFINE_LSMR_ITERATIONS = 50  # inner iterations of each trust-region step (scipy lsmr)
+REFINE_SCALE_PROBES = 16     # random ±1 probes estimating the Jacobian's column norms (seeded)
 # Measurement and calibration winds: directions (deg) along x, 15 deg off x (hardest
 # for a stalk whose leaf faces x), the diagonal and y; speeds low, sqrt(low*high),
 # HIGH_SPEED_FRACTION of the way to high, and high.

@@ -14,12 +14,13 @@ import numpy as np
 
 from .constants import HIGH_SPEED_FRACTION
 from .constants import MEASURE_WIND_DIRECTIONS
-from .constants import POSE_BLOCK_BRANCH_SAMPLES, RUNS_BATCH_BYTES
+from .constants import RUNS_BATCH_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
-from plantlod.sim.kinematics import pose, rest_height
+from plantlod.sim.kinematics import rest_height
 from plantlod.sim.wind import wind_from_speed
 
+from .compare import tip_series
 from .targets import GroupMap
 from .groups import combined_angles
 from .measures import Report, compare_groups
@@ -52,16 +53,6 @@ def wind_cases(low: float, high: float,
     return [WindCase(s, d) for s in values for d in directions]
 
 
-def tips_of(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np.ndarray:
-    """Tips (K, len(which), 3) m of branches ``which`` over samples bend, rot (K, B)."""
-    k = bend.shape[0]
-    out = np.empty((k, len(which), 3))
-    rows = max(1, POSE_BLOCK_BRANCH_SAMPLES // max(tree.n_branches, 1))
-    for lo in range(0, k, rows):
-        out[lo:lo + rows] = pose(tree, bend[lo:lo + rows], rot[lo:lo + rows]).tip[:, which]
-    return out
-
-
 @dataclass
 class OriginalRun:
     """One wind's run of the original, reduced to what comparison needs."""
@@ -89,7 +80,7 @@ class Runs:
         self.runs = []
         for wind, times, bend, rot in self._simulated(original):
             cb, cr = combined_angles(original, gmap.paths, bend, rot)
-            self.runs.append(OriginalRun(wind, times, cb, cr, tips_of(original, bend, rot, gmap.tips)))
+            self.runs.append(OriginalRun(wind, times, cb, cr, tip_series(original, bend, rot, gmap.tips)))
 
     def _simulated(self, tree: Tree):
         """(wind, times (K,), bend (K, B), rot (K, B)) for every wind, the winds stepped
@@ -125,7 +116,7 @@ class Runs:
             raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
                              simplified.source or None) from None
         for run, (_wind, _times, bend, rot) in zip(self.runs, simulated):
-            tips = tips_of(simplified, bend, rot, every_branch)
+            tips = tip_series(simplified, bend, rot, every_branch)
             if turn is not None:
                 bend, rot = carry_angles(turn, bend, rot)
             reports.append(compare_groups(run.times, run.combined_b, run.combined_r,

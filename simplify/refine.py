@@ -7,22 +7,25 @@ c, speed v, direction V̂ is
     r = (θ'_gc(v, V̂; x) - Θ_gc(v, V̂)) / max(|Θ_gc|, REFINE_FLOOR · max |Θ|)
 
 plus a weak pull REFINE_PRIOR (x - x_0) toward the sequential solution x_0; the bounds
-keep x within x_0 ± REFINE_LOG_RANGE. The Jacobian is exact: a force entering branch h
-reaches its ancestor a multiplied by T(a, h) = Π p' on the path (`transfer`), so each
-derivative is a sum over (ancestor, descendant) pairs (`ancestor_pairs`).
+keep x within x_0 ± REFINE_LOG_RANGE. The Jacobian is exact and never formed: its
+products with a vector (`StaticModel.jvp`, `StaticModel.vjp`) are one pass over the tree
+each, the recursion of the forces differentiated, so the refinement costs time linear
+in the branch count (the pairs of ancestor and descendant it used to sum over grow with
+the branch count times the depth).
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.sparse import coo_matrix
+from scipy.sparse.linalg import LinearOperator
 
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import depth_levels
 
 from .constants import (REFINE_EVALUATIONS, REFINE_FLOOR, REFINE_LOG_RANGE,
-                        REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SKIP, REFINE_START_FLOOR)
+                        REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SCALE_PROBES, REFINE_SKIP,
+                        REFINE_START_FLOOR)
 from .targets import StaticTargets
 
 
@@ -39,10 +42,8 @@ class StaticModel:
 
     and the residual of group g, component c is (θ'_gc - Θ_gc) / max(|Θ_gc|,
     `REFINE_FLOOR` · largest), the section-6 relative amplitude error at small
-    angles (floored where a component does not count). A force entering branch
-    h reaches its ancestor a multiplied by T(a, h), the product of p' over the
-    path from h's parent to a, so every derivative is a sum over ancestor
-    pairs (a, h) (`ancestor_pairs`) and the Jacobian is exact and sparse.
+    angles (floored where a component does not count). The Jacobian is a
+    `LinearOperator` whose products are one pass over the tree (`jvp`, `vjp`).
 
     gains (G, 2, 3) per unit κ; per_leaf (D, K, 3) unit-area leaf forces;
     leaf_branch (K,) the branch of each; drag_shape (D, G, 3); targets: the
@@ -62,20 +63,6 @@ class StaticModel:
         largest = np.abs(self.target).max(axis=(2, 3), keepdims=True)
         self.weight = 1.0 / np.maximum(np.abs(self.target), floor * largest
                                        + np.finfo(float).tiny)
-        self.pair_a, self.pair_h = ancestor_pairs(self.parent)
-        # G_a ℓ_k and G_a s_h per pair, fixed by the geometry: (D, P, 2)
-        self.gs = np.einsum("pij,dpj->dpi", gains[self.pair_a], drag_shape[:, self.pair_h])
-        # (leaf k, pair (a, h_k)) for every ancestor-or-self a of leaf k's branch; this
-        # relies on `ancestor_pairs` listing pairs by ascending h, those of one h together
-        count = np.bincount(self.pair_h, minlength=self.g)
-        first = np.concatenate([[0], np.cumsum(count)[:-1]])
-        n_k = count[leaf_branch]
-        self.leaf_of_pair = np.repeat(np.arange(len(leaf_branch)), n_k)                # (Q,)
-        self.pair_of_leaf = (np.repeat(first[leaf_branch] - np.cumsum(n_k) + n_k, n_k)
-                             + np.arange(int(n_k.sum())))                              # (Q,)
-        # G_a ℓ_k per (leaf, pair): (D, Q, 2)
-        self.gl = np.einsum("qij,dqj->dqi", gains[self.pair_a[self.pair_of_leaf]],
-                            per_leaf[:, self.leaf_of_pair])
 
     def _unpack(self, x):
         g = self.g
@@ -104,7 +91,7 @@ class StaticModel:
         leaf, drag = self.forces(p, c, area)
         v = self.speeds[:, None, None, None]
         force = v * leaf[None] + v * v * drag[None]                         # (S, D, G, 3)
-        return kappa[None, None, :, None] * np.einsum("gij,sdgj->sdgi", self.gains, force), \
+        return kappa[None, None, :, None] * _gain_times(self.gains, force), \
             leaf, drag
 
     def residual(self, x):
@@ -118,53 +105,89 @@ class StaticModel:
         theta, _, _ = self.angles(x)
         return float(np.max(np.abs((theta - self.target) * self.weight)))
 
-    def jacobian(self, x):
-        """d residual / d x, sparse (S·D·G·2 + len(x), len(x)): one block per ancestor pair."""
+    def _parts(self, x):
+        """What both products need at x: the parameters, angles and forces."""
         kappa, p, c, area = self._unpack(x)
         theta, leaf, drag = self.angles(x)
-        s_count, d_count = len(self.speeds), leaf.shape[0]
-        v = self.speeds[:, None, None]
-        # T(a, h) for every pair
-        t = transfer(self.parent, p, self.pair_a, self.pair_h)
-        a, h = self.pair_a, self.pair_h
-        scale = (kappa[a] * t)[None, None, :, None]                      # (1, 1, P, 1)
-        w = self.weight                                                  # (S, D, G, 2)
-        blocks_r, blocks_c, blocks_v = [], [], []
-        sidx = np.arange(s_count)[:, None, None, None]
-        didx = np.arange(d_count)[None, :, None, None]
-        comp = np.arange(2)[None, None, None, :]
+        return kappa, p, c, area, theta, leaf, drag
 
-        def add(values, groups, cols):
-            # values (S, D, n, 2) for rows of ``groups`` (n,), columns ``cols`` (n,)
-            grp = groups[None, None, :, None]
-            r = ((sidx * d_count + didx) * self.g + grp) * 2 + comp
-            ww = w[sidx, didx, grp, comp]
-            blocks_r.append(np.broadcast_to(r, values.shape).reshape(-1))
-            blocks_c.append(np.broadcast_to(cols[None, None, :, None], values.shape).reshape(-1))
-            blocks_v.append((values * ww).reshape(-1))
+    def jvp(self, x, dx, parts=None):
+        """J dx: the change of the residual (S·D·G·2 + len(x),) along log-parameters dx,
+        by one pass from the tips down the tree (the recursion of `forces`, differentiated):
 
-        gidx = np.arange(self.g)
-        add(theta, gidx, gidx)                                            # log κ
-        # log p'_h: T(a,h) κ_a G_a (F_h - v² c_h s_h)
-        e = v[..., None] * leaf[None] + (v * v)[..., None] * (drag - c[None, :, None]
-                                                                * self.drag_shape)[None]
-        ge = np.einsum("pij,sdpj->sdpi", self.gains[a], e[:, :, h])
-        add(scale * ge, a, self.g + h)
-        # log c'_h: T(a,h) κ_a v² c_h G_a s_h
-        add(scale * (v * v)[..., None] * c[h][None, None, :, None] * self.gs[None], a,
-            2 * self.g + h)
-        # log A_k: T(a,h_k) κ_a v p'_{h_k} A_k G_a ℓ_k, one term per (leaf, pair)
-        q, k = self.pair_of_leaf, self.leaf_of_pair
-        if len(q):
-            coef = kappa[a[q]] * t[q] * p[self.leaf_branch[k]] * area[k]
-            add(coef[None, None, :, None] * v[..., None] * self.gl[None], a[q], 3 * self.g + k)
-        n_rows = s_count * d_count * self.g * 2
-        blocks_r.append(n_rows + np.arange(len(x)))
-        blocks_c.append(np.arange(len(x)))
-        blocks_v.append(np.full(len(x), self.prior))
-        return coo_matrix((np.concatenate(blocks_v), (np.concatenate(blocks_r),
-                                                      np.concatenate(blocks_c))),
-                          shape=(n_rows + len(x), len(x))).tocsr()
+            δL_g = δp_g L_g + p_g (Σ_k A_k δA_k ℓ_k + Σ_c δL_c)
+            δD_g = δp_g (D_g - c_g s_g) + δc_g c_g s_g + p_g Σ_c δD_c
+            δθ_g = δκ_g θ_g + κ_g G_g (v δL_g + v² δD_g)
+        """
+        kappa, p, c, area, theta, leaf, drag = parts or self._parts(x)
+        g = self.g
+        dk, dp, dc, da = dx[:g], dx[g:2 * g], dx[2 * g:3 * g], dx[3 * g:]
+        own_drag = c[None, :, None] * self.drag_shape
+        d_leaf = np.zeros_like(leaf)
+        np.add.at(d_leaf, (slice(None), self.leaf_branch), (area * da)[None, :, None] * self.per_leaf)
+        d_drag = (c * dc)[None, :, None] * self.drag_shape
+        in_l = np.zeros_like(leaf)
+        in_d = np.zeros_like(drag)
+        for idx in reversed(self.levels):
+            d_leaf[:, idx] = dp[idx][None, :, None] * leaf[:, idx] \
+                + p[idx][None, :, None] * (d_leaf[:, idx] + in_l[:, idx])
+            d_drag[:, idx] = dp[idx][None, :, None] * (drag[:, idx] - own_drag[:, idx]) \
+                + d_drag[:, idx] + p[idx][None, :, None] * in_d[:, idx]
+            kids = idx[self.parent[idx] >= 0]
+            if len(kids):
+                np.add.at(in_l, (slice(None), self.parent[kids]), d_leaf[:, kids])
+                np.add.at(in_d, (slice(None), self.parent[kids]), d_drag[:, kids])
+        v = self.speeds[:, None, None, None]
+        d_force = v * d_leaf[None] + v * v * d_drag[None]                   # (S, D, G, 3)
+        d_theta = dk[None, None, :, None] * theta + kappa[None, None, :, None] \
+            * _gain_times(self.gains, d_force)
+        return np.concatenate([(d_theta * self.weight).reshape(-1), self.prior * dx])
+
+    def vjp(self, x, u, parts=None):
+        """Jᵀ u (len(x),) for u (S·D·G·2 + len(x),), by one pass from the trunk up (the
+        adjoint of `jvp`): each branch's force adjoint F̄_g = κ_g G_gᵀ (w ū)_g summed over
+        speeds with v and v², plus p'_parent times its parent's."""
+        kappa, p, c, area, theta, leaf, drag = parts or self._parts(x)
+        g = self.g
+        n = self.weight.size
+        ub = u[:n].reshape(self.weight.shape) * self.weight                 # (S, D, G, 2)
+        v = self.speeds[:, None, None, None]
+        f_bar = kappa[None, None, :, None] * _gain_transposed_times(self.gains, ub)
+        l_bar = (v * f_bar).sum(axis=0)                                     # (D, G, 3)
+        d_bar = (v * v * f_bar).sum(axis=0)
+        for idx in self.levels:                                             # trunk first
+            kids = idx[self.parent[idx] >= 0]
+            if len(kids):
+                up = self.parent[kids]
+                l_bar[:, kids] += p[up][None, :, None] * l_bar[:, up]
+                d_bar[:, kids] += p[up][None, :, None] * d_bar[:, up]
+        own_drag = c[None, :, None] * self.drag_shape
+        out = np.empty(len(x))
+        out[:g] = (ub * theta).sum(axis=(0, 1, 3))
+        out[g:2 * g] = (l_bar * leaf).sum(axis=(0, 2)) + (d_bar * (drag - own_drag)).sum(axis=(0, 2))
+        out[2 * g:3 * g] = (d_bar * own_drag).sum(axis=(0, 2))
+        per_leaf_bar = (l_bar[:, self.leaf_branch] * self.per_leaf).sum(axis=(0, 2))
+        out[3 * g:] = p[self.leaf_branch] * area * per_leaf_bar
+        return out + self.prior * u[n:]
+
+    def jacobian(self, x):
+        """d residual / d x as a `LinearOperator` (`jvp`, `vjp`): each product costs one
+        pass over the tree, so the refinement is linear in the branch count."""
+        rows = self.weight.size + len(x)
+        x = np.array(x, copy=True)
+        parts = self._parts(x)
+        return LinearOperator((rows, len(x)), matvec=lambda dx: self.jvp(x, np.ravel(dx), parts),
+                              rmatvec=lambda u: self.vjp(x, np.ravel(u), parts), dtype=np.float64)
+
+    def column_scale(self, x, probes: int = REFINE_SCALE_PROBES) -> np.ndarray:
+        """1 / the Jacobian's column norms at x, estimated from ``probes`` fixed ±1 vectors
+        (E[(Jᵀz)_j²] = Σ_i J_ij² for independent signs z_i; seeded, so the same every run):
+        the variable scaling `least_squares` calls x_scale="jac", without forming J."""
+        op = self.jacobian(x)
+        signs = np.random.default_rng(0).choice([-1.0, 1.0], size=(probes, op.shape[0]))
+        sq = np.mean([op.rmatvec(z) ** 2 for z in signs], axis=0)
+        norm = np.sqrt(sq)
+        return 1.0 / np.maximum(norm, 1e-12 * max(float(norm.max()), 1e-300))
 
     def refine(self, kappa, p, c, area, prior: float = REFINE_PRIOR,
                evaluations: int = REFINE_EVALUATIONS):
@@ -187,7 +210,7 @@ class StaticModel:
             return None
         fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
                             bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
-                            x_scale="jac", max_nfev=evaluations,
+                            x_scale=self.column_scale(x0), max_nfev=evaluations, tr_solver="lsmr",
                             tr_options={"maxiter": REFINE_LSMR_ITERATIONS})
         x = fit.x
         if self.worst(x) >= self.worst(x0):
@@ -195,24 +218,14 @@ class StaticModel:
         return self._unpack(x)
 
 
-def ancestor_pairs(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every (ancestor-or-self a, branch h) pair: two (P,) int64 arrays, by ascending h."""
-    pa, ph = [], []
-    for h in range(len(parent)):
-        a = h
-        while a >= 0:
-            pa.append(a)
-            ph.append(h)
-            a = int(parent[a])
-    return np.array(pa, dtype=np.int64), np.array(ph, dtype=np.int64)
+def _gain_times(gains: np.ndarray, force: np.ndarray) -> np.ndarray:
+    """(..., G, 2) angles of gains (G, 2, 3) times forces (..., G, 3), written out (the
+    refinement's inner loop: much faster than einsum for these 2×3 blocks)."""
+    return np.stack([gains[:, i, 0] * force[..., 0] + gains[:, i, 1] * force[..., 1]
+                     + gains[:, i, 2] * force[..., 2] for i in range(2)], axis=-1)
 
 
-def transfer(parent: np.ndarray, p: np.ndarray, pair_a: np.ndarray, pair_h: np.ndarray
-              ) -> np.ndarray:
-    """T(a, h) per pair: the product of p' from h's parent up to a (1 for a = h): (P,)."""
-    out = np.empty(len(pair_a))
-    prod = 1.0
-    for i, (a, h) in enumerate(zip(pair_a.tolist(), pair_h.tolist())):
-        prod = 1.0 if a == h else prod * p[a]
-        out[i] = prod
-    return out
+def _gain_transposed_times(gains: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(..., G, 3) of gains (G, 2, 3) transposed times angles (..., G, 2)."""
+    return np.stack([gains[:, 0, j] * angle[..., 0] + gains[:, 1, j] * angle[..., 1]
+                     for j in range(3)], axis=-1)

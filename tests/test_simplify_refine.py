@@ -86,7 +86,11 @@ def test_jacobian_matches_finite_differences(monkeypatch):
     model = seen["model"]
     rng = np.random.default_rng(3)
     x = seen["x"] + rng.uniform(-0.3, 0.3, size=seen["x"].shape)
-    jac = model.jacobian(x).toarray()
+    op = model.jacobian(x)
+    jac = op @ np.eye(len(x))
+    # the transpose product is the adjoint of the forward one
+    u = rng.normal(size=op.shape[0])
+    np.testing.assert_allclose(op.rmatvec(u), jac.T @ u, rtol=1e-9, atol=1e-12 * np.abs(jac.T @ u).max())
     h = 1e-6
     for col in range(len(x)):
         e = np.zeros_like(x)

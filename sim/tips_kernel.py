@@ -1,0 +1,99 @@
+"""Branch tips over many samples, compiled with numba (model.md section 3).
+
+`kinematics.pose` computes every frame of every sample with numpy, a depth level at a
+time; for the long runs that `simplify` and `compare` measure (tens of thousands of
+branches, hundreds of samples) its batched 3×3 products dominate their cost. This
+kernel walks the branches parent before child for each sample and keeps only what a
+tip needs (the branch frame and the tip), with the same formulas:
+
+    S_i = R_parent Q_i Rot(u_i, θ_i),  R_i = S_i Rz(ψ_i),
+    base_i = tip_parent + R_parent o_i,  tip_i = base_i + L_i R_i e_z
+
+(Q_i = Rz(φ_i) Ry(α_i); Rot as `kinematics.swing_rotation`). No fastmath: the tips
+agree with `pose` to rounding (tests/test_sim_tips_kernel.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from plantlod.lsys.tree import Tree
+
+from .kinematics import rest_swing_rotation, rot_z
+
+
+@numba.njit(cache=True, error_model="numpy", parallel=True)
+def _tips(parent, rest, twist, offset, length, bend, rot, which, out):
+    samples, n = bend.shape
+    for k in numba.prange(samples):
+        frame = np.empty((n, 3, 3))
+        tip = np.empty((n, 3))
+        swing = np.empty((3, 3))
+        local = np.empty((3, 3))
+        rmat = np.empty((3, 3))
+        for i in range(n):
+            b, r = bend[k, i], rot[k, i]
+            theta = math.sqrt(b * b + r * r)
+            ux = 0.0
+            uy = 0.0
+            if theta != 0.0:
+                ux = -r / theta
+                uy = b / theta
+            c, s = math.cos(theta), math.sin(theta)
+            one_c = 1.0 - c
+            rmat[0, 0] = c + one_c * ux * ux
+            rmat[0, 1] = one_c * ux * uy
+            rmat[0, 2] = s * uy
+            rmat[1, 0] = one_c * ux * uy
+            rmat[1, 1] = c + one_c * uy * uy
+            rmat[1, 2] = -s * ux
+            rmat[2, 0] = -s * uy
+            rmat[2, 1] = s * ux
+            rmat[2, 2] = c
+            for a in range(3):                      # local = Q_i Rot
+                for bb in range(3):
+                    local[a, bb] = rest[i, a, 0] * rmat[0, bb] + rest[i, a, 1] * rmat[1, bb] \
+                        + rest[i, a, 2] * rmat[2, bb]
+            p = parent[i]
+            if p < 0:
+                for a in range(3):
+                    for bb in range(3):
+                        swing[a, bb] = local[a, bb]
+                    tip[i, a] = offset[i, a]
+            else:
+                for a in range(3):
+                    for bb in range(3):
+                        swing[a, bb] = frame[p, a, 0] * local[0, bb] + frame[p, a, 1] * local[1, bb] \
+                            + frame[p, a, 2] * local[2, bb]
+                    tip[i, a] = tip[p, a] + (frame[p, a, 0] * offset[i, 0] + frame[p, a, 1] * offset[i, 1]
+                                             + frame[p, a, 2] * offset[i, 2])
+            for a in range(3):                      # R_i = S_i Rz(psi_i)
+                for bb in range(3):
+                    frame[i, a, bb] = swing[a, 0] * twist[i, 0, bb] + swing[a, 1] * twist[i, 1, bb] \
+                        + swing[a, 2] * twist[i, 2, bb]
+                tip[i, a] += length[i] * frame[i, a, 2]
+        for j in range(which.shape[0]):
+            for a in range(3):
+                out[k, j, a] = tip[which[j], a]
+
+
+def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np.ndarray:
+    """Tips (K, len(which), 3) m of branches ``which`` for angles bend, rot (K, B) rad."""
+    bend = np.ascontiguousarray(bend, dtype=np.float64)
+    rot = np.ascontiguousarray(rot, dtype=np.float64)
+    which = np.ascontiguousarray(which, dtype=np.int64)
+    b = tree.n_branches
+    if bend.ndim != 2 or bend.shape != rot.shape or bend.shape[1] != b:
+        raise ValueError(f"bend and rot must both have shape (K, {b})")
+    euler = np.asarray(tree.euler, dtype=np.float64).reshape(-1, 3)
+    out = np.empty((bend.shape[0], len(which), 3))
+    if b == 0 or bend.shape[0] == 0:
+        return out
+    _tips(np.asarray(tree.parent, dtype=np.int64), np.ascontiguousarray(rest_swing_rotation(euler)),
+          np.ascontiguousarray(rot_z(euler[:, 2])),
+          np.ascontiguousarray(np.asarray(tree.offset, dtype=np.float64).reshape(-1, 3)),
+          np.asarray(tree.length, dtype=np.float64), bend, rot, which, out)
+    return out
