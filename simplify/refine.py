@@ -21,12 +21,12 @@ from scipy.optimize import least_squares
 from scipy.sparse.linalg import LinearOperator
 
 from plantlod.lsys.tree import Tree
-from plantlod.sim.kinematics import depth_levels
 
 from .constants import (REFINE_EVALUATIONS, REFINE_FLOOR, REFINE_LOG_RANGE,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SCALE_PROBES, REFINE_SKIP,
                         REFINE_START_FLOOR)
 from .targets import StaticTargets
+from .tree_sums import TreeSums
 
 
 class StaticModel:
@@ -54,7 +54,7 @@ class StaticModel:
     def __init__(self, tree: Tree, gains, per_leaf, leaf_branch, drag_shape,
                  targets: StaticTargets, speeds: np.ndarray, floor: float = REFINE_FLOOR):
         self.parent = np.asarray(tree.parent, dtype=np.int64)
-        self.levels = depth_levels(self.parent)
+        self.sums = TreeSums(self.parent)
         self.gains, self.per_leaf, self.leaf_branch = gains, per_leaf, leaf_branch
         self.drag_shape, self.speeds = drag_shape, speeds
         self.g = len(self.parent)
@@ -74,16 +74,7 @@ class StaticModel:
         leaf = np.zeros((self.per_leaf.shape[0], self.g, 3))
         np.add.at(leaf, (slice(None), self.leaf_branch), area[None, :, None] * self.per_leaf)
         drag = c[None, :, None] * self.drag_shape
-        incoming_l = np.zeros_like(leaf)
-        incoming_d = np.zeros_like(drag)
-        for idx in reversed(self.levels):
-            leaf[:, idx] = p[idx][None, :, None] * (leaf[:, idx] + incoming_l[:, idx])
-            drag[:, idx] = drag[:, idx] + p[idx][None, :, None] * incoming_d[:, idx]
-            kids = idx[self.parent[idx] >= 0]
-            if len(kids):
-                np.add.at(incoming_l, (slice(None), self.parent[kids]), leaf[:, kids])
-                np.add.at(incoming_d, (slice(None), self.parent[kids]), drag[:, kids])
-        return leaf, drag
+        return self.sums.up(p, leaf, True), self.sums.up(p, drag, False)
 
     def angles(self, x):
         """Static (θb, θr) (S, D, G, 2) rad at the log-parameters x, and (F^L, F^D) (D, G, 3)."""
@@ -123,20 +114,12 @@ class StaticModel:
         g = self.g
         dk, dp, dc, da = dx[:g], dx[g:2 * g], dx[2 * g:3 * g], dx[3 * g:]
         own_drag = c[None, :, None] * self.drag_shape
-        d_leaf = np.zeros_like(leaf)
-        np.add.at(d_leaf, (slice(None), self.leaf_branch), (area * da)[None, :, None] * self.per_leaf)
-        d_drag = (c * dc)[None, :, None] * self.drag_shape
-        in_l = np.zeros_like(leaf)
-        in_d = np.zeros_like(drag)
-        for idx in reversed(self.levels):
-            d_leaf[:, idx] = dp[idx][None, :, None] * leaf[:, idx] \
-                + p[idx][None, :, None] * (d_leaf[:, idx] + in_l[:, idx])
-            d_drag[:, idx] = dp[idx][None, :, None] * (drag[:, idx] - own_drag[:, idx]) \
-                + d_drag[:, idx] + p[idx][None, :, None] * in_d[:, idx]
-            kids = idx[self.parent[idx] >= 0]
-            if len(kids):
-                np.add.at(in_l, (slice(None), self.parent[kids]), d_leaf[:, kids])
-                np.add.at(in_d, (slice(None), self.parent[kids]), d_drag[:, kids])
+        d_own = np.zeros_like(leaf)
+        np.add.at(d_own, (slice(None), self.leaf_branch), (area * da)[None, :, None] * self.per_leaf)
+        # δL_g = p_g (own'_g + Σ_c δL_c) with own' = Σ_k A_k δA_k ℓ_k + δp_g L_g / p_g
+        d_leaf = self.sums.up(p, d_own + (dp / p)[None, :, None] * leaf, True)
+        d_drag = self.sums.up(p, (c * dc)[None, :, None] * self.drag_shape
+                              + dp[None, :, None] * (drag - own_drag), False)
         v = self.speeds[:, None, None, None]
         d_force = v * d_leaf[None] + v * v * d_drag[None]                   # (S, D, G, 3)
         d_theta = dk[None, None, :, None] * theta + kappa[None, None, :, None] \
@@ -155,12 +138,7 @@ class StaticModel:
         f_bar = kappa[None, None, :, None] * _gain_transposed_times(self.gains, ub)
         l_bar = (v * f_bar).sum(axis=0)                                     # (D, G, 3)
         d_bar = (v * v * f_bar).sum(axis=0)
-        for idx in self.levels:                                             # trunk first
-            kids = idx[self.parent[idx] >= 0]
-            if len(kids):
-                up = self.parent[kids]
-                l_bar[:, kids] += p[up][None, :, None] * l_bar[:, up]
-                d_bar[:, kids] += p[up][None, :, None] * d_bar[:, up]
+        l_bar, d_bar = self.sums.down(p, l_bar), self.sums.down(p, d_bar)   # trunk first
         own_drag = c[None, :, None] * self.drag_shape
         out = np.empty(len(x))
         out[:g] = (ub * theta).sum(axis=(0, 1, 3))

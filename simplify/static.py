@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantlod.lsys.tree import Tree
-from plantlod.sim.kinematics import depth_levels, rest_pose
+from plantlod.sim.kinematics import rest_pose
 
 
 @dataclass
@@ -120,20 +120,9 @@ def propagate(tree: Tree, own: np.ndarray, through_own: bool) -> np.ndarray:
     through_own True (leaves):  F_i = k_fp,i (own_i + Σ children F_c)
     through_own False (drag):   F_i = own_i + k_fp,i Σ children F_c
     """
-    total = np.array(own, dtype=np.float64, copy=True)
-    p = tree.force_propagated
-    levels = depth_levels(tree.parent)
-    incoming = np.zeros_like(total)
-    for idx in reversed(levels):
-        if through_own:
-            total[:, idx] = p[idx][None, :, None] * (total[:, idx] + incoming[:, idx])
-        else:
-            total[:, idx] = total[:, idx] + p[idx][None, :, None] * incoming[:, idx]
-        kids = idx[tree.parent[idx] >= 0]
-        if len(kids):
-            for k in range(total.shape[0]):
-                np.add.at(incoming[k], tree.parent[kids], total[k, kids])
-    return total
+    from .tree_sums import TreeSums
+
+    return TreeSums(tree.parent).up(tree.force_propagated, own, through_own)
 
 
 @dataclass
