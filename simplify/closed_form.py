@@ -25,9 +25,10 @@ import numpy as np
 from plantlod.lsys.tree import Tree, leaf_keys
 
 from .constants import (EXPLICIT_REFINE_EVALUATIONS, EXPLICIT_REFINE_FLOOR,
-                        EXPLICIT_REFINE_PRIOR, FIT_ELEVATION, MATCH_DIRECTIONS,
-                        MATCH_TILTED_DIRECTIONS, REFINE_DIRECTIONS, REFINE_EVALUATIONS,
-                        REFINE_FLOOR, REFINE_PRIOR, REFINE_TILTED_DIRECTIONS,
+                        EXPLICIT_REFINE_LSMR_ITERATIONS, EXPLICIT_REFINE_PRIOR,
+                        FIT_ELEVATION, MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS,
+                        REFINE_DIRECTIONS, REFINE_EVALUATIONS, REFINE_FLOOR,
+                        REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_TILTED_DIRECTIONS,
                         SIMPLIFY_WIND_RANGE)
 from .lengths import fit_lengths
 from .refine import StaticModel
@@ -40,18 +41,20 @@ from .targets import GroupMap, group_strengths, static_targets
 class RefineSettings:
     """How the refinement weighs errors (`refine.StaticModel`): floor (fraction of the
     wind's largest target below which errors are absolute), prior (pull toward the
-    tips-down start), evaluations (budget)."""
+    tips-down start), evaluations (budget), inner (lsmr iterations per step)."""
 
     floor: float
     prior: float
     evaluations: int
+    inner: int
 
 
 # the grammar form: relative errors per component (the stalk's measure)
-GRAMMAR_REFINE = RefineSettings(REFINE_FLOOR, REFINE_PRIOR, REFINE_EVALUATIONS)
+GRAMMAR_REFINE = RefineSettings(REFINE_FLOOR, REFINE_PRIOR, REFINE_EVALUATIONS,
+                                REFINE_LSMR_ITERATIONS)
 # the explicit form: the motion error of model.md 6
 EXPLICIT_REFINE = RefineSettings(EXPLICIT_REFINE_FLOOR, EXPLICIT_REFINE_PRIOR,
-                                 EXPLICIT_REFINE_EVALUATIONS)
+                                 EXPLICIT_REFINE_EVALUATIONS, EXPLICIT_REFINE_LSMR_ITERATIONS)
 
 
 def carried_gains(gains: np.ndarray, turn: np.ndarray) -> np.ndarray:
@@ -132,7 +135,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                             static_targets(original, gmap, rdirs, target_gain),
                             np.asarray(speeds, dtype=np.float64), settings.floor)
         refined = model.refine(kfa, kfp, drag_c * surface, areas, settings.prior,
-                               settings.evaluations)
+                               settings.evaluations, settings.inner)
         if refined is not None:
             kfa, kfp, drag_area_, areas = refined
             drag_c = drag_area_ / surface

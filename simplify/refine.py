@@ -26,7 +26,7 @@ from .constants import (REFINE_EVALUATIONS, REFINE_FLOOR, REFINE_LOG_RANGE,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SCALE_PROBES, REFINE_SKIP,
                         REFINE_START_FLOOR)
 from .targets import StaticTargets
-from .tree_sums import TreeSums
+from .tree_sums import LeafSums, TreeSums
 
 
 class StaticModel:
@@ -55,6 +55,7 @@ class StaticModel:
                  targets: StaticTargets, speeds: np.ndarray, floor: float = REFINE_FLOOR):
         self.parent = np.asarray(tree.parent, dtype=np.int64)
         self.sums = TreeSums(self.parent)
+        self.leaf_sums = LeafSums(leaf_branch, len(self.parent))
         self.gains, self.per_leaf, self.leaf_branch = gains, per_leaf, leaf_branch
         self.drag_shape, self.speeds = drag_shape, speeds
         self.g = len(self.parent)
@@ -71,8 +72,7 @@ class StaticModel:
 
     def forces(self, p, c, area):
         """(F^L, F^D) (D, G, 3) of every simplified branch at unit speed."""
-        leaf = np.zeros((self.per_leaf.shape[0], self.g, 3))
-        np.add.at(leaf, (slice(None), self.leaf_branch), area[None, :, None] * self.per_leaf)
+        leaf = self.leaf_sums.sum(area[None, :, None] * self.per_leaf)
         drag = c[None, :, None] * self.drag_shape
         return self.sums.up(p, leaf, True), self.sums.up(p, drag, False)
 
@@ -114,8 +114,7 @@ class StaticModel:
         g = self.g
         dk, dp, dc, da = dx[:g], dx[g:2 * g], dx[2 * g:3 * g], dx[3 * g:]
         own_drag = c[None, :, None] * self.drag_shape
-        d_own = np.zeros_like(leaf)
-        np.add.at(d_own, (slice(None), self.leaf_branch), (area * da)[None, :, None] * self.per_leaf)
+        d_own = self.leaf_sums.sum((area * da)[None, :, None] * self.per_leaf)
         # δL_g = p_g (own'_g + Σ_c δL_c) with own' = Σ_k A_k δA_k ℓ_k + δp_g L_g / p_g
         d_leaf = self.sums.up(p, d_own + (dp / p)[None, :, None] * leaf, True)
         d_drag = self.sums.up(p, (c * dc)[None, :, None] * self.drag_shape
@@ -141,10 +140,11 @@ class StaticModel:
         l_bar, d_bar = self.sums.down(p, l_bar), self.sums.down(p, d_bar)   # trunk first
         own_drag = c[None, :, None] * self.drag_shape
         out = np.empty(len(x))
-        out[:g] = (ub * theta).sum(axis=(0, 1, 3))
-        out[g:2 * g] = (l_bar * leaf).sum(axis=(0, 2)) + (d_bar * (drag - own_drag)).sum(axis=(0, 2))
-        out[2 * g:3 * g] = (d_bar * own_drag).sum(axis=(0, 2))
-        per_leaf_bar = (l_bar[:, self.leaf_branch] * self.per_leaf).sum(axis=(0, 2))
+        # sums over leading axes first, then the last: numpy reduces these much faster
+        out[:g] = (ub * theta).sum(axis=0).sum(axis=0).sum(axis=-1)
+        out[g:2 * g] = ((l_bar * leaf).sum(axis=0) + (d_bar * (drag - own_drag)).sum(axis=0)).sum(axis=-1)
+        out[2 * g:3 * g] = (d_bar * own_drag).sum(axis=0).sum(axis=-1)
+        per_leaf_bar = (l_bar[:, self.leaf_branch] * self.per_leaf).sum(axis=0).sum(axis=-1)
         out[3 * g:] = p[self.leaf_branch] * area * per_leaf_bar
         return out + self.prior * u[n:]
 
@@ -168,10 +168,10 @@ class StaticModel:
         return 1.0 / np.maximum(norm, 1e-12 * max(float(norm.max()), 1e-300))
 
     def refine(self, kappa, p, c, area, prior: float = REFINE_PRIOR,
-               evaluations: int = REFINE_EVALUATIONS):
+               evaluations: int = REFINE_EVALUATIONS, inner: int = REFINE_LSMR_ITERATIONS):
         """Least-squares refinement of (κ, p', c', A) (G, G, G, K) from the sequential solution;
         ``prior`` weighs the pull of each log-value toward its start, ``evaluations`` bounds
-        the residual evaluations.
+        the residual evaluations, ``inner`` the lsmr iterations of each step.
 
         Returns the refined values, or None where refining does not lower the
         worst weighted error (or there is nothing to refine).
@@ -189,7 +189,7 @@ class StaticModel:
         fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
                             bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
                             x_scale=self.column_scale(x0), max_nfev=evaluations, tr_solver="lsmr",
-                            tr_options={"maxiter": REFINE_LSMR_ITERATIONS})
+                            tr_options={"maxiter": inner})
         x = fit.x
         if self.worst(x) >= self.worst(x0):
             return None

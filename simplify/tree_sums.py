@@ -74,3 +74,20 @@ class TreeSums:
         out = np.empty_like(own)
         _down(self.parent, np.ascontiguousarray(scale, dtype=np.float64), own, out)
         return out
+
+
+class LeafSums:
+    """Per-branch sums of per-leaf values. leaf_branch (K,) int64, g the branch count."""
+
+    def __init__(self, leaf_branch: np.ndarray, g: int):
+        leaf_branch = np.asarray(leaf_branch, dtype=np.int64)
+        self.g = g
+        self.order = np.argsort(leaf_branch, kind="stable")
+        self.branches, self.starts = np.unique(leaf_branch[self.order], return_index=True)
+
+    def sum(self, values: np.ndarray) -> np.ndarray:
+        """(D, G, 3) sums over each branch's leaves of values (D, K, 3)."""
+        out = np.zeros((values.shape[0], self.g, values.shape[2]))
+        if len(self.order):
+            out[:, self.branches] = np.add.reduceat(values[:, self.order], self.starts, axis=1)
+        return out
