@@ -1,0 +1,72 @@
+"""What `simplify` costs as trees grow: abop_1_24a at derivation lengths 3 to 6, level 1.
+
+Each size is one `plantlod simplify` process (the default form and measurement, as a user
+runs it), timed by wall clock, its peak memory read from the kernel's rusage of that
+child (os.wait4). The growth exponent is the slope of log(seconds) against
+log(branches) between the two largest sizes (where fixed costs weigh least), and
+over all four by least squares. Issue 12's targets: 10 s at derivation length 5,
+60 s and 2 GB at 6, and growth linear or n log n (exponent near 1).
+
+    .venv/bin/python bench/bench_simplify_cost.py
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+PLANTLOD = ROOT / ".venv" / "bin" / "plantlod"
+LENGTHS = (3, 4, 5, 6)
+COMMAND = "plantlod simplify abop_1_24a.lsys (derivation_length N) --level 1 -o OUT"
+
+
+def _measure(n: int, work: pathlib.Path) -> tuple[int, float, float]:
+    """(branches, wall seconds, peak resident MB) of one simplify run at derivation length n."""
+    source = (ROOT / "examples" / "abop_1_24a.lsys").read_text()
+    path = work / f"a{n}.lsys"
+    path.write_text(re.sub(r"(?m)^derivation_length: .*$", f"derivation_length: {n}", source))
+    begin = time.perf_counter()
+    child = subprocess.Popen([str(PLANTLOD), "simplify", str(path), "--level", "1",
+                              "-o", str(work / f"a{n}_l1.lsys")],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    _, status, usage = os.wait4(child.pid, 0)
+    seconds = time.perf_counter() - begin
+    stderr = child.stderr.read()
+    child.stderr.close()
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode != 0:
+        raise RuntimeError(f"simplify at derivation length {n} failed: {stderr.strip()}")
+    branches = int(re.search(r"([\d,]+) ->", stderr).group(1).replace(",", ""))
+    return branches, seconds, usage.ru_maxrss / 1024.0
+
+
+def run(report) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = [_measure(n, pathlib.Path(tmp)) for n in LENGTHS]
+    for n, (branches, seconds, mb) in zip(LENGTHS, rows):
+        target = {5: "<= 10", 6: "<= 60"}.get(n, "")
+        report(f"simplify abop_1_24a n={n} ({branches:,} branches), level 1: wall", seconds, "s",
+               target, COMMAND)
+        report(f"simplify abop_1_24a n={n}: peak memory", mb, "MB", "<= 2048" if n == 6 else "",
+               "os.wait4 rusage of the child")
+    b = np.log([r[0] for r in rows])
+    t = np.log([r[1] for r in rows])
+    last = float((t[-1] - t[-2]) / (b[-1] - b[-2]))
+    fit = float(np.polyfit(b, t, 1)[0])
+    report("simplify growth exponent, largest two sizes (seconds ~ branches^k)", last, "",
+           "~1 (linear or n log n)", COMMAND)
+    report("simplify growth exponent, least squares over n = 3..6", fit, "", "", COMMAND)
+
+
+if __name__ == "__main__":
+    def _print(name, value, unit, target="", command=""):
+        print(f"{name}: {value:.3g} {unit}" + (f"  (target {target})" if target else ""))
+    sys.exit(run(_print) or 0)
