@@ -98,6 +98,7 @@ class Result:
     reports: list[tuple[WindCase, Report]]
     summary: Summary
     notes: list[str] = field(default_factory=list)
+    largest_angles: list[float] = field(default_factory=list)   # per wind, rad (Runs)
 
 
 def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, source) -> None:
@@ -126,7 +127,7 @@ def simplify(system: LSystem, options: Options,
         result = simplify_explicit(system, options, progress)
         result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
         return result
-    grammar_score = bounds_score(grammar.reports, options.level)
+    grammar_score = bounds_score(grammar.reports, options.level, grammar.largest_angles)
     if grammar_score <= 1.0:
         grammar.notes.insert(0, "grammar form: it meets the level's bounds")
         return grammar
@@ -136,7 +137,7 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
         return grammar
-    if bounds_score(explicit.reports, options.level) < grammar_score:
+    if bounds_score(explicit.reports, options.level, explicit.largest_angles) < grammar_score:
         explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
                                  f"({_bounds_text(grammar.reports)})")
         return explicit
@@ -146,12 +147,20 @@ def simplify(system: LSystem, options: Options,
     return grammar
 
 
-def bounds_score(reports: list[tuple[WindCase, Report]], level: int) -> float:
+def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
+                 largest_angles: list[float] | None = None) -> float:
     """The worst ratio of a visible-motion figure to its bound (LEVEL_BOUNDS) over the winds:
-    <= 1 when the level meets its bounds."""
+    <= 1 when the level meets its bounds. Winds where the original's combined angles pass
+    SMALL_ANGLE_LIMIT (``largest_angles``, per wind) are left out, as the bounds hold only
+    below it (issue 12), unless every wind passes it."""
     motion, period, tip = LEVEL_BOUNDS[min(level, max(LEVEL_BOUNDS))]
+    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
+    if len(small) != len(reports) or not any(small):
+        small = [True] * len(reports)
     worst = 0.0
-    for _wind, r in reports:
+    for (_wind, r), counts in zip(reports, small):
+        if not counts:
+            continue
         for value, limit in ((r.motion_error, motion), (r.period_error_major, period),
                              (r.tip_error, tip)):
             if math.isfinite(value):
@@ -204,7 +213,8 @@ def simplify_explicit(system: LSystem, options: Options,
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=comment)
-    return Result(out, write_lsys(out, comment), original, tree, reports, summary, notes)
+    return Result(out, write_lsys(out, comment), original, tree, reports, summary, notes,
+                  runs.largest_combined_angle())
 
 
 def _angle_notes(runs: Runs) -> list[str]:
@@ -279,7 +289,7 @@ def simplify_grammar(system: LSystem, options: Options,
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)
     text = write_lsys(out, header)
-    return Result(out, text, original, tree, reports, summary, notes)
+    return Result(out, text, original, tree, reports, summary, notes, runs.largest_combined_angle())
 
 
 def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:

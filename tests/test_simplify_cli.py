@@ -95,3 +95,22 @@ def test_stalk_level_2_calibrated_bounds_with_margin():
     s = _worst(2, True, [(10.0, 60.0), (15.0, 30.0), (20.0, 75.0)])
     assert s.amplitude <= 0.05 * 0.9 and s.period <= 0.02 * 0.9
     assert math.isfinite(s.tip)
+
+
+def test_bounds_score_leaves_out_winds_past_the_small_angle_limit():
+    """--form auto compares the forms where the targets apply: winds whose original's
+    combined angles stay under SMALL_ANGLE_LIMIT (issue 12); all winds if none does."""
+    from types import SimpleNamespace
+
+    from plantlod.simplify.constants import LEVEL_BOUNDS, SMALL_ANGLE_LIMIT
+    from plantlod.simplify.pipeline import bounds_score
+
+    def report(motion):
+        return None, SimpleNamespace(motion_error=motion, period_error_major=0.0, tip_error=0.0)
+
+    motion_bound = LEVEL_BOUNDS[1][0]
+    reports = [report(0.5 * motion_bound), report(4.0 * motion_bound)]
+    assert bounds_score(reports, 1, [0.01, 2 * SMALL_ANGLE_LIMIT]) == pytest.approx(0.5)
+    assert bounds_score(reports, 1, [0.01, 0.02]) == pytest.approx(4.0)
+    assert bounds_score(reports, 1, [1.0, 2.0]) == pytest.approx(4.0)     # none small: all count
+    assert bounds_score(reports, 1) == pytest.approx(4.0)
