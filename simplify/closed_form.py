@@ -76,10 +76,12 @@ class LevelParameters:
     """Per simplified branch (G,) values and per leaf areas, ready for `write_parameters`.
 
     leaf_areas: (address, K) -> area m^2 (`leaf_keys`)
+    static_error: with ``refine``, `refine.StaticModel.worst` of the returned values
     """
 
     branch: dict[str, np.ndarray]
     leaf_areas: dict[tuple[str, int], float]
+    static_error: float = math.nan    # the refinement's worst weighted error at the result
 
 
 def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
@@ -127,6 +129,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                               own_drag_shape(frames, directions), targets, surface,
                               chain_kfa, chain_kfp, kappa_range)
     kfa, kfp, drag_c, areas = seq.kfa, seq.kfp, seq.drag_coefficient, seq.areas
+    static_error = math.nan
     if refine:
         rdirs = fit_directions(REFINE_DIRECTIONS, REFINE_TILTED_DIRECTIONS, FIT_ELEVATION)
         model = StaticModel(skeleton, gains, unit_leaf_forces(skeleton, frames, rdirs),
@@ -139,7 +142,9 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
         if refined is not None:
             kfa, kfp, drag_area_, areas = refined
             drag_c = drag_area_ / surface
+        values = np.concatenate([kfa, kfp, drag_c * surface, areas])
+        static_error = model.worst(np.log(np.maximum(values, np.finfo(float).tiny)))
     branch = {"length": lengths, "bend_strength": kb, "rotation_strength": kr,
               "force_absorbed": kfa, "force_propagated": kfp, "drag_coefficient": drag_c}
     names = leaf_keys(skeleton)
-    return LevelParameters(branch, {a: float(areas[k]) for k, a in enumerate(names)})
+    return LevelParameters(branch, {a: float(areas[k]) for k, a in enumerate(names)}, static_error)

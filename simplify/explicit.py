@@ -38,7 +38,7 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import KAPPA_RANGE, LEVEL_RATIO
+from .constants import BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, EXPLICIT_LEAF_SETS, KAPPA_RANGE, LEVEL_RATIO
 from .groups import main_paths
 from .static import rest_frames
 
@@ -131,6 +131,31 @@ def equivalent_leaves(tree: Tree, frames, members: np.ndarray) -> tuple[np.ndarr
     return values[::-1], vectors[:, keep].T[::-1]
 
 
+def basis_leaves(frame: np.ndarray, areas: np.ndarray, normals: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Nine leaves on one chord whose normals are its frame's axes and the six diagonals
+    between two axes (both signs), with areas (9,) m² whose response Σ a n nᵀ is the
+    nearest (non-negative least squares on the six entries) to that of the leaves given,
+    areas (k,) and world normals (k, 3); each at least BASIS_LEAF_FLOOR of their sum, so
+    that the fit (log scale) can grow any of them. World normals (9, 3).
+
+    Their responses span every symmetric 3×3 matrix, where the ≤ 3 eigen-leaves of
+    `equivalent_leaves` span only those with the group's own principal axes: the fit may
+    then give the group a force response its leaves' shape does not have (docs/simplify.md).
+    """
+    from scipy.optimize import nnls
+
+    r = 1.0 / math.sqrt(2.0)
+    local = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [r, r, 0], [r, -r, 0], [r, 0, r],
+                      [r, 0, -r], [0, r, r], [0, r, -r]], dtype=np.float64)
+    world = local @ frame.T
+    response = np.einsum("k,ki,kj->ij", areas, normals, normals)
+    upper = np.triu_indices(3)
+    basis = np.stack([np.outer(n, n)[upper] for n in world], axis=1)          # (6, 9)
+    weights = nnls(basis, response[upper])[0]
+    return np.maximum(weights, BASIS_LEAF_FLOOR * float(areas.sum())), world
+
+
 def _zyz(m: np.ndarray) -> tuple[float, float, float]:
     """ZYZ angles (phi, alpha, psi) in radians of the rotation m = Rz(phi) Ry(alpha) Rz(psi)."""
     h = math.hypot(m[0, 2], m[1, 2])
@@ -192,8 +217,12 @@ class Skeleton:
     paths: list[np.ndarray]
 
 
-def explicit_skeleton(original: Tree, grouping: Grouping) -> Skeleton:
-    """The explicit-form axiom of one level; rest geometry: chords (module doc)."""
+def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen") -> Skeleton:
+    """The explicit-form axiom of one level; rest geometry: chords (module doc).
+
+    leaves: "eigen", at most three equivalent leaves per group (`equivalent_leaves`), or
+    "basis", nine whose normals are the chord frame's axes and diagonals (`basis_leaves`).
+    """
     frames = rest_frames(original)
     g_count = grouping.count
     paths = main_paths(original, grouping.group, g_count)
@@ -243,6 +272,8 @@ def explicit_skeleton(original: Tree, grouping: Grouping) -> Skeleton:
         branch_address[g] = str(count[0])
         emit("F")
         areas, normals = equivalent_leaves(original, frames, members[g])
+        if leaves == "basis" and len(areas):
+            areas, normals = basis_leaves(frame[g], areas, normals)
         leaf_area[g] = areas
         for a, n in zip(areas, normals):
             local = frame[g].T @ n
@@ -342,9 +373,9 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
-    from .groups import assign_stated_groups
+    from .groups import assign_stated_groups, swing_turns
+    from .static import fit_directions, static_angles, static_parts
 
-    sk = explicit_skeleton(original, grouping)
     root_address = [original.address[r] for r in grouping.root]
     radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
     head = [f"name: {name} level {level} (explicit form)", "derivation_length: 0"]
@@ -353,49 +384,59 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         "drag_coefficient", "leaf_force_scale")]
     declarations = ["branch F: length=1 radius=1 bend_strength=1 rotation_strength=1", "leaf L: area=1"]
 
-    def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
-        lines = []
-        for g, address in enumerate(sk.branch_address):
-            kv = " ".join(f"{k}={format_number(values[k][g])}" for k in sorted(values))
-            lines.append(f"  {address}: {kv}")
-            for a, area in zip(sk.leaf_address[g], leaf_area[g]):
-                lines.append(f"  {a}: area={format_number(area)}")
-        lines.sort(key=lambda line: int(line.split(":")[0]))
-        groups = [f"  {a}: {r}" for a, r in zip(sk.branch_address, root_address)]
-        return "\n".join(head) + "\n\n" + "\n".join(declarations) + "\n\n" \
-            + "\n".join(axiom_lines(sk.modules)) + "\n\n" \
-            + "overrides:\n" + "\n".join(lines) + "\n\ngroups:\n" + "\n".join(groups) + "\n"
+    def fit(leaves: str) -> tuple[str, float]:
+        """The level's text with one leaf set, and its static error (`closed_form`)."""
+        sk = explicit_skeleton(original, grouping, leaves)
 
-    ones = np.ones(grouping.count)
-    base_values = {"length": sk.length, "radius": radius, "bend_strength": ones,
-                   "rotation_strength": ones}
-    skeleton = build(parse_lsys(text(base_values, sk.leaf_area), name)).tree
-    groups = assign_stated_groups(original, skeleton)
-    # the skeleton's branches come in axiom order; map them to group numbers
-    order = np.array([int(a) for a in skeleton.address])
-    position = {int(a): g for g, a in enumerate(sk.branch_address)}
-    to_group = np.array([position[a] for a in order])
-    gmap = GroupMap(groups, [sk.paths[to_group[s]] for s in range(skeleton.n_branches)])
-    from .groups import swing_turns
-    from .static import fit_directions, static_angles, static_parts
-    parts = static_parts(original, fit_directions(4, 0, 0.0))
-    bend, rot = static_angles(original, parts.leaf + parts.drag)
-    weights = ([np.abs(bend[:, p]).mean(axis=0) for p in gmap.paths],
-               [np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths])
-    kb, kr, gain = dominant_strengths(original, gmap.paths, weights, dt, duration)
-    params = closed_form(original, skeleton, gmap, refine=refine,
-                         turn=swing_turns(original, skeleton, gmap.paths),
-                         kappa_range=KAPPA_RANGE, strengths=(kb, kr), target_gain=gain,
-                         # a stalk keeps the relative bounds (issue 12): fit relative errors
-                         settings=GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE)
-    fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
-              "rotation_strength": kr}
-    for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
-        fitted[key] = params.branch[key]
-    back = np.argsort(to_group)                      # group number -> skeleton branch
-    values = {k: v[back] for k, v in fitted.items()}
-    # leaf areas as fitted (the model's only leaf-specific gain; docs/simplify.md)
-    by_address = {addr: area for (addr, _k), area in params.leaf_areas.items()}
-    leaf_area = [np.array([by_address[a] for a in sk.leaf_address[g]]) for g in range(grouping.count)]
-    final = text(values, leaf_area)
-    return final, build(parse_lsys(final, name)).tree
+        def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
+            lines = []
+            for g, address in enumerate(sk.branch_address):
+                kv = " ".join(f"{k}={format_number(values[k][g])}" for k in sorted(values))
+                lines.append(f"  {address}: {kv}")
+                for a, area in zip(sk.leaf_address[g], leaf_area[g]):
+                    lines.append(f"  {a}: area={format_number(area)}")
+            lines.sort(key=lambda line: int(line.split(":")[0]))
+            groups = [f"  {a}: {r}" for a, r in zip(sk.branch_address, root_address)]
+            return "\n".join(head) + "\n\n" + "\n".join(declarations) + "\n\n" \
+                + "\n".join(axiom_lines(sk.modules)) + "\n\n" \
+                + "overrides:\n" + "\n".join(lines) + "\n\ngroups:\n" + "\n".join(groups) + "\n"
+
+        ones = np.ones(grouping.count)
+        base_values = {"length": sk.length, "radius": radius, "bend_strength": ones,
+                       "rotation_strength": ones}
+        skeleton = build(parse_lsys(text(base_values, sk.leaf_area), name)).tree
+        groups = assign_stated_groups(original, skeleton)
+        # the skeleton's branches come in axiom order; map them to group numbers
+        order = np.array([int(a) for a in skeleton.address])
+        position = {int(a): g for g, a in enumerate(sk.branch_address)}
+        to_group = np.array([position[a] for a in order])
+        gmap = GroupMap(groups, [sk.paths[to_group[s]] for s in range(skeleton.n_branches)])
+        parts = static_parts(original, fit_directions(4, 0, 0.0))
+        bend, rot = static_angles(original, parts.leaf + parts.drag)
+        weights = ([np.abs(bend[:, p]).mean(axis=0) for p in gmap.paths],
+                   [np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths])
+        kb, kr, gain = dominant_strengths(original, gmap.paths, weights, dt, duration)
+        params = closed_form(original, skeleton, gmap, refine=refine,
+                             turn=swing_turns(original, skeleton, gmap.paths),
+                             kappa_range=KAPPA_RANGE, strengths=(kb, kr), target_gain=gain,
+                             # a stalk keeps the relative bounds (issue 12): fit relative errors
+                             settings=GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE)
+        fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
+                  "rotation_strength": kr}
+        for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
+            fitted[key] = params.branch[key]
+        back = np.argsort(to_group)                      # group number -> skeleton branch
+        values = {k: v[back] for k, v in fitted.items()}
+        # leaf areas as fitted (the model's only leaf-specific gain; docs/simplify.md)
+        by_address = {addr: area for (addr, _k), area in params.leaf_areas.items()}
+        leaf_area = [np.array([by_address[a] for a in sk.leaf_address[g]])
+                     for g in range(grouping.count)]
+        return text(values, leaf_area), params.static_error
+
+    # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN)
+    best = fit(EXPLICIT_LEAF_SETS[0])
+    for leaves in EXPLICIT_LEAF_SETS[1:] if refine else ():
+        candidate = fit(leaves)
+        if candidate[1] < BASIS_LEAF_GAIN * best[1]:
+            best = candidate
+    return best[0], build(parse_lsys(best[0], name)).tree

@@ -180,3 +180,23 @@ def test_level_one_moves_like_the_original_at_low_wind(name):
     winds = [WindCase(0.5, 0.0), WindCase(0.5, 90.0)]
     reports = Runs(tree, group_map(tree, level), winds, 0.01, 600, 4).compare(level)
     assert max(r.motion_error for r in reports) <= 0.05
+
+
+def test_basis_leaves_reproduce_a_response_they_span():
+    """Nine leaves on the chord frame's axes and diagonals: a response made of them (any
+    symmetric matrix in their cone) comes back exactly, and every area stays positive."""
+    from plantlod.simplify.explicit import basis_leaves
+
+    rng = np.random.default_rng(11)
+    frame, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    _, world = basis_leaves(frame, np.ones(1), np.array([[1.0, 0.0, 0.0]]))
+    assert np.allclose(np.linalg.norm(world, axis=1), 1.0)
+    weights = rng.uniform(0.0, 1.0, size=9) * (rng.uniform(size=9) > 0.4)
+    # the same response given as its eigen-leaves (areas = eigenvalues, normals = vectors)
+    response = np.einsum("k,ki,kj->ij", weights, world, world)
+    values, vectors = np.linalg.eigh(response)
+    keep = values > 1e-12
+    areas, got = basis_leaves(frame, values[keep], vectors[:, keep].T)
+    assert np.all(areas > 0)
+    assert np.allclose(np.einsum("k,ki,kj->ij", areas, got, got), response,
+                       atol=1e-3 * values.sum() * 9)
