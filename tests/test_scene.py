@@ -70,6 +70,13 @@ def test_levels_chosen_by_distance_behind_and_at_the_camera(tmp_path):
     assert levels[:, 0].tolist() == [2, 2, 3, 0]
 
 
+@pytest.fixture(scope="module")
+def chains(tmp_path_factory):
+    """One chain cache for the module: each tree's levels are simplified once, not per test
+    (test_report_cache_threads_and_verified_budget keeps its own, to see the cache fill)."""
+    return tmp_path_factory.mktemp("chains")
+
+
 def _keyed_scene(tmp_path, keys, duration=2.0):
     body = BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "").replace(
         "duration = 2", f"duration = {duration}")
@@ -108,9 +115,9 @@ def test_hysteresis_stops_a_tree_at_a_boundary_from_flickering(tmp_path):
     assert int(np.sum(levels[1:] != levels[:-1])) <= 1
 
 
-def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_path):
+def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_path, chains):
     scene = _keyed_scene(tmp_path, [(0.0, -22.0), (1.5, -150.0), (3.0, -22.0)], duration=3.0)
-    report = run_scene(scene, cache=tmp_path / "c", verify=True)
+    report = run_scene(scene, cache=chains, verify=True)
     assert report["camera"] == "keyed" and report["switches"] >= 10
     levels = report["_levels"]
     assert levels.shape == (13, 100) and len(np.unique(levels)) >= 3   # 3 steps a frame
@@ -159,7 +166,7 @@ def test_report_cache_threads_and_verified_budget(tmp_path):
         assert second[key] == first[key]
 
 
-def test_angles_do_not_depend_on_threads(tmp_path):
+def test_angles_do_not_depend_on_threads(tmp_path, chains):
     from plantlod.scene.run import tree_winds
 
     body = BASE.replace("speed = 5", "speed = 5\nfront_speed = 4").replace(
@@ -169,12 +176,12 @@ def test_angles_do_not_depend_on_threads(tmp_path):
     # a front at 4 m/s along +x reaches the tree at x = 4 m after 1 s (100 steps)
     assert scene.trees[1].position[0] == 4.0
     assert np.all(w[1, :100] == 0.0) and np.all(w[1, 101:, 0] == 5.0) and np.all(w[0, :, 0] == 5.0)
-    one = run_scene(scene, cache=tmp_path / "c", threads=1)
-    two = run_scene(scene, cache=tmp_path / "c", threads=2)
+    one = run_scene(scene, cache=chains, threads=1)
+    two = run_scene(scene, cache=chains, threads=2)
     assert one["branch_steps_spent"] == two["branch_steps_spent"]
 
 
-def test_angles_store_holds_every_tree_at_its_level(tmp_path):
+def test_angles_store_holds_every_tree_at_its_level(tmp_path, chains):
     import zarr
 
     from plantlod.scene.levels import level_chain
@@ -184,7 +191,7 @@ def test_angles_store_holds_every_tree_at_its_level(tmp_path):
 
     path = _scene(tmp_path, BASE)
     store = tmp_path / "a.zarr"
-    report = json.loads(run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles",
+    report = json.loads(run_cli("scene", path, "--cache", str(chains), "--angles",
                                 str(store)).stdout)
     group = zarr.open_group(str(store), mode="r")
     levels = group["levels"][:]
@@ -205,7 +212,7 @@ def test_angles_store_holds_every_tree_at_its_level(tmp_path):
                 assert np.isnan(values).all() != (other == f"level_{level}")
             # against a single run of that tree in its own wind (model.md 4)
             chain, _ = level_chain(scene.trees[k].file, report["level_wind_speed"], scene.dt,
-                                   scene.duration, tmp_path / "c")
+                                   scene.duration, chains)
             times = np.arange(scene.steps) * scene.dt
             single = simulate_arrays(chain.trees[level], scene.dt, scene.steps,
                                      KeyframeWind(times, winds[k]), every=every)
@@ -213,7 +220,7 @@ def test_angles_store_holds_every_tree_at_its_level(tmp_path):
                                           single.bend[1:].astype(np.float32))
     assert sorted(seen) == list(range(report["trees"]))
     # an existing store is never overwritten
-    again = run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles", str(store), exit_code=2)
+    again = run_cli("scene", path, "--cache", str(chains), "--angles", str(store), exit_code=2)
     assert "exists" in again.stderr
 
 
@@ -227,7 +234,7 @@ def _store_arrays(group):
     return out
 
 
-def test_a_moving_camera_gives_the_same_store_for_any_thread_count(tmp_path):
+def test_a_moving_camera_gives_the_same_store_for_any_thread_count(tmp_path, chains):
     import zarr
 
     body = BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "") + (
@@ -237,7 +244,7 @@ def test_a_moving_camera_gives_the_same_store_for_any_thread_count(tmp_path):
     stores = []
     for threads in ("1", "2"):
         out = tmp_path / f"t{threads}.zarr"
-        run_cli("scene", path, "--cache", str(tmp_path / "c"), "--angles", str(out),
+        run_cli("scene", path, "--cache", str(chains), "--angles", str(out),
                 "--threads", threads)
         stores.append(_store_arrays(zarr.open_group(str(out), mode="r")))
     assert stores[0].keys() == stores[1].keys()
@@ -247,13 +254,13 @@ def test_a_moving_camera_gives_the_same_store_for_any_thread_count(tmp_path):
     assert np.any(levels[:, 1:] != levels[:, :-1])           # it did switch
 
 
-def test_a_local_dask_cluster_gives_the_same_store(tmp_path):
+def test_a_local_dask_cluster_gives_the_same_store(tmp_path, chains):
     """Two worker processes write their own batches; the store equals the in-process one."""
     distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
     import zarr
 
     path = _scene(tmp_path, BASE)
-    cache = str(tmp_path / "c")
+    cache = str(chains)
     run_cli("scene", path, "--cache", cache, "--angles", str(tmp_path / "here.zarr"))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
@@ -268,12 +275,12 @@ def test_a_local_dask_cluster_gives_the_same_store(tmp_path):
     assert far["branch_steps_spent"] < far["branch_steps_full"]
 
 
-def test_plot_is_a_png_and_refused_before_anything_runs_when_unwritable(tmp_path):
+def test_plot_is_a_png_and_refused_before_anything_runs_when_unwritable(tmp_path, chains):
     path = _scene(tmp_path, BASE)
     png = tmp_path / "s.png"
-    run_cli("scene", path, "--cache", str(tmp_path / "c"), "--plot", str(png), "--report",
+    run_cli("scene", path, "--cache", str(chains), "--plot", str(png), "--report",
             str(tmp_path / "r.json"))
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    bad = run_cli("scene", path, "--cache", str(tmp_path / "c"), "--plot",
+    bad = run_cli("scene", path, "--cache", str(chains), "--plot",
                   str(tmp_path / "no" / "such" / "dir" / "s.png"), exit_code=None)
     assert bad.exit_code in (1, 2) and len(bad.stderr.strip().splitlines()) >= 1
