@@ -3,12 +3,23 @@
 At frame f (time f / frame_rate) a tree at distance d from the camera shows level l's tip
 error e_l (metres, times the tree's scale) as p_l = e_l H / (2 d tan(fov / 2)) pixels.
 
+A level's error does not stay behind when the tree switches: the state carried into a
+finer level is off by up to the coarser level's error, and the model is undamped, so that
+difference swings on for the rest of the run (forest_walk: a tree jumping from a single
+branch to level 1 and then to full detail as the camera passed it was 58.8 px off). The
+camera's path is known in advance (keyed), so each frame is judged by the **nearest the
+tree will come from then on**, where it is in view:
+
+    p_l(f) = e_l · max over f' >= f of pixels_per_metre(d(f')), taken where the tree is ahead
+
+(0 for a tree that stays behind the camera, infinite for one the camera will stand on).
+That bound only falls with time, so trees only switch coarser, and what they carry is
+within the budget wherever they are seen later.
+
 - The first frame takes the coarsest level with p_l <= budget.
-- Afterwards a tree moves finer at once when its level's p passes the budget (the budget
-  is never overspent), and coarser only to a level with p_l <= HYSTERESIS x budget, so a
-  tree whose distance hovers at a boundary does not flicker between two levels.
-- A tree behind the camera (its base not in front of the image plane) takes the coarsest
-  level; at distance 0 (the camera at its base) the full tree.
+- Afterwards a tree moves finer at once when its level's p passes the budget (with the
+  look-ahead this does not happen; the rule stays for safety), and coarser only to a level
+  with p_l <= HYSTERESIS x budget, so a tree does not flicker between two levels.
 """
 
 from __future__ import annotations
@@ -43,8 +54,8 @@ def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     """
     d, ahead = distances(scene, members, times)
     scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    ppm = scene.camera.pixels_per_metre(d)                                  # (n, F), inf at 0
-    last = len(tip_error_m) - 1
+    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
+    ppm = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]             # nearest from f on
     with np.errstate(invalid="ignore"):
         px = tip_error_m[None, None, :] * (scale * ppm)[..., None]          # (n, F, L)
     px[..., 0] = 0.0                                                        # level 0: exact
@@ -60,7 +71,5 @@ def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
         if f:
             over = ~fits[np.arange(len(members)), f, current]               # must go finer
             current = np.where(over, coarsest[:, f], np.maximum(current, coarsest_well[:, f]))
-        current = np.where(ahead[:, f], current, last)                      # behind: coarsest
-        current = np.where(d[:, f] == 0.0, 0, current)                      # at its base: full
         out[:, f] = current
     return out

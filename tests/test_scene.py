@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import math
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -116,13 +118,35 @@ def test_hysteresis_stops_a_tree_at_a_boundary_from_flickering(tmp_path):
 
 
 def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_path, chains):
-    scene = _keyed_scene(tmp_path, [(0.0, -22.0), (1.5, -150.0), (3.0, -22.0)], duration=3.0)
+    # the camera drives away: trees switch coarser as it goes, their state carried
+    scene = _keyed_scene(tmp_path, [(0.0, -22.0), (3.0, -150.0)], duration=3.0)
     report = run_scene(scene, cache=chains, verify=True)
     assert report["camera"] == "keyed" and report["switches"] >= 10
     levels = report["_levels"]
     assert levels.shape == (13, 100) and len(np.unique(levels)) >= 3   # 3 steps a frame
+    assert np.all(np.diff(levels.astype(int), axis=1) >= 0)            # only ever coarser
     assert report["max_error_px"] <= report["budget_px"] + 1e-9
     assert report["branch_steps_spent"] < report["branch_steps_full"]
+
+
+def test_a_tree_the_camera_will_pass_starts_at_the_level_its_nearest_point_allows(tmp_path):
+    """A state carried into a finer level keeps the coarser level's error (the model is
+    undamped), so the schedule judges every frame by the nearest the tree comes from then
+    on: approaching it from 100 m to 10 m, the tree runs from the first frame at the level
+    that fits at 10 m, computed here by hand from model.md 7."""
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -100.0), (2.0, -10.0)])
+    scene = replace(scene, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    times = np.arange(60) / 30.0
+    levels = level_schedule(scene, [0], errors, times, 1.0)[0]
+    ppm_nearest = 1080 / (2 * 10.0 * math.tan(math.radians(30)))           # 93.5 px per m
+    expected = max(k for k, e in enumerate(errors) if e * ppm_nearest <= 1.0)
+    assert expected == 2 and np.all(levels == expected)
+    # driving away instead, it starts there and coarsens, never finer
+    away = _keyed_scene(tmp_path, [(0.0, -10.0), (2.0, -150.0)])
+    away = replace(away, trees=[replace(away.trees[0], position=(0.0, 0.0, 1.7))])
+    levels = level_schedule(away, [0], errors, times, 1.0)[0]
+    assert levels[0] == 2 and levels[-1] == 3 and np.all(np.diff(levels) >= 0)
 
 
 @pytest.mark.parametrize("body, message", [
