@@ -12,9 +12,7 @@ import numpy as np
 import pytest
 
 from golden_util import ROOT, run_cli
-from plantlod.lsys.errors import InputError
 from plantlod.scene.file import Camera, read_scene
-from plantlod.scene.levels import Chain
 from plantlod.scene.run import run_scene
 from plantlod.scene.schedule import level_schedule
 
