@@ -11,10 +11,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import pathlib
-import resource
-import subprocess
 import sys
 import time
+
+from peak_memory import run_with_peak
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 COMMAND = "plantlod scene examples/forest.toml --verify --report -"
@@ -60,14 +60,13 @@ def run(report) -> None:
     report("forest, moving camera: verified max error", doc["max_error_px"], "px", "<= 1", command)
     report("forest, moving camera: verified mean error", doc["mean_error_px"], "px", "", command)
     report("forest, moving camera: level switches", doc["switches"], "", "", command)
-    # 10,000 trees in a process of its own, for its peak memory (ru_maxrss of children, KiB)
+    # 10,000 trees in a process of its own, for its peak memory (VmHWM, bench/peak_memory.py)
     command = "plantlod scene examples/forest10k.toml --report -"
-    done = subprocess.run([str(pathlib.Path(sys.executable).with_name("plantlod")), "scene",
-                           str(ROOT / "examples" / "forest10k.toml"), "--report", "-"],
-                          capture_output=True, text=True, check=True)
-    doc = json.loads(done.stdout)
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024 ** 2
-    report("forest 10,000 trees: peak memory (largest child process)", peak, "GiB", "<= 8", command)
+    stdout, _, _, peak_mb = run_with_peak([str(pathlib.Path(sys.executable).with_name("plantlod")),
+                                           "scene", str(ROOT / "examples" / "forest10k.toml"),
+                                           "--report", "-"])
+    doc = json.loads(stdout)
+    report("forest 10,000 trees: peak memory", peak_mb / 1024, "GiB", "<= 8", command)
     report("forest 10,000 trees: simulated s per wall s", doc["simulated_seconds_per_wall_second"],
            "s/s", "> 1", command)
     report("forest 10,000 trees: wall s (levels cached)", doc["wall_s"], "s", "", command)

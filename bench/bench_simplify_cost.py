@@ -13,18 +13,17 @@ from __future__ import annotations
 
 import pathlib
 import re
-import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
+
+from peak_memory import run_with_peak
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PLANTLOD = ROOT / ".venv" / "bin" / "plantlod"
 LENGTHS = (3, 4, 5, 6)
 COMMAND = "plantlod simplify abop_1_24a.lsys (derivation_length N) --level 1 -o OUT"
-POLL_S = 0.05                 # s between reads of the child's peak memory
 
 
 def _measure(n: int, work: pathlib.Path) -> tuple[int, float, float]:
@@ -32,37 +31,10 @@ def _measure(n: int, work: pathlib.Path) -> tuple[int, float, float]:
     source = (ROOT / "examples" / "abop_1_24a.lsys").read_text()
     path = work / f"a{n}.lsys"
     path.write_text(re.sub(r"(?m)^derivation_length: .*$", f"derivation_length: {n}", source))
-    err = work / f"a{n}.err"
-    begin = time.perf_counter()
-    with open(err, "w") as stderr_file:
-        child = subprocess.Popen([str(PLANTLOD), "simplify", str(path), "--level", "1",
-                                  "-o", str(work / f"a{n}_l1.lsys")],
-                                 stdout=subprocess.DEVNULL, stderr=stderr_file)
-        peak_kb = 0
-        while child.poll() is None:
-            peak_kb = max(peak_kb, _high_water_kb(child.pid))
-            time.sleep(POLL_S)
-    seconds = time.perf_counter() - begin
-    stderr = err.read_text()
-    if child.returncode != 0:
-        raise RuntimeError(f"simplify at derivation length {n} failed: {stderr.strip()}")
+    stdout, stderr, seconds, peak_mb = run_with_peak(
+        [str(PLANTLOD), "simplify", str(path), "--level", "1", "-o", str(work / f"a{n}_l1.lsys")])
     branches = int(re.search(r"([\d,]+) ->", stderr).group(1).replace(",", ""))
-    return branches, seconds, peak_kb / 1024.0
-
-
-def _high_water_kb(pid: int) -> int:
-    """The process' peak resident set (VmHWM, kB) so far; 0 once it is gone.
-
-    Not rusage: Linux keeps a forked child's pre-exec high-water mark (this benchmark
-    process's own size) in ru_maxrss across exec; VmHWM belongs to the new image only."""
-    try:
-        with open(f"/proc/{pid}/status") as status:
-            for line in status:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1])
-    except OSError:
-        pass
-    return 0
+    return branches, seconds, peak_mb
 
 
 def run(report) -> None:
