@@ -90,7 +90,6 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         raise
     levels = report.pop("_levels")
     in_use = report.pop("_branches_in_use")
-    report.pop("_errors")
     if plot_path is not None:
         from plantlod.scene.plot import scene_png
 

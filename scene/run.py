@@ -242,7 +242,6 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         report["mean_error_px"] = float(np.nanmean(errors)) if np.isfinite(errors).any() else 0.0
     report["_levels"] = levels
     report["_branches_in_use"] = in_use
-    report["_errors"] = errors
     return report
 
 

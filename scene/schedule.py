@@ -17,9 +17,9 @@ That bound only falls with time, so trees only switch coarser, and what they car
 within the budget wherever they are seen later.
 
 - The first frame takes the coarsest level with p_l <= budget.
-- Afterwards a tree moves finer at once when its level's p passes the budget (with the
-  look-ahead this does not happen; the rule stays for safety), and coarser only to a level
-  with p_l <= HYSTERESIS x budget, so a tree does not flicker between two levels.
+- Afterwards a tree moves coarser only to a level with p_l <= HYSTERESIS x budget, so a
+  tree does not flicker between two levels. It never needs to go finer: p_l only falls,
+  so a level within the budget stays within it.
 """
 
 from __future__ import annotations
@@ -60,16 +60,8 @@ def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
         px = tip_error_m[None, None, :] * (scale * ppm)[..., None]          # (n, F, L)
     px[..., 0] = 0.0                                                        # level 0: exact
     px = np.where(np.isnan(px), np.inf, px)                                 # 0 m x inf px
-    fits = px <= budget
-    fits_well = px <= HYSTERESIS * budget
     levels = np.arange(len(tip_error_m))
-    coarsest = np.where(fits, levels, 0).max(axis=-1)                       # (n, F)
-    coarsest_well = np.where(fits_well, levels, 0).max(axis=-1)
-    out = np.empty(d.shape, dtype=np.int16)
-    current = coarsest[:, 0].copy()
-    for f in range(d.shape[1]):
-        if f:
-            over = ~fits[np.arange(len(members)), f, current]               # must go finer
-            current = np.where(over, coarsest[:, f], np.maximum(current, coarsest_well[:, f]))
-        out[:, f] = current
-    return out
+    first = np.where(px[:, 0] <= budget, levels, 0).max(axis=-1)                      # (n,)
+    coarsest_well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)      # (n, F)
+    # each frame: the level so far, or a coarser one within HYSTERESIS x budget
+    return np.maximum(first[:, None], np.maximum.accumulate(coarsest_well, axis=1)).astype(np.int16)

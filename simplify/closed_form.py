@@ -30,6 +30,7 @@ from .constants import (EXPLICIT_REFINE_EVALUATIONS, EXPLICIT_REFINE_FLOOR,
                         REFINE_DIRECTIONS, REFINE_EVALUATIONS, REFINE_FLOOR,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_TILTED_DIRECTIONS,
                         SIMPLIFY_WIND_RANGE)
+from .groups import carry_matrix
 from .lengths import fit_lengths
 from .refine import StaticModel
 from .sequential_fit import sequential_solution, unit_leaf_forces
@@ -61,14 +62,9 @@ def carried_gains(gains: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """Gains (G, 2, 3) of the chords' angles carried into their group roots' swing frames.
 
     A chord's angles (θb', θr') are measured in its group root's frame W_0 as model.md 5
-    carries a member's: Ω = turn ω', ω' = (-θr', θb', 0), Θb = Ω_y, Θr = -Ω_x
-    (`groups.carry_angles`), a 2×2 map C per group:
-
-        C = [[turn_11, -turn_10], [-turn_01, turn_00]],   gains in W_0 = C · gains.
+    carries a member's (`groups.carry_matrix` C per group): gains in W_0 = C · gains.
     """
-    carry = np.stack([np.stack([turn[:, 1, 1], -turn[:, 1, 0]], -1),
-                      np.stack([-turn[:, 0, 1], turn[:, 0, 0]], -1)], 1)       # (G, 2, 2)
-    return np.einsum("gab,gbj->gaj", carry, gains)
+    return np.einsum("gab,gbj->gaj", carry_matrix(turn), gains)
 
 
 @dataclass

@@ -67,12 +67,12 @@ EXPLICIT_REFINE_FLOOR = 1.0
 EXPLICIT_REFINE_PRIOR = 0.03
 EXPLICIT_REFINE_EVALUATIONS = 100
 EXPLICIT_REFINE_LSMR_ITERATIONS = 50   # bent_leafy level 1: 18 % motion error at 25, 3.5 % at 50
-# Equivalent leaves of an explicit level: the eigen-leaves, or the nine basis leaves where
-# their fit has at most BASIS_LEAF_GAIN x the static error (simplify/explicit.py). Basis
+# Equivalent leaves of an explicit level: the eigen-leaves ("eigen"), or the nine basis leaves
+# ("basis") where their fit has at most BASIS_LEAF_GAIN x the static error
+# (simplify/explicit.py). Basis
 # leaves: bent_leafy level 2 21 % -> 1.7 % motion error; but where they gain less they are
 # not worth their leaves, and they carry a scene's level switches less well (twin_draw
 # level 9, 1.34x lower static error: the scene test's verified error 0.88 -> 1.19 px).
-EXPLICIT_LEAF_SETS = ("eigen", "basis")
 BASIS_LEAF_GAIN = 0.5
 BASIS_LEAF_FLOOR = 1e-3       # a basis leaf starts at least at this x the group's leaf area
 KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA

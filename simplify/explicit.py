@@ -38,7 +38,7 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, EXPLICIT_LEAF_SETS, KAPPA_RANGE, LEVEL_RATIO
+from .constants import BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, KAPPA_RANGE, LEVEL_RATIO
 from .groups import main_paths
 from .static import rest_frames
 
@@ -384,6 +384,16 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         "drag_coefficient", "leaf_force_scale")]
     declarations = ["branch F: length=1 radius=1 bend_strength=1 rotation_strength=1", "leaf L: area=1"]
 
+    # the groups' own strengths and amplitude factors, in group order (any leaf set)
+    paths = main_paths(original, grouping.group, grouping.count)
+    parts = static_parts(original, fit_directions(4, 0, 0.0))
+    bend, rot = static_angles(original, parts.leaf + parts.drag)
+    weights = ([np.abs(bend[:, p]).mean(axis=0) for p in paths],
+               [np.abs(rot[:, p]).mean(axis=0) for p in paths])
+    kb_group, kr_group, gain_group = dominant_strengths(original, paths, weights, dt, duration)
+    # a stalk keeps the relative bounds (issue 12): fit relative errors
+    settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
+
     def fit(leaves: str) -> tuple[str, float]:
         """The level's text with one leaf set, and its static error (`closed_form`)."""
         sk = explicit_skeleton(original, grouping, leaves)
@@ -410,17 +420,12 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         order = np.array([int(a) for a in skeleton.address])
         position = {int(a): g for g, a in enumerate(sk.branch_address)}
         to_group = np.array([position[a] for a in order])
-        gmap = GroupMap(groups, [sk.paths[to_group[s]] for s in range(skeleton.n_branches)])
-        parts = static_parts(original, fit_directions(4, 0, 0.0))
-        bend, rot = static_angles(original, parts.leaf + parts.drag)
-        weights = ([np.abs(bend[:, p]).mean(axis=0) for p in gmap.paths],
-                   [np.abs(rot[:, p]).mean(axis=0) for p in gmap.paths])
-        kb, kr, gain = dominant_strengths(original, gmap.paths, weights, dt, duration)
+        gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
+        kb, kr = kb_group[to_group], kr_group[to_group]
         params = closed_form(original, skeleton, gmap, refine=refine,
                              turn=swing_turns(original, skeleton, gmap.paths),
-                             kappa_range=KAPPA_RANGE, strengths=(kb, kr), target_gain=gain,
-                             # a stalk keeps the relative bounds (issue 12): fit relative errors
-                             settings=GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE)
+                             kappa_range=KAPPA_RANGE, strengths=(kb, kr),
+                             target_gain=gain_group[to_group], settings=settings)
         fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
                   "rotation_strength": kr}
         for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
@@ -433,10 +438,11 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                      for g in range(grouping.count)]
         return text(values, leaf_area), params.static_error
 
-    # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN)
-    best = fit(EXPLICIT_LEAF_SETS[0])
-    for leaves in EXPLICIT_LEAF_SETS[1:] if refine else ():
-        candidate = fit(leaves)
-        if candidate[1] < BASIS_LEAF_GAIN * best[1]:
-            best = candidate
+    # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;
+    # without the refinement there is no static error to compare)
+    best = fit("eigen")
+    if refine:
+        basis = fit("basis")
+        if basis[1] < BASIS_LEAF_GAIN * best[1]:
+            best = basis
     return best[0], build(parse_lsys(best[0], name)).tree

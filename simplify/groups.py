@@ -332,12 +332,19 @@ def swing_turns(original: Tree, simplified: Tree, paths: list[np.ndarray]) -> np
     return np.einsum("gji,gjk->gik", w0, w1)
 
 
+def carry_matrix(turn: np.ndarray) -> np.ndarray:
+    """(G, 2, 2) maps of (θb, θr) carried by ``turn`` (G, 3, 3) into another swing frame, as
+    `combined_angles` carries a member: Ω = M ω, ω = (-θr, θb, 0); Θb = Ω_y, Θr = -Ω_x, so
+
+        [Θb, Θr] = [[M_11, -M_10], [-M_01, M_00]] [θb, θr]."""
+    return np.stack([np.stack([turn[:, 1, 1], -turn[:, 1, 0]], -1),
+                     np.stack([-turn[:, 0, 1], turn[:, 0, 0]], -1)], 1)
+
+
 def carry_angles(turn: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Angles (..., G) of one-member paths carried by ``turn`` (G, 3, 3) into another swing
-    frame, as `combined_angles` carries a member: Ω = M ω, ω = (-θr, θb, 0); Θb = Ω_y, Θr = -Ω_x."""
-    b = turn[:, 1, 1] * bend - turn[:, 1, 0] * rot
-    r = turn[:, 0, 0] * rot - turn[:, 0, 1] * bend
-    return b, r
+    """Angles (..., G) of one-member paths carried by ``turn`` (G, 3, 3) (`carry_matrix`)."""
+    c = carry_matrix(turn)
+    return c[:, 0, 0] * bend + c[:, 0, 1] * rot, c[:, 1, 0] * bend + c[:, 1, 1] * rot
 
 
 def _concatenate(paths: list[np.ndarray]) -> np.ndarray:

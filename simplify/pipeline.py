@@ -208,18 +208,19 @@ def simplify_explicit(system: LSystem, options: Options,
                 options.every)
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
-    notes = _angle_notes(runs)
+    largest = runs.largest_combined_angle()
+    notes = _angle_notes(runs.winds, largest)
     out = parse_lsys(text, system.source)
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=comment)
-    return Result(out, write_lsys(out, comment), original, tree, reports, summary, notes,
-                  runs.largest_combined_angle())
+    return Result(out, write_lsys(out, comment), original, tree, reports, summary, notes, largest)
 
 
-def _angle_notes(runs: Runs) -> list[str]:
-    """A warning where the original's combined angles pass SMALL_ANGLE_LIMIT (targets hold below)."""
-    over = [w.speed for w, a in zip(runs.winds, runs.largest_combined_angle()) if a > SMALL_ANGLE_LIMIT]
+def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
+    """A warning where the original's combined angles (``largest``, per wind) pass
+    SMALL_ANGLE_LIMIT (the targets hold below)."""
+    over = [w.speed for w, a in zip(winds, largest) if a > SMALL_ANGLE_LIMIT]
     if not over:
         return []
     return [f"warning: the original's combined angles pass {SMALL_ANGLE_LIMIT:g} rad at "
@@ -284,12 +285,13 @@ def simplify_grammar(system: LSystem, options: Options,
         runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
-    notes += _angle_notes(runs)
+    largest = runs.largest_combined_angle()
+    notes += _angle_notes(runs.winds, largest)
     header = header_comment(system, options, reports, summary, form="grammar",
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)
     text = write_lsys(out, header)
-    return Result(out, text, original, tree, reports, summary, notes, runs.largest_combined_angle())
+    return Result(out, text, original, tree, reports, summary, notes, largest)
 
 
 def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
