@@ -416,3 +416,9 @@ def _floor_overload(x):
 def _abs_overload(v):
     if isinstance(v, Vec4Type):
         return lambda v: vabs(v)
+
+
+@overload(math.sqrt)
+def _sqrt_overload(v):
+    if isinstance(v, Vec4Type):
+        return lambda v: vsqrt(v)
