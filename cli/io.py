@@ -39,9 +39,21 @@ def say(message: str) -> None:
     written (closed, a full disk) loses the line but never fails the command: it is
     not the command's data."""
     try:
-        console().print(message, markup=False)
+        if _console is None and not _is_terminal(sys.stderr):
+            # what rich would write to a file or pipe, without importing it (~0.1 s)
+            sys.stderr.write(message + "\n")
+            sys.stderr.flush()
+        else:
+            console().print(message, markup=False)
     except OSError:
         pass
+
+
+def _is_terminal(stream) -> bool:
+    try:
+        return stream is not None and stream.isatty()
+    except (AttributeError, ValueError, OSError):
+        return False
 
 
 MAX_WARNINGS = 20            # warnings shown per command; the rest are counted

@@ -6,21 +6,55 @@ in `compare`); 2 bad input or usage (one line naming file, line and column).
 
 from __future__ import annotations
 
+import importlib
 import signal
 import sys
+from collections.abc import MutableMapping
 
 import click
 
 from .discipline import (
     Terminated, harden_params, install_signal_handlers, run_guarded, set_current_command,
 )
-from .compare_cmd import compare
-from .derive_cmd import derive
-from .export_cmd import export
-from .scene_cmd import scene
-from .simplify_cmd import simplify
-from .simulate_cmd import simulate
-from .view_cmd import view
+
+# command -> the module of cli/ that defines it; a command's module (and what it
+# imports) loads only when that command runs or --help lists them all
+COMMAND_MODULES = {"derive": "derive_cmd", "simulate": "simulate_cmd",
+                   "simplify": "simplify_cmd", "compare": "compare_cmd", "scene": "scene_cmd",
+                   "export": "export_cmd", "view": "view_cmd"}
+
+
+class LazyCommands(MutableMapping):
+    """The group's name -> command mapping, importing a command's module on first use."""
+
+    def __init__(self, modules: dict[str, str]):
+        self._modules = dict(modules)
+        self._loaded: dict[str, click.Command] = {}
+
+    def __getitem__(self, name):
+        if name not in self._loaded:
+            if name not in self._modules:
+                raise KeyError(name)
+            module = importlib.import_module(f"{__package__}.{self._modules[name]}")
+            self._loaded[name] = getattr(module, name)
+        return self._loaded[name]
+
+    def __setitem__(self, name, command):
+        self._loaded[name] = command
+        self._modules.setdefault(name, "")
+
+    def __delitem__(self, name):
+        del self._modules[name]
+        self._loaded.pop(name, None)
+
+    def __iter__(self):
+        return iter(self._modules)
+
+    def __len__(self):
+        return len(self._modules)
+
+    def __contains__(self, name):
+        return name in self._modules
 
 
 class PlantlodGroup(click.Group):
@@ -59,7 +93,8 @@ def _named(exc: BaseException, ctx) -> BaseException:
     return exc
 
 
-@click.group(cls=PlantlodGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=PlantlodGroup, commands=LazyCommands(COMMAND_MODULES),
+             context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="plantlod")
 def cli():
     """Wind-blown L-system trees with levels of detail.
@@ -80,10 +115,6 @@ def cli():
       plantlod simplify examples/stalk8.lsys --level 1 -o stalk4.lsys
       plantlod compare examples/stalk8.lsys stalk4.lsys --dt 0.01 --duration 20 --wind-speed 5
     """
-
-
-for command in (derive, simulate, simplify, compare, scene, export, view):
-    cli.add_command(command)
 
 
 def main() -> None:
