@@ -32,6 +32,8 @@ def tree_bytes(tree: Tree) -> bytes:
     fields = {}
     for f in dataclasses.fields(tree):
         value = getattr(tree, f.name)
+        if value is None:                  # force_gain of a tree without gain matrices
+            continue
         if f.name in _STRINGS:
             fields[f.name] = np.array(list(value), dtype=str)
         elif f.name in ("leaf_force_scale", "source"):
@@ -59,8 +61,8 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     try:
         for f in dataclasses.fields(Tree):
             if f.name not in archive.files:
-                if f.name == "group_root":
-                    values[f.name] = []
+                if f.name in ("group_root", "force_gain"):     # optional: levels only
+                    values[f.name] = [] if f.name == "group_root" else None
                     continue
                 raise InputError(f"the archive has no {f.name!r}", source)
             a = archive[f.name]

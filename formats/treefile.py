@@ -29,9 +29,15 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths
 
 FORMAT_NAME = "plantlod-tree"
+# Version 1: plain trees. Version 2: a level's tree, whose header lists in "extras" the
+# keys every branch record adds after "offset": "group_root" (the address of the original
+# branch rooting its group, explicit form) and "gain" (its gain matrix, 6 numbers).
 FORMAT_VERSION = 1
+LEVEL_FORMAT_VERSION = 2
+EXTRA_BRANCH_KEYS = ("group_root", "gain")
 
 HEADER_KEYS = ("format", "version", "source", "branches", "leaves", "leaf_force_scale", "depth")
+LEVEL_HEADER_KEYS = (*HEADER_KEYS, "extras")
 BRANCH_KEYS = ("type", "index", "address", "symbol", "parent", *BRANCH_FLOAT_FIELDS,
                "phi", "alpha", "psi", "offset")
 LEAF_KEYS = ("type", "index", "address", "branch", "area", "normal")
@@ -64,24 +70,34 @@ def _columns(tree: Tree, names: list[str], rows: int) -> list[list[float]]:
     return out
 
 
+def _extras(tree: Tree) -> tuple[str, ...]:
+    """The level keys ``tree`` needs in its branch records (`EXTRA_BRANCH_KEYS`)."""
+    return tuple(k for k, present in zip(EXTRA_BRANCH_KEYS, (
+        bool(tree.group_root), getattr(tree, "force_gain", None) is not None)) if present)
+
+
 def iter_tree_lines(tree: Tree) -> Iterator[str]:
     """Yield the lines of the tree file, each ending in ``"\\n"``."""
     b, f = tree.n_branches, tree.n_leaves
+    extras = _extras(tree)
     header = {
         "format": FORMAT_NAME,
-        "version": FORMAT_VERSION,
+        "version": LEVEL_FORMAT_VERSION if extras else FORMAT_VERSION,
         "source": str(tree.source),
         "branches": b,
         "leaves": f,
         "leaf_force_scale": float(tree.leaf_force_scale) + 0.0,
         "depth": int(chain_depths(tree.parent).max(initial=0)),
     }
+    if extras:
+        header["extras"] = list(extras)
     if not math.isfinite(header["leaf_force_scale"]):
         raise RunFailure("cannot write the tree: leaf_force_scale is not finite")
     # Everything is converted (and checked) before the first line goes out.
     (length, radius, k_bs, k_rs, k_fa, k_fp, c_d, euler, offset) = _columns(
         tree, [*BRANCH_FLOAT_FIELDS, "euler", "offset"], b)
     area, normal = _columns(tree, ["leaf_area", "leaf_normal"], f)
+    gain = _columns(tree, ["force_gain"], b)[0] if "gain" in extras else None
     parents = np.asarray(tree.parent).tolist()
     branch_of = np.asarray(tree.leaf_branch).tolist()
     yield json.dumps(header, ensure_ascii=False) + "\n"
@@ -97,7 +113,10 @@ def iter_tree_lines(tree: Tree) -> Iterator[str]:
                f'"force_absorbed": {k_fa[i]!r}, "force_propagated": {k_fp[i]!r}, '
                f'"drag_coefficient": {c_d[i]!r}, '
                f'"phi": {phi!r}, "alpha": {alpha!r}, "psi": {psi!r}, '
-               f'"offset": [{ox!r}, {oy!r}, {oz!r}]}}\n')
+               f'"offset": [{ox!r}, {oy!r}, {oz!r}]'
+               + (f', "group_root": {enc(tree.group_root[i])}' if "group_root" in extras else "")
+               + (f', "gain": [{", ".join(map(repr, gain[i]))}]' if gain is not None else "")
+               + '}\n')
 
     for j in range(f):
         nx, ny, nz = normal[j]
@@ -337,10 +356,13 @@ def _read(lines: _Lines) -> Tree:
     if head.record.get("format") != FORMAT_NAME:
         raise head.error(f'not a plantlod tree file: expected "format": "{FORMAT_NAME}" '
                          "in the first record", "format" if "format" in head.record else None)
-    head.keys(HEADER_KEYS)
-    if head.integer("version") != FORMAT_VERSION:
-        raise head.error(f"tree file version {head.record['version']} is not supported; "
-                         f"expected {FORMAT_VERSION}", "version")
+    version = head.record.get("version")
+    if type(version) is not int or version not in (FORMAT_VERSION, LEVEL_FORMAT_VERSION):
+        raise head.error(f"tree file version {version} is not supported; "
+                         f"expected {FORMAT_VERSION} or {LEVEL_FORMAT_VERSION}",
+                         "version" if "version" in head.record else None)
+    head.keys(LEVEL_HEADER_KEYS if version == LEVEL_FORMAT_VERSION else HEADER_KEYS)
+    extras = _read_extras(head) if version == LEVEL_FORMAT_VERSION else ()
     n_branches = head.integer("branches", 0, None, '"branches" must be a non-negative integer')
     n_leaves = head.integer("leaves", 0, None, '"leaves" must be a non-negative integer')
     depth = head.integer("depth", 0, None, '"depth" must be a non-negative integer')
@@ -349,7 +371,7 @@ def _read(lines: _Lines) -> Tree:
 
     counts = f"the header says {n_branches} branches, then {n_leaves} leaves"
     seen: dict[str, int] = {}                  # branch address -> index
-    branches = _read_section(lines, n_branches, "branch", counts, _Branches(seen))
+    branches = _read_section(lines, n_branches, "branch", counts, _Branches(seen, extras))
     leaves = _read_section(lines, n_leaves, "leaf", counts, _Leaves(n_branches))
     extra = lines.next()
     if extra is not None:
@@ -360,9 +382,21 @@ def _read(lines: _Lines) -> Tree:
     if real_depth != depth:
         raise head.error(f'"depth" is {depth}, but the branches form chains of at most '
                          f"{real_depth}", "depth")
+    if "gain" in extras:
+        branches["force_gain"] = branches.pop("gain").reshape(n_branches, 6)
     tree = Tree(**branches, **leaves, leaf_force_scale=leaf_force_scale, source=origin)
     tree.check()
     return tree
+
+
+def _read_extras(head: "_Line") -> tuple[str, ...]:
+    """The header's "extras": a list of distinct keys of EXTRA_BRANCH_KEYS, in that order."""
+    v = head.record["extras"]
+    if (type(v) is not list or not all(type(k) is str for k in v)
+            or list(v) != [k for k in EXTRA_BRANCH_KEYS if k in v] or not v):
+        raise head.error(f'"extras" must be a non-empty list of {", ".join(EXTRA_BRANCH_KEYS)} '
+                         f"(in that order, each once), got {json.dumps(v)}", "extras")
+    return tuple(v)
 
 
 def _read_section(lines: _Lines, count: int, kind: str, counts: str, section) -> dict:
@@ -472,11 +506,26 @@ def _common(cols: dict[str, list], start: int, addresses: re.Pattern) -> list[st
 class _Branches:
     """Converts blocks of branch records; remembers the addresses seen."""
 
-    def __init__(self, seen: dict[str, int]):
+    def __init__(self, seen: dict[str, int], extras: tuple[str, ...] = ()):
         self.seen = seen
+        self.extras = extras
+        self.keys = (*BRANCH_KEYS, *extras)
+
+    def _extra_columns(self, cols: dict[str, list], n: int) -> dict:
+        out = {}
+        if "group_root" in self.extras:
+            roots = _typed(cols["group_root"], {str})
+            if not _LEAF_ADDRESSES.match("".join(a + "\n" for a in roots)):
+                raise _Reject
+            out["group_root"] = roots
+        if "gain" in self.extras:
+            if not set(map(len, _typed(cols["gain"], {list}))) <= {6}:
+                raise _Reject
+            out["gain"] = _floats(list(chain.from_iterable(cols["gain"]))).reshape(n, 6)
+        return out
 
     def __call__(self, block: list[_Line], start: int) -> dict:
-        cols = _transpose(block, BRANCH_KEYS)
+        cols = _transpose(block, self.keys)
         address = _common(cols, start, _BRANCH_ADDRESSES)
         if len(set(address)) != len(address) or not self.seen.keys().isdisjoint(address):
             raise _Reject
@@ -492,6 +541,7 @@ class _Branches:
         out.update(address=address, symbol=symbol, parent=parent,
                    euler=np.stack(angles, axis=1).reshape(len(parent), 3),
                    offset=_vectors(cols["offset"]))
+        out.update(self._extra_columns(cols, len(parent)))
         self.seen.update(zip(address, range(start, start + len(address))))
         return out
 
@@ -499,7 +549,7 @@ class _Branches:
         """Record by record: the definition of a valid branch record, with messages."""
         rows = []
         for i, line in enumerate(block, start):
-            line.keys(BRANCH_KEYS)
+            line.keys(self.keys)
             line.integer("index", i, i, f'"index" is {line.record["index"]}, expected {i} '
                                         "(branches are numbered in order from 0)")
             earlier = (f"or an earlier branch (0..{i - 1})" if i
@@ -517,12 +567,29 @@ class _Branches:
                 raise line.error(f'"symbol" must be one character, got '
                                  f"{json.dumps(symbol, ensure_ascii=False)}", "symbol")
             values = [line.number(k) for k in (*BRANCH_FLOAT_FIELDS, "phi", "alpha", "psi")]
-            rows.append((address, symbol, parent, [*values, *line.vector("offset")]))
+            extra = {}
+            if "group_root" in self.extras:
+                root = line.string("group_root")
+                if not _LEAF_ADDRESS.match(root):
+                    raise line.error(f'"group_root" must be an address like "0.2.1", got '
+                                     f"{json.dumps(root, ensure_ascii=False)}", "group_root")
+                extra["group_root"] = root
+            if "gain" in self.extras:
+                g = line.record["gain"]
+                if type(g) is not list or len(g) != 6:
+                    raise line.error(f'"gain" must be a list of 6 numbers, got {_json_type(g)}',
+                                     "gain")
+                extra["gain"] = [_finite(line, "gain", x) for x in g]
+            rows.append((address, symbol, parent, [*values, *line.vector("offset")], extra))
         floats = np.array([r[3] for r in rows], dtype=np.float64).reshape(len(rows), 13)
         out = {name: floats[:, k].copy() for k, name in enumerate(BRANCH_FLOAT_FIELDS)}
         out.update(address=[r[0] for r in rows], symbol=[r[1] for r in rows],
                    parent=np.array([r[2] for r in rows], dtype=np.int64),
                    euler=floats[:, 7:10].copy(), offset=floats[:, 10:13].copy())
+        if "group_root" in self.extras:
+            out["group_root"] = [r[4]["group_root"] for r in rows]
+        if "gain" in self.extras:
+            out["gain"] = np.array([r[4]["gain"] for r in rows], dtype=np.float64).reshape(-1, 6)
         return out
 
 

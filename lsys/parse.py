@@ -32,7 +32,7 @@ from .expr import (
     free_names,
 )
 from .system import (
-    BRACKETS, BRANCH_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, STRUCTURE_SYMBOLS,
+    BRACKETS, BRANCH_KEYS, GAIN_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, STRUCTURE_SYMBOLS,
     TURTLE_NO_ARG, TURTLE_OPTIONAL_ARG, TURTLE_SYMBOLS, UNSUPPORTED_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
@@ -45,7 +45,7 @@ REQUIRED_HEADER_KEYS = ("derivation_length", "branching_angle", "force_absorbed"
 _INTEGER_KEYS = frozenset({"derivation_length", "seed"})
 SECTIONS = ("productions", "interpretation", "overrides", "groups")
 _DECLARATIONS = ("define", "branch", "leaf")
-OVERRIDE_KEYS = {**BRANCH_KEYS, **LEAF_KEYS}
+OVERRIDE_KEYS = {**BRANCH_KEYS, **LEAF_KEYS, **{k: False for k in GAIN_KEYS}}
 
 _STATEMENT_WORDS = _DECLARATIONS + SECTIONS + HEADER_KEYS + ("axiom",)
 _STATEMENTS_HELP = ("a header key, define, branch, leaf, axiom:, productions:, "
@@ -824,6 +824,14 @@ class _FileParser:
                                   LEAF_ORDINAL_KEY)
         if not values:
             raise cur.error(f"expected key=value after '{text}:'")
+        gains = [k for k in GAIN_KEYS if k in values]
+        if gains and len(gains) < len(GAIN_KEYS):
+            missing = ", ".join(k for k in GAIN_KEYS if k not in values)
+            raise cur.error(f"a gain matrix needs all six keys {' '.join(GAIN_KEYS)}; "
+                            f"'{text}:' lacks {missing}", start)
+        if gains and "force_absorbed" in values:
+            raise cur.error(f"'{text}:' sets both a gain matrix and force_absorbed; expected one "
+                            "of them (the gain matrix replaces k_FA)", start)
         self.overrides.append(Override(address, tuple(sorted(values.items())), pos))
         self.override_pos[address] = pos
 

@@ -62,6 +62,11 @@ BRANCH_KEYS = {
     "drag_coefficient": False,
 }
 LEAF_KEYS = {"area": True}
+# The gain matrix of a level's branch (model.md 5), rows [G_bx G_by G_bz G_rx G_ry G_rz]:
+# overrides only; a line that sets one sets all six and no force_absorbed.
+GAIN_KEYS = ("g_bx", "g_by", "g_bz", "g_rx", "g_ry", "g_rz")
+# The row of a branch without a gain matrix: G = k_FA [[1, 0, 0], [0, 1, 0]].
+IDENTITY_GAIN = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 # An override may also set the area of one leaf among several drawn at its address:
 # area_K is the K-th (from 0, in drawing order) leaf attached there (docs/lsys-format.md).
 LEAF_ORDINAL_KEY = re.compile(r"area_(0|[1-9][0-9]*)")

@@ -88,6 +88,11 @@ class Tree:
       leaf_area    : float64      m^2
       leaf_normal  : (F, 3) float64  rest normal in its branch's frame (unit)
       leaf_address : list[str]    address of the module that made it
+    Optional, levels only (model.md 5):
+      force_gain   : (B, 6) float64 or None  the gain matrix G per branch, rows
+                     [G_bx G_by G_bz G_rx G_ry G_rz], read with k_FA as a factor: a branch
+                     that sets G has k_FA = 1, one that does not has the row
+                     [1 0 0 0 1 0]; None when no branch sets one
     Tree-level:
       leaf_force_scale : s_L
       source           : the file it came from (for headers and messages)
@@ -114,6 +119,7 @@ class Tree:
     # explicit form: per branch, the address of the original branch rooting its group
     # (the file's `groups:` section); empty for a tree whose addresses say it
     group_root: list[str] = field(default_factory=list)
+    force_gain: np.ndarray | None = None
 
     @property
     def n_branches(self) -> int:
@@ -148,6 +154,8 @@ class Tree:
         idx = np.arange(b)
         if np.any(self.parent >= idx) or np.any(self.parent < -1):
             raise ValueError("branches must be stored parent-before-child")
+        if self.force_gain is not None and np.shape(self.force_gain) != (b, 6):
+            raise ValueError(f"force_gain must have shape ({b}, 6)")
         f = self.n_leaves
         if self.leaf_area.shape != (f,) or self.leaf_normal.shape != (f, 3) or len(self.leaf_address) != f:
             raise ValueError("leaf arrays disagree in length")

@@ -55,7 +55,7 @@ from .constants import DEFAULT_MOVE_LENGTH, DOLLAR_VERTICAL_TOL
 from .derived import DerivedString
 from .errors import InputError
 from .rotation import rot_x, rot_y, rot_z, zyz_from_matrix
-from .system import BRANCH_KEYS, LEAF_ORDINAL_KEY, LSystem
+from .system import BRANCH_KEYS, GAIN_KEYS, IDENTITY_GAIN, LEAF_ORDINAL_KEY, LSystem
 from .tree import Tree, chain_depths, occurrence_numbers
 
 # Module kinds.
@@ -474,7 +474,10 @@ def _assemble(system, derived, codes, kind, value, has_param, scopes, turns, rol
                                 values["radius"])
     leaf_area = _leaf_areas(system, derived.alphabet, codes[leaves], value[leaves],
                             has_param[leaves])
+    for key in GAIN_KEYS:                        # NaN: no gain matrix set there
+        values[key] = np.full(len(branches), np.nan)
     _apply_overrides(system, derived, branches, values, leaves, leaf_area)
+    values["force_gain"] = _gain_rows(values)
 
     tree = Tree(
         address=_branch_addresses(derived, branches),
@@ -510,6 +513,19 @@ def _branch_values(system, alphabet, bcodes, bvalue, bhas) -> dict[str, np.ndarr
     values = {key: table[key][bcodes] for key in BRANCH_KEYS}
     values["length"] = np.where(bhas, bvalue, values["length"])
     return values
+
+
+def _gain_rows(values: dict[str, np.ndarray]) -> np.ndarray | None:
+    """Pop the six gain keys from ``values``: (B, 6) rows (model.md 5), None where no branch
+    sets a gain matrix. A branch that sets one gets k_FA = 1 (G replaces it); the others
+    the row IDENTITY_GAIN, which with their k_FA is the original model's update."""
+    columns = np.stack([values.pop(key) for key in GAIN_KEYS], axis=1)
+    has = ~np.isnan(columns[:, 0])
+    if not has.any():
+        return None
+    rows = np.where(has[:, None], columns, np.asarray(IDENTITY_GAIN))
+    values["force_absorbed"] = np.where(has, 1.0, values["force_absorbed"])
+    return np.ascontiguousarray(rows)
 
 
 def _leaf_areas(system, alphabet, lcodes, lvalue, lhas) -> np.ndarray:

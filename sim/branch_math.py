@@ -69,6 +69,13 @@ def drag_magnitude(s, hx, hy, hz, area, speed2):
 
 
 @numba.njit(inline="always")
+def gained_forces(gbx, gby, gbz, grx, gry, grz, fb, fr, fa):
+    """The gain matrix of model.md 5 applied to the force in the swing frame f = (fb, fr, fa):
+    (G_bx fb + G_by fr + G_bz fa, G_rx fb + G_ry fr + G_rz fa)."""
+    return gbx * fb + gby * fr + gbz * fa, grx * fb + gry * fr + grz * fa
+
+
+@numba.njit(inline="always")
 def advance_angle(angle, velocity, kfa, force, k, damping, dt):
     """The semi-implicit update of one angle: v += k_FA f - theta k / 1000 - c v; theta += v dt."""
     v = velocity + kfa * force - angle * k - damping * velocity

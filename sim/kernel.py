@@ -17,8 +17,12 @@ One step, from t_{k-1} to t_k, with the wind V = V(t_{k-1}):
    the drag d_i = C_d v^2 (2 pi r L) |R_i e_z x V^| V^ is stored.
 2. Backward pass (child before parent): F_i = d_i + k_fp (leaves_i + sum of
    children's F), added into the parent's sum; then the semi-implicit update
-       vb += k_FA (F_i . S_i e_x) - thb k_bs / 1000 - c vb;  thb += vb dt
-       vr += k_FA (F_i . S_i e_y) - thr k_rs / 1000 - c vr;  thr += vr dt
+       vb += k_FA (F_i . S_i e_x) - thb k_bs / 1000 - c_b vb;  thb += vb dt
+       vr += k_FA (F_i . S_i e_y) - thr k_rs / 1000 - c_r vr;  thr += vr dt
+   or, for a tree whose branches carry the gain matrix G of model.md 5 (a level),
+   with f = S_i^T F_i: vb += k_FA (G_b . f) - ...; vr += k_FA (G_r . f) - ...
+   (a branch with G has k_FA = 1; one without has G = [[1, 0, 0], [0, 1, 0]], which
+   gives the same bits as the first form). c_b, c_r per branch: `damping`.
    Every frame was computed from the old angles in pass 1, so updating a
    branch's angles in pass 2 does not change the step's forces.
 
@@ -38,7 +42,8 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
-from .branch_math import advance_angle, drag_magnitude, swing, times_rest, twist
+from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
+from .damping import Damping, as_damping, coefficients
 from .kinematics import rest_swing_rotation
 
 
@@ -57,7 +62,9 @@ class KernelModel:
     leaf_start : (B + 1,) int64, leaves of branch i are rows leaf_start[i]:leaf_start[i+1]
     leaf_scale : (F,) s_L * A_j (m^2), grouped by branch
     leaf_normal: (F, 3) rest normals in the branch frame, grouped by branch
-    damping    : c (dimensionless, per step)
+    gain       : (B, 6) the gain matrix rows [G_bx G_by G_bz G_rx G_ry G_rz] per branch
+                 (multiplied by k_FA), or (0, 6) when no branch has one (model.md 5)
+    damping    : c or the damping ratio (`damping.Damping`); per-branch c from Δt
     """
 
     parent: np.ndarray
@@ -72,7 +79,13 @@ class KernelModel:
     leaf_start: np.ndarray
     leaf_scale: np.ndarray
     leaf_normal: np.ndarray
-    damping: float
+    gain: np.ndarray
+    damping: Damping
+
+    def branch_damping(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(c_b, c_r): per-branch damping of the bend and the rotation at time step ``dt``,
+        the shapes of ``bend_k`` and ``rot_k``."""
+        return coefficients(self.damping, self.bend_k, self.rot_k, dt)
 
 
 class KernelState:
@@ -93,12 +106,21 @@ class KernelState:
         self.frame = np.zeros((b, 9))
         self.swing_x = np.zeros((b, 3))
         self.swing_y = np.zeros((b, 3))
+        self.swing_z = np.zeros((b, 3))
         self.acc = np.zeros((b, 3))
         self.drag = np.zeros((b, 3))
 
 
-def prepare(tree: Tree, damping: float = 0.0) -> KernelModel:
-    """Flatten ``tree`` into the kernel's arrays (see `KernelModel`)."""
+def gain_rows(tree: Tree) -> np.ndarray:
+    """(B, 6) float64 gain matrices of ``tree``'s branches, or (0, 6) when none has one."""
+    gain = getattr(tree, "force_gain", None)
+    if gain is None:
+        return np.zeros((0, 6))
+    return np.ascontiguousarray(np.asarray(gain, dtype=np.float64).reshape(tree.n_branches, 6))
+
+
+def prepare(tree: Tree, damping: "float | Damping" = 0.0) -> KernelModel:
+    """Flatten ``tree`` into the kernel's arrays (see `KernelModel`); damping: c or a `Damping`."""
     b = tree.n_branches
     euler = np.asarray(tree.euler, dtype=np.float64).reshape(b, 3)
     leaf_branch = np.asarray(tree.leaf_branch, dtype=np.int64)
@@ -123,17 +145,19 @@ def prepare(tree: Tree, damping: float = 0.0) -> KernelModel:
             float(tree.leaf_force_scale) * np.asarray(tree.leaf_area, dtype=np.float64)[order]),
         leaf_normal=np.ascontiguousarray(
             np.asarray(tree.leaf_normal, dtype=np.float64).reshape(-1, 3)[order]),
-        damping=float(damping),
+        gain=gain_rows(tree),
+        damping=as_damping(damping),
     )
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k, drag,
-             leaf_start, leaf_scale, leaf_normal, damping,
-             bend, rot, bend_vel, rot_vel, frame, swing_x, swing_y, acc, dragf,
+             leaf_start, leaf_scale, leaf_normal, gain, damp_b, damp_r,
+             bend, rot, bend_vel, rot_vel, frame, swing_x, swing_y, swing_z, acc, dragf,
              wind, dt, first_step, every, out_bend, out_rot, out_row):
     """Advance len(wind) steps; see `advance`. Returns (rows written, bad branch, bad step)."""
     n = parent.shape[0]
+    gained = gain.shape[0] > 0
     rows = 0
     for j in range(wind.shape[0]):
         vx = wind[j, 0]
@@ -171,6 +195,7 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             sw = swing(m, tb, tr, theta, c, s)
             swing_x[i, 0] = sw[0]; swing_x[i, 1] = sw[3]; swing_x[i, 2] = sw[6]
             swing_y[i, 0] = sw[1]; swing_y[i, 1] = sw[4]; swing_y[i, 2] = sw[7]
+            swing_z[i, 0] = sw[2]; swing_z[i, 1] = sw[5]; swing_z[i, 2] = sw[8]
             f = twist(sw, cos_psi[i], sin_psi[i])
             for q_ in range(9):
                 frame[i, q_] = f[q_]
@@ -221,8 +246,12 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             kfa = absorbed[i]
             fb = fx * swing_x[i, 0] + fy * swing_x[i, 1] + fz * swing_x[i, 2]
             fr = fx * swing_y[i, 0] + fy * swing_y[i, 1] + fz * swing_y[i, 2]
-            tb, vb = advance_angle(bend[i], bend_vel[i], kfa, fb, bend_k[i], damping, dt)
-            tr, vr = advance_angle(rot[i], rot_vel[i], kfa, fr, rot_k[i], damping, dt)
+            if gained:
+                fa = fx * swing_z[i, 0] + fy * swing_z[i, 1] + fz * swing_z[i, 2]
+                fb, fr = gained_forces(gain[i, 0], gain[i, 1], gain[i, 2], gain[i, 3],
+                                       gain[i, 4], gain[i, 5], fb, fr, fa)
+            tb, vb = advance_angle(bend[i], bend_vel[i], kfa, fb, bend_k[i], damp_b[i], dt)
+            tr, vr = advance_angle(rot[i], rot_vel[i], kfa, fr, rot_k[i], damp_r[i], dt)
             bend_vel[i] = vb
             rot_vel[i] = vr
             bend[i] = tb
@@ -257,11 +286,13 @@ def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
     the state then holds that step's (non-finite) values and stepping stopped.
     """
     wind = np.ascontiguousarray(wind, dtype=np.float64)
+    damp_b, damp_r = model.branch_damping(dt)
     return _advance(model.parent, model.rest, model.cos_psi, model.sin_psi,
                     model.absorbed, model.propagated, model.bend_k, model.rot_k,
                     model.drag, model.leaf_start, model.leaf_scale, model.leaf_normal,
-                    model.damping,
+                    model.gain, damp_b, damp_r,
                     state.bend, state.rot, state.bend_vel, state.rot_vel,
-                    state.frame, state.swing_x, state.swing_y, state.acc, state.drag,
+                    state.frame, state.swing_x, state.swing_y, state.swing_z, state.acc,
+                    state.drag,
                     wind, float(dt), int(first_step), int(every), out_bend, out_rot,
                     int(out_row))

@@ -24,6 +24,7 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
 from .constants import THREADS_ENV
+from .damping import Damping
 from .kernel import KernelModel, prepare   # numba: the engine compiles on first use
 from .run import check_held_angles
 
@@ -38,7 +39,8 @@ class LaneModel(KernelModel):
     """
 
     @classmethod
-    def from_tree(cls, tree: Tree, damping: float = 0.0) -> "LaneModel":
+    def from_tree(cls, tree: Tree, damping: "float | Damping" = 0.0) -> "LaneModel":
+        """damping: the coefficient c, or a `damping.Damping` (c or a damping ratio)."""
         k = prepare(tree, damping)
         return cls(**{f: getattr(k, f) for f in cls.__dataclass_fields__})
 
@@ -173,9 +175,11 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     try:
         if steps and lanes:
             m = lane_model
+            damp_b, damp_r = m.branch_damping(float(dt))
             lanes_kernel.run_lanes_kernel(
                 m.parent, m.rest, m.cos_psi, m.sin_psi, m.absorbed, m.propagated, m.bend_k,
-                m.rot_k, m.drag, m.leaf_start, m.leaf_scale, m.leaf_normal, float(m.damping),
+                m.rot_k, m.drag, m.leaf_start, m.leaf_scale, m.leaf_normal, m.gain,
+                damp_b, damp_r,
                 planes[0], planes[2], planes[1], planes[3],
                 w, int(steps), float(dt), int(first_step), int(every), out_bend, out_rot, 0,
                 bad_branch, bad_step, written)

@@ -32,7 +32,7 @@ import numpy as np
 from numba import prange
 from numba.extending import overload
 
-from .branch_math import advance_angle, drag_magnitude, swing, times_rest, twist
+from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 
 
 def param(a, i, lane):
@@ -55,7 +55,7 @@ BLOCK = 4
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
 def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k, drag,
-                     leaf_start, leaf_scale, leaf_normal, damping,
+                     leaf_start, leaf_scale, leaf_normal, gain, damp_b, damp_r,
                      bend, rot, bend_vel, rot_vel,
                      wind, n_steps, dt, first_step, every, out_bend, out_rot, out_row,
                      bad_branch, bad_step, rows_written):
@@ -64,6 +64,8 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
     parent, rest, cos_psi, sin_psi, leaf_start : the tree's structure (as in `kernel.KernelModel`)
     absorbed, propagated, bend_k, rot_k, drag  : (B,) or (B, W)
     leaf_scale, leaf_normal                    : (F,) or (F, W); (F, 3)
+    gain       : (B, 6) gain matrices (model.md 5) shared by every lane, or (0, 6) for none
+    damp_b, damp_r : (B,) or (B, W) per-branch damping c of the bend and the rotation
     bend, rot, bend_vel, rot_vel               : (B, W) state, updated in place
     wind       : (W, n_steps, 3) m/s, the wind at the start of each step, or (W, 1, 3) steady
     W is a multiple of BLOCK.
@@ -74,12 +76,14 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
     n = parent.shape[0]
     w_total = bend.shape[1]
     steady = wind.shape[1] == 1
+    gained = gain.shape[0] > 0
     n_blocks = w_total // BLOCK        # the caller pads W to a multiple of BLOCK
     for blk in prange(n_blocks):
         l0 = blk * BLOCK
         frame = np.empty((n, 9, BLOCK))
         swx = np.empty((n, 3, BLOCK))
         swy = np.empty((n, 3, BLOCK))
+        swz = np.empty((n, 3, BLOCK))
         acc = np.empty((n, 3, BLOCK))
         dragf = np.empty((n, 3, BLOCK))
         vx = np.empty(BLOCK); vy = np.empty(BLOCK); vz = np.empty(BLOCK)
@@ -135,6 +139,7 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                     sw = swing(m, bend_l[i, k], rot_l[i, k], th[k], cth[k], sth[k])
                     swx[i, 0, k] = sw[0]; swx[i, 1, k] = sw[3]; swx[i, 2, k] = sw[6]
                     swy[i, 0, k] = sw[1]; swy[i, 1, k] = sw[4]; swy[i, 2, k] = sw[7]
+                    swz[i, 0, k] = sw[2]; swz[i, 1, k] = sw[5]; swz[i, 2, k] = sw[8]
                     f = twist(sw, cp, spsi)
                     for q_ in range(9):
                         frame[i, q_, k] = f[q_]
@@ -177,8 +182,14 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                     kfa = param(absorbed, i, l)
                     fb = fx * swx[i, 0, k] + fy * swx[i, 1, k] + fz * swx[i, 2, k]
                     fr = fx * swy[i, 0, k] + fy * swy[i, 1, k] + fz * swy[i, 2, k]
-                    tb, vb = advance_angle(bend_l[i, k], vb_l[i, k], kfa, fb, param(bend_k, i, l), damping, dt)
-                    tr, vr = advance_angle(rot_l[i, k], vr_l[i, k], kfa, fr, param(rot_k, i, l), damping, dt)
+                    if gained:
+                        fa = fx * swz[i, 0, k] + fy * swz[i, 1, k] + fz * swz[i, 2, k]
+                        fb, fr = gained_forces(gain[i, 0], gain[i, 1], gain[i, 2], gain[i, 3],
+                                               gain[i, 4], gain[i, 5], fb, fr, fa)
+                    tb, vb = advance_angle(bend_l[i, k], vb_l[i, k], kfa, fb, param(bend_k, i, l),
+                                           param(damp_b, i, l), dt)
+                    tr, vr = advance_angle(rot_l[i, k], vr_l[i, k], kfa, fr, param(rot_k, i, l),
+                                           param(damp_r, i, l), dt)
                     vb_l[i, k] = vb
                     vr_l[i, k] = vr
                     bend_l[i, k] = tb

@@ -22,6 +22,7 @@ from .constants import MAX_HELD_ANGLE_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
+from .damping import Damping, as_damping
 from .stability import check_stability
 from .wind import Wind
 
@@ -46,12 +47,13 @@ def _check_counts(steps: int, every: int, chunk: int) -> None:
 
 
 def simulate(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
-             damping: float = 0.0, chunk: int | None = None) -> Iterator[Samples]:
+             damping: "float | Damping" = 0.0, chunk: int | None = None) -> Iterator[Samples]:
     """Simulate ``steps`` time steps of ``dt`` seconds; yield chunks of sampled angles.
 
     wind    : any object with ``sample(times (K,)) -> (K, 3)`` (`plantlod.sim.wind`)
     every   : keep the rows of steps k with k % every == 0 (k = 0 included)
-    damping : the velocity damping c of model.md section 4, 0 <= c < 2
+    damping : the velocity damping c of model.md section 4, 0 <= c < 2, or a `Damping`
+              (c or a damping ratio ζ)
     chunk   : rows per yielded chunk at most (default `default_chunk`)
     Raises `InputError` before the first chunk for an unstable dt or bad
     parameters, and `RunFailure` when an angle stops being finite (the chunks
@@ -59,11 +61,12 @@ def simulate(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
     """
     chunk = default_chunk(tree.n_branches) if chunk is None else chunk
     _check_counts(steps, every, chunk)
+    damping = as_damping(damping)
     check_stability(tree, dt, damping)
-    return _chunks(tree, float(dt), int(steps), wind, int(every), float(damping), int(chunk))
+    return _chunks(tree, float(dt), int(steps), wind, int(every), damping, int(chunk))
 
 
-def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: float,
+def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: Damping,
             chunk: int) -> Iterator[Samples]:
     from . import kernel   # numba: only when a simulation actually runs
 
@@ -120,7 +123,7 @@ def check_held_angles(rows: int, branches: int, lanes: int = 1) -> None:
 
 
 def simulate_arrays(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
-                    damping: float = 0.0) -> Samples:
+                    damping: "float | Damping" = 0.0) -> Samples:
     """The whole run as one `Samples`: times (m,), bend and rot (m, B), m = steps // every + 1.
 
     Raises `InputError` before running when the arrays would pass MAX_HELD_ANGLE_BYTES

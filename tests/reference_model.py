@@ -405,7 +405,7 @@ def reference_forces(tree, frames, wind):
     return forces
 
 
-def reference_simulate(tree, dt, steps, wind_fn, damping=0.0):
+def reference_simulate(tree, dt, steps, wind_fn, damping=0.0, damping_ratio=None):
     """Simulate a tree in the wind (model.md sections 3 and 4).
 
     `wind_fn(t)` gives the world wind vector (3 floats, m/s) at time t (s).
@@ -413,9 +413,22 @@ def reference_simulate(tree, dt, steps, wind_fn, damping=0.0):
     using the pose and the wind V((k-1) dt) of t_{k-1}:
       vb <- vb + k_FA (F . S e_x) - theta_b k_bs / 1000 - c vb;  theta_b <- theta_b + vb dt
       vr <- vr + k_FA (F . S e_y) - theta_r k_rs / 1000 - c vr;  theta_r <- theta_r + vr dt
-    with c = `damping`. Returns (bend, rot): lists of steps + 1 lists of B
+    with c = `damping`; or, with `damping_ratio` ζ, each branch's c_b = 4 pi ζ dt / P_b with
+    P_b = 2 pi dt / arccos(1 - k_bs dt / 2000) (and c_r from k_rs), model.md 4 as written.
+    A branch with a gain matrix G (tree.force_gain row [G_bx G_by G_bz G_rx G_ry G_rz],
+    model.md 5) pushes with G (S^T F) in place of k_FA (F . S e_x, F . S e_y).
+    Returns (bend, rot): lists of steps + 1 lists of B
     angles (radians); row 0 is t0 = 0, all zeros. No stability check is made.
     """
+    def period(k):
+        return 2.0 * math.pi * dt / math.acos(1.0 - k * dt / 1000.0 / 2.0)
+
+    damp_b, damp_r = [damping] * tree.n_branches, [damping] * tree.n_branches
+    if damping_ratio is not None:
+        damp_b = [4.0 * math.pi * damping_ratio * dt / period(float(k)) for k in tree.bend_strength]
+        damp_r = [4.0 * math.pi * damping_ratio * dt / period(float(k))
+                  for k in tree.rotation_strength]
+    gain = getattr(tree, "force_gain", None)
     b_count = tree.n_branches
     theta_b, theta_r = [0.0] * b_count, [0.0] * b_count
     vel_b, vel_r = [0.0] * b_count, [0.0] * b_count
@@ -427,12 +440,18 @@ def reference_simulate(tree, dt, steps, wind_fn, damping=0.0):
         new_b, new_r = [0.0] * b_count, [0.0] * b_count
         for i in range(b_count):
             k_fa = float(tree.force_absorbed[i])
-            push_b = k_fa * dot(forces[i], column(swings[i], 0))
-            push_r = k_fa * dot(forces[i], column(swings[i], 1))
+            f = [dot(forces[i], column(swings[i], j)) for j in range(3)]    # S^T F
+            if gain is None:
+                push_b = k_fa * f[0]
+                push_r = k_fa * f[1]
+            else:
+                g = [float(x) for x in gain[i]]
+                push_b = k_fa * (g[0] * f[0] + g[1] * f[1] + g[2] * f[2])
+                push_r = k_fa * (g[3] * f[0] + g[4] * f[1] + g[5] * f[2])
             vel_b[i] = (vel_b[i] + push_b - theta_b[i] * float(tree.bend_strength[i]) / 1000.0
-                        - damping * vel_b[i])
+                        - damp_b[i] * vel_b[i])
             vel_r[i] = (vel_r[i] + push_r - theta_r[i] * float(tree.rotation_strength[i]) / 1000.0
-                        - damping * vel_r[i])
+                        - damp_r[i] * vel_r[i])
             new_b[i] = theta_b[i] + vel_b[i] * dt
             new_r[i] = theta_r[i] + vel_r[i] * dt
         theta_b, theta_r = new_b, new_r

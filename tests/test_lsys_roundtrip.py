@@ -18,6 +18,7 @@ from plantlod.formats.lsys_file import read_lsys, write_lsys
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.expr import FUNCTIONS, Binary, Call, Name, Num, Unary, format_expr
 from plantlod.lsys.parse import OVERRIDE_KEYS, parse_expr, parse_lsys
+from plantlod.lsys.system import GAIN_KEYS
 from plantlod.lsys.system import (
     BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
@@ -287,9 +288,15 @@ def systems(draw) -> LSystem:
                         for k in ("force_absorbed", "force_propagated", "drag_coefficient")})
         for c in _BRANCH if draw(st.booleans()))
     leaves = tuple(LeafSymbol(c, draw(_AMOUNT)) for c in _LEAF if draw(st.booleans()))
+    # a gain matrix comes whole (six keys) and without force_absorbed (model.md 5)
+    plain_keys = sorted(set(OVERRIDE_KEYS) - set(GAIN_KEYS))
     overrides = tuple(
-        Override(address, tuple(sorted((k, draw(_AMOUNT)) for k in draw(
-            st.lists(st.sampled_from(sorted(OVERRIDE_KEYS)), min_size=1, max_size=3, unique=True)))))
+        Override(address, tuple(sorted(
+            [(k, draw(_AMOUNT)) for k in draw(
+                st.lists(st.sampled_from(plain_keys), min_size=1, max_size=3, unique=True))
+             if not (gain and k == "force_absorbed")]
+            + ([(k, draw(st.floats(-1.0, 1.0))) for k in GAIN_KEYS] if gain else []))))
+        for gain in [draw(st.booleans())]
         for address in draw(st.lists(st.lists(st.integers(0, 10**6), min_size=1, max_size=5)
                                      .map(tuple), unique=True, max_size=3)))
     name_chars = st.sampled_from("abcXYZ019 :-_.é()")

@@ -144,8 +144,14 @@ ERRORS = [
     ("wrong format", edit(1, '"plantlod-tree"', '"other"'), 1, '"format"',
      r'not a plantlod tree file'),
     ("no header", drop_line(1), 1, None, r"not a plantlod tree file"),
-    ("version", edit(1, '"version": 1', '"version": 2'), 1, '"version"',
-     r"version 2 is not supported; expected 1"),
+    ("version", edit(1, '"version": 1', '"version": 3'), 1, '"version"',
+     r"version 3 is not supported; expected 1 or 2"),
+    ("version 2 without extras", edit(1, '"version": 1', '"version": 2'), 1, None,
+     r'missing key "extras"'),
+    ("bad extras", edit(1, '"version": 1', '"version": 2, "extras": ["gain", "group_root"]'),
+     1, '"extras"', r'"extras" must be a non-empty list'),
+    ("gain missing", edit(1, '"version": 1', '"version": 2, "extras": ["gain"]'), 2, None,
+     r'missing key "gain" in a branch record'),
     ("missing key", edit(3, '"radius": 0.05, ', ""), 3, None,
      r'missing key "radius" in a branch record'),
     ("unknown key", edit(3, '"radius": 0.05, ', '"radius": 0.05, "colour": 1, '), 3, '"colour"',
@@ -217,6 +223,21 @@ ERRORS = [
     ("header key missing", edit(1, ', "depth": 2', ""), 1, None,
      r'missing key "depth" in a header'),
 ]
+
+
+def test_level_tree_round_trip():
+    """A level's tree keeps its group roots and gain matrices (version 2), bit for bit."""
+    tree = read(VALID)
+    tree.group_root = ["0"] * tree.n_branches
+    tree.force_gain = np.arange(6 * tree.n_branches, dtype=np.float64).reshape(-1, 6) / 7.0 - 1.0
+    text = "".join(treefile.iter_tree_lines(tree))
+    assert '"version": 2' in text.splitlines()[0]
+    back = read(text)
+    assert back.group_root == tree.group_root
+    assert np.array_equal(back.force_gain, tree.force_gain)
+    bad = text.replace('"group_root": "0"', '"group_root": "x"', 1)
+    with pytest.raises(InputError, match='"group_root" must be an address'):
+        read(bad)
 
 
 @pytest.mark.parametrize("block", [1, 2, 4096], ids=lambda b: f"block{b}")
