@@ -48,7 +48,10 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     check_stability(tree, settings.dt, settings.damping)
     show = sys.stderr.isatty() if progress is None else progress
     begin = time.perf_counter()
-    import plantlod.sim.kernel  # noqa: F401  (numba and the cached machine code load here)
+    from plantlod.sim import kernel
+
+    if kernel.engine_for(kernel.prepare(tree), settings.steps) == "compiled":
+        kernel.compiled()          # numba loads here (the cached machine code on the first call)
 
     start = time.perf_counter()
     chunks = run_simulation(tree, settings.dt, settings.steps, settings.wind,

@@ -1,7 +1,13 @@
-"""The time-stepping kernel (model.md sections 3 and 4), compiled with numba.
+"""The time-stepping kernel (model.md sections 3 and 4): compiled with numba, or interpreted.
 
-This is the only module that imports numba; ``plantlod.sim`` does not import it,
-so commands that do not simulate start without compiling anything.
+`_advance` is plain Python over arrays. A run of more than `INTERPRET_BRANCH_STEPS`
+(branch + leaf)-steps runs it compiled by numba (`compiled`; ``cache=True``, so the machine
+code is loaded from __pycache__ after the first run); a shorter one runs it in the
+interpreter over memoryviews, without importing numba at all, because loading numba
+and the cached code (~0.3 s of CPU) costs more than interpreting a few thousand
+branch-steps. Both give the same bits (every operation is one IEEE operation on
+doubles, no fused multiply-add; tests/test_sim_kernel.py checks it), so the choice
+only changes the time.
 
 `prepare` turns a `Tree` into flat float64/int64 arrays (`KernelModel`) once per
 run; `advance` then moves a `KernelState` forward by any number of steps,
@@ -26,18 +32,19 @@ One step, from t_{k-1} to t_k, with the wind V = V(t_{k-1}):
    Every frame was computed from the old angles in pass 1, so updating a
    branch's angles in pass 2 does not change the step's forces.
 
-Compiled with ``cache=True`` (the machine code is kept in __pycache__ and
-loaded on later runs), without fastmath (results must not depend on the
-compiler's reassociation), and with numpy's error model (a division by zero
-gives inf or nan instead of raising, which the divergence check then reports).
+sin and cos are `trig.sincos` (fdlibm's polynomials, the same in every kernel).
+Compiled without fastmath (results must not depend on the compiler's
+reassociation), and with numpy's error model; the formulas never divide by zero
+(the theta = 0 case of the rotation is a select), so the interpreter does not raise
+where the compiled code would give inf or nan, and the divergence check reports both.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from plantlod.lsys.tree import Tree
@@ -45,6 +52,7 @@ from plantlod.lsys.tree import Tree
 from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 from .damping import Damping, as_damping, coefficients
 from .kinematics import rest_swing_rotation
+from .trig import sincos
 
 
 @dataclass(frozen=True)
@@ -150,7 +158,6 @@ def prepare(tree: Tree, damping: "float | Damping" = 0.0) -> KernelModel:
     )
 
 
-@numba.njit(cache=True, error_model="numpy")
 def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k, drag,
              leaf_start, leaf_scale, leaf_normal, gain, damp_b, damp_r,
              bend, rot, bend_vel, rot_vel, frame, swing_x, swing_y, swing_z, acc, dragf,
@@ -187,11 +194,7 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             tb = bend[i]
             tr = rot[i]
             theta = math.sqrt(tb * tb + tr * tr)
-            c = 1.0
-            s = 0.0
-            if theta != 0.0:
-                c = math.cos(theta)
-                s = math.sin(theta)
+            s, c = sincos(theta)
             sw = swing(m, tb, tr, theta, c, s)
             swing_x[i, 0] = sw[0]; swing_x[i, 1] = sw[3]; swing_x[i, 2] = sw[6]
             swing_y[i, 0] = sw[1]; swing_y[i, 1] = sw[4]; swing_y[i, 2] = sw[7]
@@ -272,7 +275,7 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
 
 def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
             first_step: int, every: int, out_bend: np.ndarray, out_rot: np.ndarray,
-            out_row: int) -> tuple[int, int, int]:
+            out_row: int, engine: str | None = None) -> tuple[int, int, int]:
     """Advance ``state`` by K = len(wind) steps, numbered first_step .. first_step + K - 1.
 
     wind       : (K, 3) float64, m/s: the wind at the start of each step
@@ -284,15 +287,55 @@ def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
     Returns (rows written, bad branch, bad step): bad branch is -1, or the
     lowest index of a branch whose angle became non-finite at step "bad step";
     the state then holds that step's (non-finite) values and stepping stopped.
+    engine     : "compiled", "interpreted" (the same bits) or None: `engine_for` this call
     """
     wind = np.ascontiguousarray(wind, dtype=np.float64)
     damp_b, damp_r = model.branch_damping(dt)
-    return _advance(model.parent, model.rest, model.cos_psi, model.sin_psi,
-                    model.absorbed, model.propagated, model.bend_k, model.rot_k,
-                    model.drag, model.leaf_start, model.leaf_scale, model.leaf_normal,
-                    model.gain, damp_b, damp_r,
-                    state.bend, state.rot, state.bend_vel, state.rot_vel,
-                    state.frame, state.swing_x, state.swing_y, state.swing_z, state.acc,
-                    state.drag,
-                    wind, float(dt), int(first_step), int(every), out_bend, out_rot,
-                    int(out_row))
+    args = (model.parent, model.rest, model.cos_psi, model.sin_psi,
+            model.absorbed, model.propagated, model.bend_k, model.rot_k,
+            model.drag, model.leaf_start, model.leaf_scale, model.leaf_normal,
+            model.gain, np.ascontiguousarray(damp_b), np.ascontiguousarray(damp_r),
+            state.bend, state.rot, state.bend_vel, state.rot_vel,
+            state.frame, state.swing_x, state.swing_y, state.swing_z, state.acc, state.drag,
+            wind)
+    tail = (float(dt), int(first_step), int(every))
+    if engine is None:
+        engine = engine_for(model, wind.shape[0])
+    if engine == "interpreted":
+        # memoryviews: element access gives Python floats and ints, several times
+        # faster than numpy scalars, and the same doubles
+        views = tuple(memoryview(np.ascontiguousarray(a)) for a in args)
+        for a in (out_bend, out_rot) + args[15:25]:
+            if not a.flags.c_contiguous:
+                raise ValueError("state and output arrays must be C-contiguous")
+        return _advance(*views, *tail, memoryview(out_bend), memoryview(out_rot), int(out_row))
+    return compiled()(*args, *tail, out_bend, out_rot, int(out_row))
+
+
+# Runs of at most this many (branch + leaf)-steps are interpreted (see the module's
+# docstring): the interpreter does ~160,000 a second, so at most ~0.1 s, against ~0.3 s
+# of CPU to load numba and the cached kernel.
+INTERPRET_BRANCH_STEPS = 15_000
+
+_compiled = None
+
+
+def engine_for(model: KernelModel, steps: int) -> str:
+    """"interpreted" for a run of at most INTERPRET_BRANCH_STEPS (branches + leaves) x steps
+    while numba is not loaded yet, else "compiled"; both give the same bits."""
+    work = (model.parent.shape[0] + model.leaf_scale.shape[0]) * steps
+    if "numba" not in sys.modules and work <= INTERPRET_BRANCH_STEPS:
+        return "interpreted"
+    return "compiled"
+
+
+def compiled():
+    """`_advance` compiled by numba (loaded from the on-disk cache after the first time)."""
+    global _compiled
+    if _compiled is None:
+        import numba
+
+        from . import jit  # noqa: F401  (the shared formulas, registered with numba)
+
+        _compiled = numba.njit(cache=True, error_model="numpy")(_advance)
+    return _compiled

@@ -68,10 +68,11 @@ def simulate(tree: Tree, dt: float, steps: int, wind: Wind, every: int = 1,
 
 def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: Damping,
             chunk: int) -> Iterator[Samples]:
-    from . import kernel   # numba: only when a simulation actually runs
+    from . import kernel
 
     b = tree.n_branches
     model = kernel.prepare(tree, damping)
+    engine = kernel.engine_for(model, steps)      # one engine for the whole run
     state = kernel.KernelState(b)
     total_rows = steps // every + 1
     emitted = 0
@@ -93,7 +94,7 @@ def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: 
             if wind_samples.shape != (n, 3):
                 raise RunFailure(f"the wind gave an array of shape {wind_samples.shape}, expected ({n}, 3)")
             written, bad, bad_step = kernel.advance(model, state, wind_samples, dt, step + 1,
-                                                    every, out_bend, out_rot, filled)
+                                                    every, out_bend, out_rot, filled, engine)
             filled += written
             if bad >= 0:
                 if filled:

@@ -1,10 +1,10 @@
 """sin and cos of one angle, the same bits in every kernel, lane and machine.
 
-`sincos(x)` returns (sin x, cos x). It is a numba function inlined where it is
-called (``inline="always"``) and takes a float or a `vec4.Vec4` (4 angles at once):
-the same formula, operation for operation, so a lane of a vector kernel equals the
-scalar kernel bit for bit. ``sincos.py_func`` is the same source run by Python, the
-reference that tests/test_trig.py compares with the compiled versions bit for bit.
+`sincos(x)` returns (sin x, cos x). It is a plain Python function that
+`plantlod.sim.jit` registers with numba (inlined where it is called), for a float or
+a `vec4.Vec4` (4 angles at once): the same formula, operation for operation, so a
+lane of a vector kernel equals the scalar kernel bit for bit, and both equal the
+interpreted formula (tests/test_trig.py).
 
 Why not math.sin: numba calls libm's sin one value at a time (no SVML from LLVM 20
 on), which keeps a lane loop scalar, and glibc's result is not guaranteed to be the
@@ -40,9 +40,7 @@ error grows with |x| (nothing raises), and inf or nan give nan.
 
 from __future__ import annotations
 
-import numba
-
-from .vec4 import floor, select
+from .ops import floor, select
 
 # fdlibm e_rem_pio2.c
 INVPIO2 = 6.36619772367581382433e-01     # 0x3FE45F30 6DC9C883, 53 bits of 2/pi
@@ -67,7 +65,6 @@ TINY = 7.450580596923828125e-09          # 2^-27: sin x = x below it
 TESTED_RANGE = 1.0e5                     # |x| up to which the accuracy is tested
 
 
-@numba.njit(inline="always")
 def sincos(x):
     """(sin x, cos x) for a float or a Vec4 x; see the module's docstring for accuracy."""
     ax = abs(x)

@@ -15,9 +15,9 @@ In a kernel (numba-compiled code)::
     store(out, (i, l0), select(m, w, 0.0))
     lane(w, 2)                      # one lane as a float
 
-`select(c, a, b)` and `floor(x)` also take floats (and bools), and are plain Python
-functions outside numba, so one formula (e.g. `trig.sincos`) serves floats, vectors
-and a pure-Python reference. The types and their lowering are defined at module level,
+`ops.select(c, a, b)` and `ops.floor(x)` take floats (and bools) or vectors here, and
+are plain Python functions outside numba, so one formula (e.g. `trig.sincos`) serves
+floats, vectors and the interpreter. The types and their lowering are defined at module level,
 so kernels using them can be cached (``cache=True``); a cached kernel needs this
 module imported, which the kernels do.
 """
@@ -32,6 +32,8 @@ from numba.core import cgutils, types
 from numba.core.imputils import lower_builtin
 from numba.core.typing.templates import AbstractTemplate, infer_global, signature
 from numba.extending import intrinsic, models, overload, register_model
+
+from .ops import floor, select
 
 WIDTH = 4
 
@@ -359,13 +361,7 @@ def _isfinite4(v):
         return lambda v: vabs(v) < math.inf
 
 
-# ---- select and floor for floats and vectors alike ----
-
-def select(c, a, b):
-    """a where c, else b: a lane-wise select for a Mask4, an ordinary choice for a bool.
-    Compiled, it is a `select` instruction (no branch), so it vectorises."""
-    return a if c else b
-
+# ---- ops.select and ops.floor for floats and vectors alike ----
 
 @overload(select)
 def _select_overload(c, a, b):
@@ -384,11 +380,6 @@ def _bselect(typingctx, c, a, b):
         return builder.select(args[0], args[1], args[2])
 
     return signature(types.float64, c, a, b), codegen
-
-
-def floor(x):
-    """The largest integer <= x, as a float (a Vec4 lane by lane); inf and nan unchanged."""
-    return float(math.floor(x)) if math.isfinite(x) else x
 
 
 @intrinsic

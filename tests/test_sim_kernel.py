@@ -9,6 +9,8 @@ checks the runner's promises: sample rows, chunking, determinism, lazy numba.
 from __future__ import annotations
 
 import math
+import os
+import pathlib
 import subprocess
 import sys
 
@@ -168,3 +170,59 @@ def test_importing_the_simulation_api_does_not_import_numba():
             "import plantlod.sim.kinematics, plantlod.formats.angles_csv\n"
             "assert 'numba' not in sys.modules, 'numba imported'\n")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# --- the interpreted and the compiled kernel give the same bits ---------------------------
+
+def _both_engines(tree, steps, wind_samples, damping):
+    from plantlod.sim import kernel
+
+    out = []
+    for engine in ("interpreted", "compiled"):
+        model, state = kernel.prepare(tree, damping), kernel.KernelState(tree.n_branches)
+        bend, rot = np.empty((steps, tree.n_branches)), np.empty((steps, tree.n_branches))
+        result = kernel.advance(model, state, wind_samples, DT, 1, 1, bend, rot, 0, engine)
+        out.append((result, bend[:result[0]], rot[:result[0]], state.bend_vel.copy()))
+    return out
+
+
+def _assert_same_bits(a, b):
+    assert a[0] == b[0]
+    for x, y in zip(a[1:], b[1:]):
+        assert np.array_equal(x.view(np.int64), y.view(np.int64))
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(tree=random_trees(dt=DT), wind=winds(), damping=st.sampled_from([0.0, 0.05, 0.9]),
+       steps=st.integers(1, 60))
+def test_interpreted_kernel_equals_compiled_bit_for_bit(tree, wind, damping, steps):
+    samples = np.asarray(wind.sample(np.arange(steps) * DT), dtype=np.float64)
+    _assert_same_bits(*_both_engines(tree, steps, samples, damping))
+
+
+def test_interpreted_kernel_equals_compiled_with_gains_ratio_and_divergence():
+    from test_gain_damping import gain_tree
+
+    from plantlod.sim.damping import as_damping
+
+    tree = gain_tree()
+    samples = np.random.default_rng(5).normal(size=(300, 3)) * 6.0
+    _assert_same_bits(*_both_engines(tree, 300, samples, as_damping(ratio=0.05)))
+    # a run that diverges: both stop at the same step and branch with the same bits
+    big = stalk(2, force_absorbed=[1.0, 1e307], address=["0", "1"], drag_coefficient=0.0,
+                force_propagated=[0.0, 1.0])
+    wind = np.array([[0.0, 0.0, 0.0], [1e4, 0.0, 0.0], [1e4, 0.0, 0.0]])
+    runs = _both_engines(big, 3, wind, 0.0)
+    assert runs[0][0][1] == 1 and runs[0][0][2] == 2
+    _assert_same_bits(*runs)
+
+
+def test_a_short_simulate_does_not_load_numba():
+    code = ("import sys\n"
+            "from plantlod.sim.run import simulate_arrays\n"
+            "from plantlod.sim.wind import ConstantWind\n"
+            "from treegen import stalk\n"
+            "simulate_arrays(stalk(8), 0.01, 10, ConstantWind((5.0, 0.0, 0.0)))\n"
+            "assert 'numba' not in sys.modules, 'numba imported'\n")
+    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(__file__).parent)}
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
