@@ -9,8 +9,9 @@ tip needs (the branch frame and the tip), with the same formulas:
     S_i = R_parent Q_i Rot(u_i, θ_i),  R_i = S_i Rz(ψ_i),
     base_i = tip_parent + R_parent o_i,  tip_i = base_i + L_i R_i e_z
 
-(Q_i = Rz(φ_i) Ry(α_i); Rot as `kinematics.swing_rotation`). No fastmath: the tips
-agree with `pose` to rounding (tests/test_sim_tips_kernel.py).
+(Q_i = Rz(φ_i) Ry(α_i); Rot as `kinematics.swing_rotation`), with sin and cos from
+`trig.sincos` as in the stepping kernels. No fastmath: the tips agree with `pose`
+(numpy's sin and cos) to rounding (tests/test_sim_tips_kernel.py).
 """
 
 from __future__ import annotations
@@ -22,7 +23,9 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
+from . import jit  # noqa: F401  (trig.sincos registered with numba)
 from .kinematics import rest_swing_rotation, rot_z
+from .trig import sincos
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
@@ -42,7 +45,7 @@ def _tips(parent, rest, twist, offset, length, bend, rot, which, out):
             if theta != 0.0:
                 ux = -r / theta
                 uy = b / theta
-            c, s = math.cos(theta), math.sin(theta)
+            s, c = sincos(theta)
             one_c = 1.0 - c
             rmat[0, 0] = c + one_c * ux * ux
             rmat[0, 1] = one_c * ux * uy
