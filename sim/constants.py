@@ -17,3 +17,6 @@ MAX_HELD_ANGLE_BYTES = 4_000_000_000
 
 # --- the lanes engine (sim/lanes.py, docs/engine.md) --------------------------------
 THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine (default: all cores)
+# environment variable: "compiled" or "interpreted" forces the single-run kernel's engine
+# (default: interpreted for short runs while numba is not loaded; the same bits either way)
+KERNEL_ENV = "PLANTLOD_KERNEL"

@@ -42,13 +42,16 @@ where the compiled code would give inf or nan, and the divergence check reports 
 from __future__ import annotations
 
 import math
+import os
 import sys
 from dataclasses import dataclass
 
 import numpy as np
 
+from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
+from .constants import KERNEL_ENV
 from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 from .damping import Damping, as_damping, coefficients
 from .kinematics import rest_swing_rotation
@@ -322,7 +325,13 @@ _compiled = None
 
 def engine_for(model: KernelModel, steps: int) -> str:
     """"interpreted" for a run of at most INTERPRET_BRANCH_STEPS (branches + leaves) x steps
-    while numba is not loaded yet, else "compiled"; both give the same bits."""
+    while numba is not loaded yet, else "compiled"; both give the same bits.
+    $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or interpreted overrides it."""
+    forced = os.environ.get(KERNEL_ENV, "").strip().lower()
+    if forced in ("compiled", "interpreted"):
+        return forced
+    if forced:
+        raise InputError(f"{KERNEL_ENV}={forced!r}: expected compiled or interpreted")
     work = (model.parent.shape[0] + model.leaf_scale.shape[0]) * steps
     if "numba" not in sys.modules and work <= INTERPRET_BRANCH_STEPS:
         return "interpreted"

@@ -226,3 +226,16 @@ def test_a_short_simulate_does_not_load_numba():
             "assert 'numba' not in sys.modules, 'numba imported'\n")
     env = {**os.environ, "PYTHONPATH": str(pathlib.Path(__file__).parent)}
     subprocess.run([sys.executable, "-c", code], check=True, env=env)
+
+
+def test_kernel_environment_variable_forces_the_engine(monkeypatch):
+    from plantlod.sim import kernel
+
+    model = kernel.prepare(stalk(8))
+    monkeypatch.setenv("PLANTLOD_KERNEL", "interpreted")
+    assert kernel.engine_for(model, 10**6) == "interpreted"
+    monkeypatch.setenv("PLANTLOD_KERNEL", "compiled")
+    assert kernel.engine_for(model, 1) == "compiled"
+    monkeypatch.setenv("PLANTLOD_KERNEL", "fast")
+    with pytest.raises(InputError, match="PLANTLOD_KERNEL"):
+        kernel.engine_for(model, 1)
