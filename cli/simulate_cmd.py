@@ -50,7 +50,8 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     begin = time.perf_counter()
     from plantlod.sim import kernel
 
-    if kernel.engine_for(kernel.prepare(tree), settings.steps) == "compiled":
+    engine = kernel.engine_for(kernel.prepare(tree), settings.steps)
+    if engine == "compiled":
         kernel.compiled()          # numba loads here (the cached machine code on the first call)
 
     start = time.perf_counter()
@@ -82,7 +83,8 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     say(f"simulate: {display_name(input_path)}: {count(tree.n_branches, 'branch')}, "
         f"{settings.steps:,} steps of {settings.dt:g} s, {settings.description}, "
         f"{seconds:.2f} s, {rate:,.0f} branch-steps/s with output "
-        f"(+{start - begin:.2f} s kernel start-up)")
+        + (f"(+{start - begin:.2f} s kernel start-up)" if engine == "compiled"
+           else "(interpreted kernel: a short run)"))
 
 
 def _write_with_progress(writer, chunks, steps: int, dt: float) -> None:

@@ -305,6 +305,8 @@ def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
     if engine is None:
         engine = engine_for(model, wind.shape[0])
     if engine == "interpreted":
+        global _interpreted_work
+        _interpreted_work += (model.parent.shape[0] + model.leaf_scale.shape[0]) * wind.shape[0]
         # memoryviews: element access gives Python floats and ints, several times
         # faster than numpy scalars, and the same doubles
         views = tuple(memoryview(np.ascontiguousarray(a)) for a in args)
@@ -315,25 +317,28 @@ def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
     return compiled()(*args, *tail, out_bend, out_rot, int(out_row))
 
 
-# Runs of at most this many (branch + leaf)-steps are interpreted (see the module's
+# A process interprets at most this many (branch + leaf)-steps in all (see the module's
 # docstring): the interpreter does ~160,000 a second, so at most ~0.1 s, against ~0.3 s
-# of CPU to load numba and the cached kernel.
+# of CPU to load numba and the cached kernel. Past that budget (many short runs, as a
+# calibration makes) every run is compiled.
 INTERPRET_BRANCH_STEPS = 15_000
 
 _compiled = None
+_interpreted_work = 0
 
 
 def engine_for(model: KernelModel, steps: int) -> str:
-    """"interpreted" for a run of at most INTERPRET_BRANCH_STEPS (branches + leaves) x steps
-    while numba is not loaded yet, else "compiled"; both give the same bits.
-    $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or interpreted overrides it."""
+    """"interpreted" while numba is not loaded and this run fits in what is left of the
+    process's INTERPRET_BRANCH_STEPS (branches + leaves) x steps, else "compiled"; both
+    give the same bits. $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or
+    interpreted overrides it."""
     forced = os.environ.get(KERNEL_ENV, "").strip().lower()
     if forced in ("compiled", "interpreted"):
         return forced
     if forced:
         raise InputError(f"{KERNEL_ENV}={forced!r}: expected compiled or interpreted")
     work = (model.parent.shape[0] + model.leaf_scale.shape[0]) * steps
-    if "numba" not in sys.modules and work <= INTERPRET_BRANCH_STEPS:
+    if "numba" not in sys.modules and _interpreted_work + work <= INTERPRET_BRANCH_STEPS:
         return "interpreted"
     return "compiled"
 
