@@ -106,39 +106,44 @@ def _vec_operands(args) -> bool:
             or (_is_scalar(a) and isinstance(b, Vec4Type)))
 
 
-def _register_arith(op, instr):
+def _register_binary(op, result, emit):
+    """op(a, b) for a Vec4 and a Vec4, float or integer (either side), giving ``result``:
+    emit(builder, a, b) on the two operands as vectors."""
     class _Template(AbstractTemplate):
         def generic(self, args, kws):
             if not kws and _vec_operands(args):
-                return signature(vec4_t, *args)
+                return signature(result, *args)
 
     infer_global(op)(_Template)
 
     def impl(context, builder, sig, args):
         a = _as_vec(context, builder, sig.args[0], args[0])
         b = _as_vec(context, builder, sig.args[1], args[1])
-        return getattr(builder, instr)(a, b)
+        return emit(builder, a, b)
 
     for types_ in ((Vec4Type, Vec4Type), (Vec4Type, types.Number), (types.Number, Vec4Type)):
         lower_builtin(op, *types_)(impl)
 
 
 for _op, _instr in _ARITH.items():
-    _register_arith(_op, _instr)
+    _register_binary(_op, vec4_t, lambda builder, a, b, _i=_instr: getattr(builder, _i)(a, b))
 
 
-class _NegTemplate(AbstractTemplate):
-    def generic(self, args, kws):
-        if len(args) == 1 and isinstance(args[0], Vec4Type):
-            return signature(vec4_t, vec4_t)
+def _register_unary(op, operand, result, instr):
+    """-v of a Vec4 (fneg), ~m of a Mask4 (not)."""
+    class _Template(AbstractTemplate):
+        def generic(self, args, kws):
+            if len(args) == 1 and isinstance(args[0], operand):
+                return signature(result, result)
+
+    infer_global(op)(_Template)
+
+    @lower_builtin(op, operand)
+    def impl(context, builder, sig, args):
+        return getattr(builder, instr)(args[0])
 
 
-infer_global(operator.neg)(_NegTemplate)
-
-
-@lower_builtin(operator.neg, Vec4Type)
-def _neg(context, builder, sig, args):
-    return builder.fneg(args[0])
+_register_unary(operator.neg, Vec4Type, vec4_t, "fneg")
 
 
 # ---- comparisons (a Mask4) and the operations on masks ----
@@ -147,28 +152,10 @@ _COMPARE = {operator.lt: ("<", True), operator.le: ("<=", True), operator.gt: ("
             operator.ge: (">=", True), operator.eq: ("==", True), operator.ne: ("!=", False)}
 
 
-def _register_compare(op, sym, ordered):
-    class _Template(AbstractTemplate):
-        def generic(self, args, kws):
-            if not kws and _vec_operands(args):
-                return signature(mask4_t, *args)
-
-    infer_global(op)(_Template)
-
-    def impl(context, builder, sig, args):
-        a = _as_vec(context, builder, sig.args[0], args[0])
-        b = _as_vec(context, builder, sig.args[1], args[1])
-        # as Python compares floats: ordered, except != (true when either is nan)
-        if ordered:
-            return builder.fcmp_ordered(sym, a, b)
-        return builder.fcmp_unordered(sym, a, b)
-
-    for types_ in ((Vec4Type, Vec4Type), (Vec4Type, types.Number), (types.Number, Vec4Type)):
-        lower_builtin(op, *types_)(impl)
-
-
 for _op, (_sym, _ordered) in _COMPARE.items():
-    _register_compare(_op, _sym, _ordered)
+    # as Python compares floats: ordered, except != (true when either is nan)
+    _register_binary(_op, mask4_t, lambda builder, a, b, _s=_sym, _o=_ordered: (
+        builder.fcmp_ordered(_s, a, b) if _o else builder.fcmp_unordered(_s, a, b)))
 
 
 def _register_mask_op(op, instr):
@@ -187,19 +174,7 @@ def _register_mask_op(op, instr):
 _register_mask_op(operator.and_, "and_")
 _register_mask_op(operator.or_, "or_")
 
-
-class _InvertTemplate(AbstractTemplate):
-    def generic(self, args, kws):
-        if len(args) == 1 and isinstance(args[0], Mask4Type):
-            return signature(mask4_t, mask4_t)
-
-
-infer_global(operator.invert)(_InvertTemplate)
-
-
-@lower_builtin(operator.invert, Mask4Type)
-def _invert(context, builder, sig, args):
-    return builder.not_(args[0])
+_register_unary(operator.invert, Mask4Type, mask4_t, "not_")
 
 
 # ---- construction, lanes, memory ----
