@@ -252,6 +252,12 @@ def test_derive_does_not_import_numba():
     assert "numba" not in modules_imported_by(["derive", "examples/stalk8.lsys", "-o", "/dev/null"])
 
 
+def test_a_short_simulate_imports_only_numpy():
+    """A short run is interpreted (sim/kernel.py): no numba, scipy or rich on its path."""
+    assert modules_imported_by(["simulate", "examples/stalk8.lsys", "--dt", "0.01", "--steps",
+                                "10", "--wind-speed", "5", "-o", "/dev/null"]) == ["numpy"]
+
+
 # --- the golden-file utility -----------------------------------------------------------------
 
 @pytest.fixture
