@@ -14,5 +14,5 @@ from . import branch_math, trig, vec4  # noqa: F401  (vec4: the types and overlo
 
 for _fn in (branch_math.times_rest, branch_math.swing, branch_math.twist,
             branch_math.drag_magnitude, branch_math.gained_forces, branch_math.advance_angle,
-            trig.sincos):
+            trig.sincos, trig.sincos1, trig._kernels):
     register_jitable(inline="always")(_fn)

@@ -32,7 +32,8 @@ One step, from t_{k-1} to t_k, with the wind V = V(t_{k-1}):
    Every frame was computed from the old angles in pass 1, so updating a
    branch's angles in pass 2 does not change the step's forces.
 
-sin and cos are `trig.sincos` (fdlibm's polynomials, the same in every kernel).
+sin and cos are `trig.sincos1` (`trig.sincos`, fdlibm's polynomials, the same bits in
+every kernel).
 Compiled without fastmath (results must not depend on the compiler's
 reassociation), and with numpy's error model; the formulas never divide by zero
 (the theta = 0 case of the rotation is a select), so the interpreter does not raise
@@ -55,7 +56,7 @@ from .constants import KERNEL_ENV
 from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 from .damping import Damping, as_damping, coefficients
 from .kinematics import rest_swing_rotation
-from .trig import sincos
+from .trig import sincos1
 
 
 @dataclass(frozen=True)
@@ -197,7 +198,7 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             tb = bend[i]
             tr = rot[i]
             theta = math.sqrt(tb * tb + tr * tr)
-            s, c = sincos(theta)
+            s, c = sincos1(theta)
             sw = swing(m, tb, tr, theta, c, s)
             swing_x[i, 0] = sw[0]; swing_x[i, 1] = sw[3]; swing_x[i, 2] = sw[6]
             swing_y[i, 0] = sw[1]; swing_y[i, 1] = sw[4]; swing_y[i, 2] = sw[7]

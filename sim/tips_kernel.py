@@ -10,7 +10,7 @@ tip needs (the branch frame and the tip), with the same formulas:
     base_i = tip_parent + R_parent o_i,  tip_i = base_i + L_i R_i e_z
 
 (Q_i = Rz(φ_i) Ry(α_i); Rot as `kinematics.swing_rotation`), with sin and cos from
-`trig.sincos` as in the stepping kernels. No fastmath: the tips agree with `pose`
+`trig.sincos1` as in the stepping kernels. No fastmath: the tips agree with `pose`
 (numpy's sin and cos) to rounding (tests/test_sim_tips_kernel.py).
 """
 
@@ -25,7 +25,7 @@ from plantlod.lsys.tree import Tree
 
 from . import jit  # noqa: F401  (trig.sincos registered with numba)
 from .kinematics import rest_swing_rotation, rot_z
-from .trig import sincos
+from .trig import sincos1
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
@@ -45,7 +45,7 @@ def _tips(parent, rest, twist, offset, length, bend, rot, which, out):
             if theta != 0.0:
                 ux = -r / theta
                 uy = b / theta
-            s, c = sincos(theta)
+            s, c = sincos1(theta)
             one_c = 1.0 - c
             rmat[0, 0] = c + one_c * ux * ux
             rmat[0, 1] = one_c * ux * uy

@@ -76,7 +76,29 @@ def sincos(x):
     w = n * PIO2_2T - ((t - r) - w)
     y0 = r - w
     y1 = (r - y0) - w
-    # __kernel_sin(y0, y1, 1) and __kernel_cos(y0, y1)
+    ks, kc = _kernels(y0, y1)
+    # quadrant n mod 4 (exact: n is a whole number below 2^53)
+    q = n - 4.0 * floor(n * 0.25)
+    s = select(q == 0.0, ks, select(q == 1.0, kc, select(q == 2.0, -ks, -kc)))
+    c = select(q == 0.0, kc, select(q == 1.0, -ks, select(q == 2.0, -kc, ks)))
+    s = select(ax < TINY, x, select(x < 0.0, -s, s))
+    return s, c
+
+
+def sincos1(x):
+    """`sincos` of one float, the same bits, faster where n = 0 (|x| below about pi/4):
+    there the reduction is the identity (y0 = |x|, y1 = 0 exactly) and is skipped. A
+    branch, so for scalar code only (the single-run and tips kernels)."""
+    ax = abs(x)
+    if ax * INVPIO2 + 0.5 < 1.0:          # exactly when floor(ax 2/pi + 1/2) = n = 0
+        ks, kc = _kernels(ax, 0.0)
+        return select(ax < TINY, x, select(x < 0.0, -ks, ks)), kc
+    return sincos(x)
+
+
+def _kernels(y0, y1):
+    """fdlibm's __kernel_sin(y0, y1, 1) and __kernel_cos(y0, y1): sin and cos of
+    y0 + y1, |y0 + y1| <= pi/4 (y1 the tail of the reduction)."""
     z = y0 * y0
     zz = z * z
     rs = S2 + z * (S3 + z * S4) + z * zz * (S5 + z * S6)
@@ -86,9 +108,4 @@ def sincos(x):
     hz = 0.5 * z
     wc = 1.0 - hz
     kc = wc + (((1.0 - wc) - hz) + (z * rc - y0 * y1))
-    # quadrant n mod 4 (exact: n is a whole number below 2^53)
-    q = n - 4.0 * floor(n * 0.25)
-    s = select(q == 0.0, ks, select(q == 1.0, kc, select(q == 2.0, -ks, -kc)))
-    c = select(q == 0.0, kc, select(q == 1.0, -ks, select(q == 2.0, -kc, ks)))
-    s = select(ax < TINY, x, select(x < 0.0, -s, s))
-    return s, c
+    return ks, kc

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from plantlod.sim import jit, vec4  # noqa: F401  (jit: sincos registered with numba)
-from plantlod.sim.trig import TESTED_RANGE, sincos
+from plantlod.sim.lanes_kernel import sincos4
+from plantlod.sim.trig import INVPIO2, TESTED_RANGE, sincos, sincos1
 
 # pi to 60 digits, for the doubles nearest k pi / 2
 PI = Fraction("3.14159265358979323846264338327950288419716939937510582097494")
@@ -33,6 +34,22 @@ def _scalar(x, s, c):
 def _packed(x, s, c):
     for i in range(0, x.shape[0] - x.shape[0] % 4, 4):
         a, b = sincos(vec4.load(x, i))
+        vec4.store(s, i, a)
+        vec4.store(c, i, b)
+
+
+@numba.njit(cache=True)
+def _scalar_fast(x, s, c):
+    for i in range(x.shape[0]):
+        a, b = sincos1(x[i])
+        s[i] = a
+        c[i] = b
+
+
+@numba.njit(cache=True)
+def _packed_fast(x, s, c):
+    for i in range(0, x.shape[0] - x.shape[0] % 4, 4):
+        a, b = sincos4(vec4.load(x, i))
         vec4.store(s, i, a)
         vec4.store(c, i, b)
 
@@ -108,6 +125,25 @@ def test_vec4_lanes_equal_the_scalar_formula():
     s4, c4 = np.empty_like(x), np.empty_like(x)
     _packed(x, s4, c4)
     assert np.array_equal(s, s4) and np.array_equal(c, c4)
+
+
+def test_fast_paths_give_the_same_bits():
+    """sincos1 (one float) and lanes_kernel.sincos4 skip the reduction where n = 0."""
+    edge = 0.5 / INVPIO2                     # where n turns from 0 to 1
+    near = [edge]
+    for _ in range(40):
+        near = [math.nextafter(near[0], 0.0)] + near + [math.nextafter(near[-1], 4.0)]
+    x = np.concatenate([np.linspace(-1.0, 1.0, 100_001), near, -np.array(near), [0.0, -0.0],
+                        _points()["1e-300 .. 1e-3"]])
+    x = x[: len(x) - len(x) % 4]
+    s, c = _compiled(x)
+    for fn in (_scalar_fast, _packed_fast):
+        s1, c1 = np.empty_like(x), np.empty_like(x)
+        fn(x, s1, c1)
+        assert np.array_equal(s.view(np.int64), s1.view(np.int64)), fn
+        assert np.array_equal(c.view(np.int64), c1.view(np.int64)), fn
+    ref = [sincos1(v) for v in x[::50].tolist()]
+    assert np.array_equal(s[::50], [r[0] for r in ref]) and np.array_equal(c[::50], [r[1] for r in ref])
 
 
 def test_generated_code_is_packed_and_unfused():
