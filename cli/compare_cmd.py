@@ -1,8 +1,8 @@
 """`plantlod compare`: how far simplified trees move from the original (docs/compare.md).
 
-The work is in `plantlod.simplify.compare` (groups, combined angles, report),
-`plantlod.simplify.report` (table, JSON), `plantlod.export.obj` and
-`plantlod.simplify.plot`; this module reads the inputs, runs what needs running
+The work is in `plantlod.compare.runs` (groups, combined angles, report),
+`plantlod.compare.report` (table, JSON), `plantlod.export.obj` and
+`plantlod.compare.plot`; this module reads the inputs, runs what needs running
 and writes the report; `compare_exports` writes the OBJ frames and the picture.
 """
 
@@ -137,7 +137,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     if plot_at is not None and plot_path is None:
         raise click.UsageError("--plot-at chooses the time of the trees in --plot FILE.png; give --plot too")
     if plot_path is not None:
-        from plantlod.simplify.plot import require_matplotlib
+        from plantlod.compare.plot import require_matplotlib
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
@@ -150,7 +150,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     settings = _settings_if_needed(ctx, sides, sim_kwargs)
     runs = [_run_side(path, csv, n, degrees, settings) for path, csv, n in sides]
 
-    from plantlod.simplify.compare import check_bounds, compare_runs
+    from plantlod.compare.runs import check_bounds, compare_runs
 
     comparisons = [compare_runs(runs[0], run, window[0] if window else None,
                                 window[1] if window else None) for run in runs[1:]]
@@ -220,7 +220,7 @@ def _read_csv(path: str, degrees: bool):
 
 def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):
     """A `Run` of one side: its tree, with angles from its CSV or simulated here."""
-    from plantlod.simplify.compare import Run, angles_in_tree_order
+    from plantlod.compare.runs import Run, angles_in_tree_order
 
     tree, _system = load_tree(path, n)
     name = display_name(path) if n is None else f"{display_name(path)} (n={n})"
@@ -238,7 +238,7 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
 # --- outputs ---------------------------------------------------------------------------
 
 def _write_report(comparisons, bounds, violations, as_json: bool, output: str | None) -> None:
-    from plantlod.simplify import report as fmt
+    from plantlod.compare import report as fmt
 
     if as_json:
         text = fmt.dumps(fmt.comparison_document(comparisons, bounds, violations))
@@ -270,8 +270,8 @@ def _g(value: float) -> str:
 
 def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, as_json: bool,
                   output: str | None) -> None:
-    from plantlod.simplify import report as fmt
-    from plantlod.simplify.compare import angle_differences
+    from plantlod.compare import report as fmt
+    from plantlod.compare.runs import angle_differences
 
     name_a, name_b = display_name(path_a), display_name(path_b)
     times_a, addr_a, bend_a, rot_a = _read_csv(path_a, degrees)

@@ -30,7 +30,7 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     from plantlod.export.files import export_animation
     from plantlod.formats.angles_csv import read_angles_csv
     from plantlod.formats.text_input import read_text
-    from plantlod.simplify.compare import angles_in_tree_order
+    from plantlod.compare.runs import angles_in_tree_order
     import io
 
     check_output_path(output)                     # a missing folder is refused before any work

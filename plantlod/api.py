@@ -207,8 +207,8 @@ def compare(original: Tree | LSystem, *simplified: Tree | LSystem, wind: Any = (
     and every group. ``bounds`` maps figure names (``"motion_error"``, ...) to limits;
     ``passed`` says whether all held.
     """
-    from plantlod.simplify.compare import BOUND_OPTIONS, Run, check_bounds, compare_runs
-    from plantlod.simplify.report import comparison_document
+    from plantlod.compare.runs import BOUND_OPTIONS, Run, check_bounds, compare_runs
+    from plantlod.compare.report import comparison_document
 
     if not simplified:
         raise InputError("compare needs at least one simplified tree")
@@ -240,7 +240,7 @@ def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLi
     ``fps``, resampled linearly; ``frames`` (A, B) keeps frames A to B-1 (docs/export.md).
     The file appears whole or not at all."""
     from plantlod.export.files import export_animation as write
-    from plantlod.simplify.compare import angles_in_tree_order
+    from plantlod.compare.runs import angles_in_tree_order
 
     tree = derive(tree) if isinstance(tree, LSystem) else tree
     if np.ndim(angles.bend) != 2:

@@ -100,7 +100,7 @@ def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray) -> 
 
 
 def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
-    from plantlod.simplify.groups import assign_groups, main_paths
+    from plantlod.compare.groups import assign_groups, main_paths
 
     original = build(parse_lsys(data.decode("utf-8"), str(path))).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]

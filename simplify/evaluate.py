@@ -20,10 +20,10 @@ from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import rest_height
 from plantlod.sim.wind import wind_from_speed
 
-from .compare import tip_series
+from plantlod.compare.runs import tip_series
 from .targets import GroupMap
-from .groups import combined_angles
-from .measures import Report, compare_groups
+from plantlod.compare.groups import combined_angles
+from plantlod.compare.measures import Report, compare_groups
 
 
 
@@ -119,7 +119,7 @@ class Runs:
 
     def compare(self, simplified: Tree) -> list[Report]:
         """One section-6 report per wind. Raises InputError when the simplified run diverges."""
-        from .groups import carry_angles, swing_turns
+        from plantlod.compare.groups import carry_angles, swing_turns
 
         turn = swing_turns(self.original, simplified, self.gmap.paths) if simplified.group_root else None
         reports = []

@@ -39,7 +39,7 @@ from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
 from .constants import BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, KAPPA_RANGE, LEVEL_RATIO
-from .groups import main_paths
+from plantlod.compare.groups import main_paths
 from .static import rest_frames
 
 
@@ -329,7 +329,7 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray],
     branch from rest swings with an amplitude equal to its static angle. Where every member
     has one strength this is that strength and a factor 1, exactly.
     """
-    from .measures import amplitude, period
+    from plantlod.compare.measures import amplitude, period
 
     steps = int(round(duration / dt))
     t = np.arange(steps + 1) * dt
@@ -373,7 +373,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
-    from .groups import assign_stated_groups, swing_turns
+    from plantlod.compare.groups import assign_stated_groups, swing_turns
     from .static import fit_directions, static_angles, static_parts
 
     root_address = [original.address[r] for r in grouping.root]

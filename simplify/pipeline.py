@@ -35,7 +35,7 @@ from .targets import GroupMap, group_map
 from .closed_form import closed_form
 from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
 from .levels import check_level, level_system, round_sig, write_parameters
-from .measures import Report
+from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
 
 METHODS = ("derived", "thesis")

@@ -2,9 +2,9 @@
 
 The library side of `plantlod compare`: given both trees and their sampled
 angles (simulated here or read from angle CSVs), find the groups and main
-paths (`plantlod.simplify.groups`), the original's combined angles and group
+paths (`plantlod.compare.groups`), the original's combined angles and group
 tips, and the simplified branches' angles and tips, and hand them to
-`plantlod.simplify.measures.compare_groups` for the report. Also the plain
+`plantlod.compare.measures.compare_groups` for the report. Also the plain
 angle-against-angle check of two runs of one tree (`angle_differences`).
 
 Shapes: K samples, B_o original branches, G = B_s simplified branches (one
@@ -23,7 +23,7 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import rest_height
 from .groups import assign_groups, carry_angles, combined_angles, main_paths, swing_turns
-from plantlod.simplify.measures import Report, Worst, compare_groups, window
+from plantlod.compare.measures import Report, Worst, compare_groups, window
 
 from .constants import TIME_MATCH_RTOL
 
@@ -65,7 +65,7 @@ class Comparison:
     combined_bend  : (K, G) the original's combined angle Θb per group over the whole run, rad
     combined_rot   : (K, G) Θr, rad
     window         : the slice of samples the report covers
-    report         : the figures (`plantlod.simplify.measures.Report`)
+    report         : the figures (`plantlod.compare.measures.Report`)
     """
 
     original: Run
