@@ -24,7 +24,7 @@ from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
 SIMULATION_PARAMS = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
-                     "wind_file", "gust_strength", "gust_seed", "damping")
+                     "wind_file", "gust_strength", "gust_seed", "damping", "damping_ratio")
 
 
 def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[float | None]:

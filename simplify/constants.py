@@ -67,3 +67,8 @@ EXPLICIT_REFINE_LSMR_ITERATIONS = 50   # bent_leafy level 1: 18 % motion error a
 BASIS_LEAF_GAIN = 0.5
 BASIS_LEAF_FLOOR = 1e-3       # a basis leaf starts at least at this x the group's leaf area
 KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA
+
+# --- the gain matrix of a level branch (simplify/gain_matrix.py, model.md 5) -----------
+GAIN_FIT_SPEEDS = (0.5, 2.0, 5.0, 10.0, 20.0)   # m/s: the static match's wind speeds
+GAIN_TARGET_FLOOR = 0.01     # a wind's errors count against at least this x the largest target
+GAIN_RIDGE = 1e-6            # pull toward k_FA [[1,0,0],[0,1,0]], relative to the problem's scale

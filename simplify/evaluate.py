@@ -79,11 +79,13 @@ class Runs:
     """The original's runs over a set of winds, and comparisons of simplified trees with them.
 
     dt, steps, every: time step (s), steps per run, keep every k-th sample.
+    damping: c or a `plantlod.sim.damping.Damping` (a damping ratio), for both trees' runs.
     """
 
     def __init__(self, original: Tree, gmap: GroupMap, winds: list[WindCase],
-                 dt: float, steps: int, every: int = 1):
+                 dt: float, steps: int, every: int = 1, damping=0.0):
         self.original = original
+        self.damping = damping
         self.gmap = gmap
         self.dt, self.steps, self.every = dt, steps, every
         self.height = rest_height(original)
@@ -101,7 +103,7 @@ class Runs:
         that memory stays near RUNS_BATCH_BYTES."""
         from plantlod.sim.lanes import LaneModel, run_lanes
 
-        model = LaneModel.from_tree(tree)
+        model = LaneModel.from_tree(tree, self.damping)
         rows = self.steps // self.every
         times = np.arange(rows + 1, dtype=np.float64) * self.every * self.dt
         per_lane = 16 * (rows + 1) * max(tree.n_branches, 1)

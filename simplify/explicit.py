@@ -296,12 +296,17 @@ def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen")
     return Skeleton("".join(tokens), tokens, branch_address, leaf_address, leaf_area, length, paths)
 
 
-def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 0.0) -> np.ndarray:
+def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: float = 0.0
+                  ) -> np.ndarray:
     """(steps + 1, n) angle of a branch of each ``strength`` (k, model units) started at rest
     under a constant force whose equilibrium angle is 1, by model.md 4's step itself:
     v <- v + s (1 - theta) - c v, theta <- theta + v dt, with s = k dt / 1000 ... per step
-    (the velocity gain k/1000 times (theta_eq - theta))."""
+    (the velocity gain k/1000 times (theta_eq - theta)); c from the damping ratio ζ
+    (`plantlod.sim.damping.ratio_coefficient`)."""
+    from plantlod.sim.damping import ratio_coefficient
+
     k = np.asarray(strength, dtype=np.float64) / 1000.0
+    damping = ratio_coefficient(k, dt, damping_ratio)
     theta = np.zeros_like(k)
     v = np.zeros_like(k)
     out = np.empty((steps + 1, k.size))
@@ -315,7 +320,8 @@ def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 
 
 def dominant_strengths(original: Tree, paths: list[np.ndarray],
                        weights: tuple[list[np.ndarray], list[np.ndarray]],
-                       dt: float, duration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       dt: float, duration: float, damping_ratio: float = 0.0
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """k_bs', k_rs' (G,) and amplitude factors (G, 2) (bend, rotation) from the members' own swings.
 
     To first order each main-path member j swings on its own, from rest, around its
@@ -344,7 +350,7 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray],
         if unequal:
             distinct, inverse = np.unique(np.concatenate([strengths[paths[g]] for g in unequal]),
                                           return_inverse=True)
-            responses = unit_response(distinct, dt, steps)
+            responses = unit_response(distinct, dt, steps, damping_ratio)
             at = 0
             for g in unequal:
                 m = len(paths[g])
@@ -362,11 +368,14 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray],
 
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
-                         refine: bool = True) -> tuple[str, Tree]:
+                         refine: bool = True, gains: bool = True,
+                         damping_ratio: float = 0.0) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
              force_absorbed, force_propagated, drag_coefficient, leaf_force_scale)
+    gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
+    damping_ratio : ζ of model.md 4 the groups' swings are measured under
     """
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
@@ -374,7 +383,9 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
     from plantlod.compare.groups import assign_stated_groups, swing_turns
+    from .gain_matrix import fit_gain_matrices
     from .static import fit_directions, static_angles, static_parts
+    from plantlod.lsys.system import GAIN_KEYS
 
     root_address = [original.address[r] for r in grouping.root]
     radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
@@ -390,7 +401,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     bend, rot = static_angles(original, parts.leaf + parts.drag)
     weights = ([np.abs(bend[:, p]).mean(axis=0) for p in paths],
                [np.abs(rot[:, p]).mean(axis=0) for p in paths])
-    kb_group, kr_group, gain_group = dominant_strengths(original, paths, weights, dt, duration)
+    kb_group, kr_group, gain_group = dominant_strengths(original, paths, weights, dt, duration,
+                                                        damping_ratio)
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
 
@@ -422,8 +434,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         to_group = np.array([position[a] for a in order])
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
         kb, kr = kb_group[to_group], kr_group[to_group]
-        params = closed_form(original, skeleton, gmap, refine=refine,
-                             turn=swing_turns(original, skeleton, gmap.paths),
+        turn = swing_turns(original, skeleton, gmap.paths)
+        params = closed_form(original, skeleton, gmap, refine=refine, turn=turn,
                              kappa_range=KAPPA_RANGE, strengths=(kb, kr),
                              target_gain=gain_group[to_group], settings=settings)
         fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
@@ -436,6 +448,13 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         by_address = {addr: area for (addr, _k), area in params.leaf_areas.items()}
         leaf_area = [np.array([by_address[a] for a in sk.leaf_address[g]])
                      for g in range(grouping.count)]
+        if gains:
+            # k_FA becomes each branch's gain matrix, fitted to its group's static response
+            level = build(parse_lsys(text(values, leaf_area), name)).tree
+            matrices = fit_gain_matrices(level, original, gmap, turn=turn,
+                                         target_gain=gain_group[to_group])[back]
+            del values["force_absorbed"]
+            values.update({key: matrices[:, k] for k, key in enumerate(GAIN_KEYS)})
         return text(values, leaf_area), params.static_error
 
     # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;

@@ -56,6 +56,7 @@ class Options:
     form         : "grammar" (model.md 5: same productions, N - n steps), "explicit"
                    (groups merged from the tips, chords), or "auto": the grammar form
                    where it meets the level's bounds (`LEVEL_BOUNDS`), else the explicit form
+    damping_ratio: ζ of model.md 4 under which the level is fitted and measured (0: undamped)
     """
 
     level: int
@@ -67,6 +68,7 @@ class Options:
     every: int = SIMPLIFY_EVERY
     max_evaluations: int = CALIBRATION_EVALUATIONS
     form: str = "auto"
+    damping_ratio: float = 0.0
 
     def __post_init__(self) -> None:
         from plantlod.lsys.errors import InputError
@@ -81,6 +83,13 @@ class Options:
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
+
+    @property
+    def damping(self):
+        """The runs' damping (`plantlod.sim.damping.Damping`)."""
+        from plantlod.sim.damping import as_damping
+
+        return as_damping(0.0, self.damping_ratio or None)
 
     @property
     def steps(self) -> int:
@@ -200,12 +209,13 @@ def simplify_explicit(system: LSystem, options: Options,
         "drag_coefficient", "leaf_force_scale")}
     text, tree = explicit_system_text(original, levels[options.level], name=system.name or "tree",
                                       header=header, level=options.level, dt=options.dt,
-                                      duration=options.duration)
+                                      duration=options.duration,
+                                      damping_ratio=options.damping_ratio)
     check_stability(tree, options.dt)
     if progress:
         progress("measuring", 0.5)
     runs = Runs(original, group_map(original, tree), options.winds(), options.dt, options.steps,
-                options.every)
+                options.every, options.damping)
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
@@ -270,7 +280,8 @@ def simplify_grammar(system: LSystem, options: Options,
     if options.calibrate:
         if progress:
             progress("simulating the original", 0.0)
-        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
+        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every,
+                    options.damping)
         cal = calibrate(runs, tree, options.max_evaluations,
                         None if progress is None else (lambda f: progress("calibrating", f)))
         values = {**params.branch, **cal.values}
@@ -282,7 +293,8 @@ def simplify_grammar(system: LSystem, options: Options,
     if progress:
         progress("measuring", 1.0)
     if runs is None:
-        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
+        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every,
+                    options.damping)
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
@@ -322,6 +334,8 @@ def header_comment(system: LSystem, options: Options, reports: list[tuple[WindCa
         f"plantlod simplify: level {options.level} of {system.source or '<input>'} ({shape})",
         f"form: {form}",
         f"method: {options.method}" + (", calibrated" if options.calibrate else ""),
+        *([f"damping ratio: {options.damping_ratio:g} (fitted and measured under it; "
+            "simulate it with --damping-ratio)"] if options.damping_ratio else []),
         "errors of this file against the original (model.md section 6), steady winds from rest,",
         f"dt {options.dt:g} s, {options.duration:g} s, every {options.every} steps sampled:",
         "  wind m/s  toward deg  amplitude    period       tip/height   motion       period(major)",
