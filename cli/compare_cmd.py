@@ -8,7 +8,6 @@ and writes the report; `compare_exports` writes the OBJ frames and the picture.
 
 from __future__ import annotations
 
-import io
 import math
 import os
 import sys
@@ -18,7 +17,7 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import check_output_path, display_name, open_output, read_text, say, warn
+from .io import check_output_path, display_name, open_output, say, warn
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
@@ -211,11 +210,10 @@ def _check_angles_mode(ctx, simplified) -> None:
 
 
 def _read_csv(path: str, degrees: bool):
-    from plantlod.formats.angles_csv import read_angles_csv
-    from plantlod.formats.constants import MAX_CSV_LINE_BYTES
+    """The angles of an angle CSV or an .npz archive (`simulate -o X.npz`)."""
+    from plantlod.formats.angles_csv import read_angles_file
 
-    return read_angles_csv(io.StringIO(read_text(path, MAX_CSV_LINE_BYTES)), display_name(path),
-                           degrees=degrees)
+    return read_angles_file(path, degrees)
 
 
 def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):

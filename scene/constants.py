@@ -1,6 +1,12 @@
 """Constants of scenes (docs/scene.md)."""
 
-MAX_TREES = 100_000            # trees one scene may place
+MAX_TREES = 100_000            # trees one scene may place (a [scatter] count is checked before drawing)
+MAX_SCENE_STEPS = 1_000_000    # time steps of one scene (duration / dt): 10,000 s at dt = 0.01
+# trees x branches x steps of a scene at full detail (a tree with no branch counts as one):
+# the bound on the work a scene may ask for; forest10k.toml asks about 2e9
+MAX_SCENE_BRANCH_STEPS = 100_000_000_000
+# trees x steps: every tree's wind is held for the whole scene (24 bytes a tree-step, 2.4 GB)
+MAX_SCENE_TREE_STEPS = 100_000_000
 MAX_SCATTER_TRIES = 200        # random draws per tree before a scatter gives up on its spacing
 FRAME_RATE = 30.0              # frames per second: levels are chosen, and errors verified, per frame
 # Directions (deg, relative to the wind) over which a level's tip error is taken, the worst

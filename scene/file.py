@@ -27,7 +27,7 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 
-from .constants import MAX_SCATTER_TRIES, MAX_TREES
+from .constants import MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
 
 TOP_KEYS = {"dt", "duration", "budget_px", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
@@ -183,6 +183,11 @@ def read_scene(path: str) -> Scene:
     folder = file.resolve().parent
     dt = r.number(data, "dt", 0.01, low=0, low_open=True)
     duration = r.number(data, "duration", 10.0, low=0, low_open=True)
+    steps = duration / dt
+    if not steps <= MAX_SCENE_STEPS:                 # NaN and infinity included
+        raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {steps:,.3g} steps, more than "
+                      f"the limit of {MAX_SCENE_STEPS:,}; expected a shorter scene or a larger dt",
+                      "duration" if "duration" in data else "dt")
     budget = r.number(data, "budget_px", 1.0, low=0)
     if budget == 0:
         raise r.error("'budget_px' is 0: no level but the full tree shows no error; expected a "
@@ -205,8 +210,10 @@ def read_scene(path: str) -> Scene:
 
     trees: list[Placed] = []
     entries = data.get("tree", [])
-    if not isinstance(entries, list):
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise r.error("trees are [[tree]] entries", "tree")
+    if len(entries) > MAX_TREES:
+        raise r.error(f"{len(entries):,} trees is more than the limit of {MAX_TREES:,}", "tree")
     for entry in entries:
         r.keys(entry, TREE_KEYS, "[[tree]]")
         trees.append(Placed(r.file(entry.get("file"), "file", folder),
@@ -214,7 +221,7 @@ def read_scene(path: str) -> Scene:
                             r.number(entry, "heading", 0.0), r.number(entry, "scale", 1.0, low=0,
                                                                        low_open=True)))
     if "scatter" in data:
-        trees += _scatter(r, data["scatter"], folder)
+        trees += _scatter(r, data["scatter"], folder, MAX_TREES - len(trees))
     if not trees:
         raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
     if len(trees) > MAX_TREES:
@@ -255,8 +262,9 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
     return Camera(kp[0], ktg[0], fov, height, kt, kp, ktg)
 
 
-def _scatter(r: _Reader, table, folder: pathlib.Path) -> list[Placed]:
-    """N trees drawn from ``files`` over a rectangle, at least ``min_spacing`` apart, from ``seed``."""
+def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]:
+    """N trees drawn from ``files`` over a rectangle, at least ``min_spacing`` apart, from ``seed``;
+    N beyond ``room`` (what MAX_TREES leaves after the [[tree]] entries) is refused before drawing."""
     if not isinstance(table, dict):
         raise r.error("[scatter] must be a table", "scatter")
     r.keys(table, SCATTER_KEYS, "[scatter]")
@@ -265,6 +273,9 @@ def _scatter(r: _Reader, table, folder: pathlib.Path) -> list[Placed]:
         raise r.error("'files' must be a non-empty list of .lsys files", "files")
     files = [r.file(n, "files", folder) for n in names]
     count = int(r.number(table, "count", None, low=1, integer=True))
+    if count > room:
+        raise r.error(f"[scatter] count {count:,} makes more trees than the limit of "
+                      f"{MAX_TREES:,}", "count")
     seed = int(r.number(table, "seed", 0, low=0, integer=True))
     x0, y0, x1, y1 = r.vector(table, "area", 4)
     if not (x1 > x0 and y1 > y0):

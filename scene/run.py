@@ -27,7 +27,9 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.sim.kinematics import pose
 
-from .constants import FRAME_RATE, STORE_BATCH_TREES, VERIFY_LANES
+from .constants import (
+    FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
+)
 from .file import Scene
 from .levels import Chain, chain_from_texts, level_chain
 from .schedule import distances, frame_times, level_schedule
@@ -316,13 +318,28 @@ def _verify(scene: Scene, chain: Chain, batch: Batch, winds: np.ndarray, every: 
 
 
 def check_scene(scene: Scene) -> None:
-    """Refuse what the runner cannot do (bad input, exit 2): no time step, or a dt too large
-    for some tree."""
+    """Refuse what the runner cannot do (bad input, exit 2) before it allocates anything: no
+    time step, a dt too large for some tree, or more work than the declared caps
+    (MAX_SCENE_TREE_STEPS, MAX_SCENE_BRANCH_STEPS)."""
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
     from plantlod.sim.stability import check_stability
 
-    if scene.steps < 1:
+    steps = scene.steps
+    if steps < 1:
         raise InputError("the scene's duration is shorter than one time step", scene.source)
+    tree_steps = len(scene.trees) * steps
+    if tree_steps > MAX_SCENE_TREE_STEPS:
+        raise InputError(f"{len(scene.trees):,} trees x {steps:,} steps is {tree_steps:,} "
+                         f"tree-steps of wind, more than the limit of {MAX_SCENE_TREE_STEPS:,}; "
+                         "expected fewer trees or a shorter scene", scene.source)
+    branches = {}
     for path in sorted({t.file for t in scene.trees}):
-        check_stability(build(read_lsys(str(path))).tree, scene.dt)
+        tree = build(read_lsys(str(path))).tree
+        check_stability(tree, scene.dt)
+        branches[path] = max(1, tree.n_branches)
+    work = sum(branches[t.file] for t in scene.trees) * steps
+    if work > MAX_SCENE_BRANCH_STEPS:
+        raise InputError(f"the scene asks {work:,} branch-steps at full detail (trees x branches "
+                         f"x steps), more than the limit of {MAX_SCENE_BRANCH_STEPS:,}; expected "
+                         "fewer or smaller trees or a shorter scene", scene.source)
