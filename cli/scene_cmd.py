@@ -62,10 +62,11 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
     check_scene(spec)
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
     show = sys.stderr.isatty()
+    bar = _ProgressBar() if show else None
 
-    def progress(done: int, total: int) -> None:
-        if show:
-            click.echo(f"\rscene: {done}/{total} batches", err=True, nl=done == total)
+    def progress(stage: str, done: int, total: int, what: str) -> None:
+        if bar is not None:
+            bar.show(stage, done, total, what)
 
     tmp = None
     if angles_path is not None:
@@ -78,8 +79,13 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=".zarr", dir=folder)
         os.rmdir(tmp)
     try:
-        report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
-                           store_path=tmp, scheduler=scheduler, frame_rate=frame_rate)
+        try:
+            report = run_scene(spec, cache=cache, threads=threads, verify=verify,
+                               progress=progress, store_path=tmp, scheduler=scheduler,
+                               frame_rate=frame_rate)
+        finally:
+            if bar is not None:
+                bar.stop()
         if tmp is not None:
             os.replace(tmp, angles_path)          # all or nothing
     except BaseException:
@@ -105,3 +111,29 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
         + f", {report['wall_s']:.1f} s")
+
+
+class _ProgressBar:
+    """rich progress on stderr (a terminal only): one task while a file's levels are
+    fitted ("levels: FILE, level k of n"), then one for the batches."""
+
+    def __init__(self):
+        from rich.progress import Progress
+
+        from .io import console
+
+        self.bar = Progress(console=console(), transient=True, redirect_stdout=False,
+                            redirect_stderr=False)
+        self.bar.start()
+        self.tasks: dict[str, int] = {}
+
+    def show(self, stage: str, done: int, total: int, what: str) -> None:
+        label = f"levels: {what}, level {done} of {total}" if stage == "levels" else "batches"
+        key = f"{stage}:{what}"
+        if key not in self.tasks:
+            self.tasks[key] = self.bar.add_task(label, total=total)
+        self.bar.update(self.tasks[key], description=label,
+                        completed=done if stage == "batches" else done - 1)
+
+    def stop(self) -> None:
+        self.bar.stop()

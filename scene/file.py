@@ -29,7 +29,7 @@ from plantlod.lsys.errors import InputError
 
 from .constants import MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
 
-TOP_KEYS = {"dt", "duration", "budget_px", "wind", "camera", "tree", "scatter"}
+TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
 CAMERA_KEYS = {"position", "target", "fov_deg", "height_px", "key"}
 CAMERA_KEY_KEYS = {"t", "position", "target"}
@@ -104,6 +104,7 @@ class Scene:
     budget_px: float
     dt: float
     duration: float
+    damping_ratio: float = 0.0      # ζ of every tree (model.md 4); levels fitted under it
 
     @property
     def steps(self) -> int:
@@ -188,6 +189,7 @@ def read_scene(path: str) -> Scene:
         raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {steps:,.3g} steps, more than "
                       f"the limit of {MAX_SCENE_STEPS:,}; expected a shorter scene or a larger dt",
                       "duration" if "duration" in data else "dt")
+    damping_ratio = r.number(data, "damping_ratio", 0.0, low=0)
     budget = r.number(data, "budget_px", 1.0, low=0)
     if budget == 0:
         raise r.error("'budget_px' is 0: no level but the full tree shows no error; expected a "
@@ -226,7 +228,7 @@ def read_scene(path: str) -> Scene:
         raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
     if len(trees) > MAX_TREES:
         raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
-    return Scene(path, trees, wind, camera, budget, dt, duration)
+    return Scene(path, trees, wind, camera, budget, dt, duration, damping_ratio)
 
 
 def _camera(r: _Reader, cam_t: dict) -> Camera:

@@ -165,6 +165,9 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     store_path : a new zarr store (`scene.store`) to receive every tree's angles
     scheduler  : the address of a Dask scheduler: the batches run on its workers, each
                  writing its own chunks of the store (nothing gathered through this process)
+    progress   : called as progress(stage, done, total, what): stage "levels" while a tree
+                 file's level chain is fitted (what: the file, done: level k of total), then
+                 "batches" as batches finish
     """
     if scheduler is not None and verify:
         raise InputError("--verify runs in this process; expected it without --scheduler")
@@ -177,7 +180,12 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     speed = float(np.linalg.norm(winds, axis=-1).max()) if winds.size else 0.0
     speed = round(speed, 6)
     for path in sorted({t.file for t in scene.trees}):
-        chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache)
+        def levels_done(k: int, n: int, name: str = path.name) -> None:
+            if progress:
+                progress("levels", k, n, name)
+
+        chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache,
+                                 scene.damping_ratio, levels_done)
         chains[path] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)
@@ -209,7 +217,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
                                             threads)
             verify_s += time.perf_counter() - checking
         if progress:
-            progress(n + 1, len(batches))
+            progress("batches", n + 1, len(batches), "")
     simulate_s = time.perf_counter() - started - verify_s
     full = sum(chains[t.file].trees[0].n_branches for t in scene.trees) * steps
     counts = {path: np.array([t.n_branches for t in chain.trees]) for path, chain in chains.items()}
@@ -225,6 +233,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "budget_px": scene.budget_px,
         "level_wind_speed": speed,
         "dt": scene.dt,
+        "damping_ratio": scene.damping_ratio,
         "duration": scene.duration,
         "frame_rate": frame_rate,
         "frames": rows,
@@ -249,11 +258,11 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
 
 def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batch: Batch,
                    winds: np.ndarray, dt: float, steps: int, every: int,
-                   store: str | None) -> tuple[int, int]:
+                   store: str | None, damping_ratio: float = 0.0) -> tuple[int, int]:
     """One batch, wherever it runs (a Dask worker): rebuild the chain from its texts, step
     the batch through its schedule, write its chunks of the store; returns the branch-steps
     spent and the switches."""
-    chain = chain_from_texts(source, texts, np.asarray(tip_error_m))
+    chain = chain_from_texts(source, texts, np.asarray(tip_error_m), damping_ratio)
     group = None
     if store is not None:
         import zarr
@@ -277,7 +286,8 @@ def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batc
             chain = chains[pathlib.Path(batch.file)]
             futures.append(client.submit(
                 simulate_batch, chain.texts, chain.tip_error_m.tolist(), batch.file, batch,
-                winds[batch.members], scene.dt, scene.steps, every, store, pure=False))
+                winds[batch.members], scene.dt, scene.steps, every, store, scene.damping_ratio,
+                pure=False))
         done = client.gather(futures)
     return int(sum(d[0] for d in done)), int(sum(d[1] for d in done))
 
@@ -323,6 +333,7 @@ def check_scene(scene: Scene) -> None:
     (MAX_SCENE_TREE_STEPS, MAX_SCENE_BRANCH_STEPS)."""
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
+    from plantlod.sim.damping import Damping
     from plantlod.sim.stability import check_stability
 
     steps = scene.steps
@@ -336,7 +347,7 @@ def check_scene(scene: Scene) -> None:
     branches = {}
     for path in sorted({t.file for t in scene.trees}):
         tree = build(read_lsys(str(path))).tree
-        check_stability(tree, scene.dt)
+        check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
         branches[path] = max(1, tree.n_branches)
     work = sum(branches[t.file] for t in scene.trees) * steps
     if work > MAX_SCENE_BRANCH_STEPS:
