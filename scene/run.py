@@ -32,7 +32,7 @@ from .constants import (
 )
 from .file import Scene
 from .levels import Chain, chain_from_texts, level_chain
-from .schedule import distances, frame_times, level_schedule
+from .schedule import coarsest_levels, distances, frame_times, level_schedule
 from .switch import Transfer
 
 
@@ -138,6 +138,20 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
     return result
 
 
+def _bound_branch_steps(scene: Scene, chains: dict, counts: dict, every: int,
+                        budget: float) -> float:
+    """Branch-steps of the whole run at `schedule.coarsest_levels` (frame f's level for the
+    every steps after it; the last frame's for what remains)."""
+    times = frame_times(scene, every)
+    per_frame = np.diff(np.r_[np.arange(len(times)) * every, scene.steps]).clip(min=0)
+    total = 0.0
+    for path in sorted({t.file for t in scene.trees}):
+        members = [k for k, t in enumerate(scene.trees) if t.file == path]
+        best = coarsest_levels(scene, members, chains[path].tip_error_m, times, budget)
+        total += float((counts[path][best] * per_frame[None, :]).sum())
+    return total
+
+
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
                  ) -> tuple[list[Batch], np.ndarray, list]:
     """The batches of every file, the levels (N, F) and per file (name, members, trees)."""
@@ -224,6 +238,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     in_use = np.zeros(levels.shape[1])
     for k, t in enumerate(scene.trees):
         in_use += counts[t.file][levels[k]]
+    bound = _bound_branch_steps(scene, chains, counts, every, scene.budget_px)
     top = int(levels.max()) if levels.size else 0
     report = {
         "scene": scene.source,
@@ -243,6 +258,9 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "branch_steps_full": int(full),
         "branch_steps_spent": int(spent),
         "speedup": full / spent if spent else math.inf,
+        # the speed-up if every frame used the coarsest level its current distance allows,
+        # switching free: what the switching rule costs is speedup_bound / speedup
+        "speedup_bound": full / bound if bound else math.inf,
         "level_share": {str(k): float(np.mean(levels == k)) for k in range(top + 1)},
         "switches": int(switches),
         "simulated_seconds_per_wall_second": scene.duration / simulate_s if simulate_s > 0 else None,

@@ -147,6 +147,25 @@ def test_a_tree_the_camera_will_pass_starts_at_the_level_its_nearest_point_allow
     assert levels[0] == 2 and levels[-1] == 3 and np.all(np.diff(levels) >= 0)
 
 
+def test_the_bound_uses_each_frames_current_distance(tmp_path):
+    """speedup_bound's levels (`coarsest_levels`): approaching from 100 m to 10 m, each frame
+    at the coarsest level its own distance allows (by hand, model.md 7), never finer than
+    the look-ahead schedule's."""
+    from plantlod.scene.schedule import coarsest_levels
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -100.0), (2.0, -10.0)])
+    scene = replace(scene, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    times = np.arange(60) / 30.0
+    bound = coarsest_levels(scene, [0], errors, times, 1.0)[0]
+    d = 100.0 - 90.0 * np.minimum(times / 2.0, 1.0)
+    ppm = 1080 / (2 * d * math.tan(math.radians(30)))     # camera and base both at z = 1.7
+    expect = [max(k for k, e in enumerate(errors) if e * p <= 1.0) for p in ppm]
+    assert bound[0] == 3 and bound[-1] == 2
+    assert np.sum(bound != np.array(expect)) <= 1          # a frame at a boundary may round
+    assert np.all(bound >= level_schedule(scene, [0], errors, times, 1.0)[0])
+
+
 @pytest.mark.parametrize("body, message", [
     (BASE + "colour = 3\n", "unknown key 'colour'"),
     (BASE.replace("fov_deg = 60", "fov_deg = 200"), "'fov_deg' must be below 180"),
