@@ -124,16 +124,21 @@ def simplify(system: LSystem, options: Options,
     """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input."""
     if options.form not in FORMS:
         raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
-    if options.form == "explicit" or (options.form == "auto" and options.method == "derived"
-                                      and not options.calibrate
-                                      and options.level >= system.derivation_length):
+    if options.form == "explicit":
         return simplify_explicit(system, options, progress)
     if options.form == "grammar" or options.method != "derived" or options.calibrate:
         return simplify_grammar(system, options, progress)
+    plan = chain_plan(system, options.level)
+    if plan.grammar_fits is False or options.level >= system.derivation_length:
+        result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
+        if options.level < system.derivation_length:
+            result.notes.insert(0, "explicit form: the grammar form would have more branches "
+                                   "than a finer level")
+        return result
     try:
         grammar = simplify_grammar(system, options, progress)
     except InputError as exc:               # the grammar form cannot follow this tree
-        result = simplify_explicit(system, options, progress)
+        result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
         result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
         return result
     grammar_score = bounds_score(grammar.reports, options.level, grammar.largest_angles)
@@ -141,7 +146,7 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, "grammar form: it meets the level's bounds")
         return grammar
     try:
-        explicit = simplify_explicit(system, options, progress)
+        explicit = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
     except InputError as exc:
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
@@ -154,6 +159,63 @@ def simplify(system: LSystem, options: Options,
                             f"less ({_bounds_text(grammar.reports)}; explicit: "
                             f"{_bounds_text(explicit.reports)})")
     return grammar
+
+
+@dataclass(frozen=True)
+class ChainPlan:
+    """What `--form auto` may use at one level so that a chain only gets coarser.
+
+    budget            : the most branches level n may have: the fewest that any form has at
+                        any finer level k < n (the original at k = 0)
+    grammar_fits      : the grammar form's level n has at most ``budget`` branches (None: the
+                        grammar form does not apply at this level)
+    explicit_grouping : the explicit grouping (an index into `explicit.merge_levels`) for level
+                        n: level n's own, or the first coarser one within ``budget``; None
+                        past the explicit form's last level
+    """
+
+    budget: int
+    grammar_fits: bool | None
+    explicit_grouping: int | None
+
+
+def chain_plan(system: LSystem, level: int) -> ChainPlan:
+    """The `ChainPlan` of ``level``: counts only (derivations and groupings, no fit), so that
+    level n + 1 never has more branches than level n, whichever form each level takes.
+
+    Each form's count falls with the level (the grammar form derives fewer steps, each
+    explicit grouping keeps at most 60 % of the one before), but across forms it need not:
+    a tree whose last steps add few branches has a grammar level above the explicit level
+    before it. Any level chosen within ``budget`` has no more branches than any choice at
+    a finer level, since ``budget`` is the minimum over every form there.
+    """
+    from .explicit import merge_levels
+
+    original = build(system).tree
+    groupings = merge_levels(original)
+    explicit_counts = [g.count for g in groupings]          # index k: level k's groups
+    n = system.derivation_length
+
+    def grammar_count(k: int) -> int | None:
+        if not 1 <= k < n:
+            return None
+        try:
+            return build(replace(system, derivation_length=n - k, overrides=())).tree.n_branches
+        except InputError:
+            return None
+
+    budget = original.n_branches
+    for k in range(1, level):
+        counts = [c for c in (grammar_count(k),
+                              explicit_counts[k] if k < len(explicit_counts) else None) if c]
+        budget = min([budget, *counts])
+    own = grammar_count(level)
+    if level >= len(groupings):                 # past the explicit form's last level
+        return ChainPlan(budget, None if own is None else own <= budget, None)
+    grouping = level
+    while grouping < len(groupings) - 1 and explicit_counts[grouping] > budget:
+        grouping += 1
+    return ChainPlan(budget, None if own is None else own <= budget, grouping)
 
 
 def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
@@ -185,8 +247,13 @@ def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
 
 
 def simplify_explicit(system: LSystem, options: Options,
-                      progress: Callable[[str, float], None] | None = None) -> Result:
-    """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form."""
+                      progress: Callable[[str, float], None] | None = None,
+                      grouping: int | None = None) -> Result:
+    """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form.
+
+    grouping: the explicit grouping to use (an index into `explicit.merge_levels`), default
+    the level's own; `chain_plan` gives a coarser one where a finer level has fewer branches.
+    """
     from .explicit import explicit_system_text, merge_levels
 
     source = system.source or None
@@ -199,7 +266,7 @@ def simplify_explicit(system: LSystem, options: Options,
     check_stability(original, options.dt)
     levels = merge_levels(original)
     last = len(levels) - 1
-    if not 1 <= options.level <= last:
+    if grouping is None and not 1 <= options.level <= last:
         raise InputError(f"level {options.level} is past the last: this tree has {last} levels in "
                          f"the explicit form (1 to {last}, the last a single branch)", source)
     if progress:
@@ -207,7 +274,9 @@ def simplify_explicit(system: LSystem, options: Options,
     header = {key: getattr(system, key) for key in (
         "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
         "drag_coefficient", "leaf_force_scale")}
-    text, tree = explicit_system_text(original, levels[options.level], name=system.name or "tree",
+    text, tree = explicit_system_text(original, levels[options.level if grouping is None
+                                                      else min(grouping, last)],
+                                      name=system.name or "tree",
                                       header=header, level=options.level, dt=options.dt,
                                       duration=options.duration,
                                       damping_ratio=options.damping_ratio)
