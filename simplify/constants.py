@@ -72,3 +72,7 @@ KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of
 GAIN_FIT_SPEEDS = (0.5, 2.0, 5.0, 10.0, 20.0)   # m/s: the static match's wind speeds
 GAIN_TARGET_FLOOR = 0.01     # a wind's errors count against at least this x the largest target
 GAIN_RIDGE = 1e-6            # pull toward k_FA [[1,0,0],[0,1,0]], relative to the problem's scale
+MIXED_CARRY = 0.1            # a chord whose carry map has diagonal and off-diagonal entries above
+                             # this mixes bend and rotation in W_0: one strength for both
+GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
+STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x |ln k ratio|)
