@@ -64,9 +64,9 @@ FORCE_ABSORBED = {
     "sympodial": (0.0005, 0.0015),
     "bush": (0.0005, 0.002),
     "bush3d": (0.001, 0.003),
-    "stochastic": (0.0005, 0.0015),
-    "bent_leafy": (0.0005, 0.0015),
-    "weeping": (0.0005, 0.002),
+    "stochastic": (0.001, 0.003),
+    "bent_leafy": (0.001, 0.003),
+    "weeping": (0.001, 0.003),
     "mixed": (0.0005, 0.002),
 }
 DIGITS = 3                     # significant digits of every drawn number written
