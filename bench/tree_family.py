@@ -153,7 +153,8 @@ def branch_count(text: str) -> int:
 
 def _choose_depth(spec: Spec, target: int) -> str:
     """The text at the derivation length whose branch count lies in [MIN_BRANCHES,
-    MAX_BRANCHES] and nearest ``target`` (in ratio). Raises ValueError if none does."""
+    MAX_BRANCHES] and nearest ``target`` (in ratio), at most TYPICAL_MAX if ``target`` is and
+    such a length exists. Raises ValueError if none lies in the range."""
     from plantlod.lsys.errors import InputError
 
     best = None
@@ -165,7 +166,9 @@ def _choose_depth(spec: Spec, target: int) -> str:
         except InputError:                         # too many modules: deeper is larger still
             break
         if MIN_BRANCHES <= count <= MAX_BRANCHES:
-            score = abs(math.log(count / target))
+            # a typical target never takes a large count while a typical one is possible
+            large = count > TYPICAL_MAX >= target
+            score = (large, abs(math.log(count / target)))
             if best is None or score < best[0]:
                 best = (score, text)
         if count > MAX_BRANCHES:
@@ -384,18 +387,20 @@ def _bent_leafy(d: Draw, seed: int) -> Spec:
 
 
 def _weeping(d: Draw, seed: int) -> Spec:
-    """A trunk T adding 1-3 laterals a step; each lateral W(b) pitches further down by b at every
-    segment, b shrinking by q, so that it turns 70-120 deg past its 40-70 deg start and hangs."""
+    """A trunk T adding 1-3 laterals a step; each lateral W(b) grows two segments a step, each
+    pitched further down (by b, then b*q), b shrinking by q per segment, so that it turns
+    90-120 deg in all past its 50-75 deg start and hangs (140-195 deg from the vertical)."""
     count = d.integer(1, 3)
-    start = d.uniform(40, 70)
-    shrink = d.uniform(0.7, 0.85)
-    first = d.uniform(70, 120) * (1 - shrink)      # the pitches sum to 70-120 deg
+    start = d.uniform(50, 75)
+    shrink = d.uniform(0.6, 0.8)
+    first = d.uniform(90, 120) * (1 - shrink)      # the pitches sum to 90-120 deg
     trunk = d.uniform(0.25, 0.5)
     decls = [_branch("T", trunk, d.uniform(0.02, 0.04), _strengths(d)),
-             _branch("S", trunk * d.uniform(0.4, 0.8), d.uniform(0.005, 0.012), _strengths(d))]
+             _branch("S", trunk * d.uniform(0.3, 0.6), d.uniform(0.005, 0.012), _strengths(d))]
     lateral = f"W({_num(first)})"
+    q = _num(shrink)
     productions = [f"A -> T {_whorl(d, lateral, count, start)} /({_num(d.uniform(100, 160))}) A",
-                   f"W(b) -> S [/(90) L] &(b) W(b*{_num(shrink)})"]
+                   f"W(b) -> S [/(90) L] &(b) S [/(90) L] &(b*{q}) W(b*{q}*{q})"]
     return Spec("weeping", seed, f"{count} laterals a node from {start:.0f} deg, pitch {first:.1f} "
                 f"deg shrinking by {shrink:.2f}", _header(d, "weeping", 30, 90), decls, [_leaf(d)],
                 "A", productions, depths=(3, 30))
