@@ -19,7 +19,7 @@ a case; a level that simplify refuses or that diverges fails all its cases.
 
 Seeds 0-199 are the tuning range; --held-out measures seeds 1000-1199, the
 range nobody tunes on. Output (stdout, and --out FILE.md) is the same for any
---jobs; only the last line (wall time) differs from run to run.
+--jobs; only the last line (the full command and its wall time) differs from run to run.
 
     .venv/bin/python bench/lod_family.py [--seeds 0-199 | --held-out] [--jobs N]
                                          [--kinds k1,k2] [--levels 1-3] [--quick] [--out FILE.md]
@@ -143,13 +143,16 @@ def _init_worker() -> None:
     os.environ["NUMBA_NUM_THREADS"] = "1"
 
 
-def _run(job: tuple[str, int, tuple[int, ...]]) -> list[Case]:
-    return measure_tree(*job)
+def _run(job: tuple[str, int, tuple[int, ...]]) -> tuple[list[Case], float]:
+    """measure_tree(*job) and the seconds it took (for the progress lines only)."""
+    begin = time.perf_counter()
+    cases = measure_tree(*job)
+    return cases, time.perf_counter() - begin
 
 
 def run_all(jobs: list[tuple[str, int, tuple[int, ...]]], workers: int) -> list[Case]:
-    """Every job's cases, in the order of ``jobs`` whatever ``workers``; progress on stderr
-    (rich, only when stderr is a terminal)."""
+    """Every job's cases, in the order of ``jobs`` whatever ``workers``. Progress on stderr: a
+    rich bar when stderr is a terminal, else a line per tree with its branches and seconds."""
     progress = None
     if sys.stderr.isatty():
         from rich.console import Console
@@ -158,12 +161,21 @@ def run_all(jobs: list[tuple[str, int, tuple[int, ...]]], workers: int) -> list[
         progress.start()
         task = progress.add_task("trees", total=len(jobs))
     results: dict[int, list[Case]] = {}
+
+    def done(k: int, outcome: tuple[list[Case], float]) -> None:
+        results[k] = outcome[0]
+        if progress:
+            progress.advance(task)
+        else:
+            kind, seed, _ = jobs[k]
+            size = outcome[0][0].branches[0] if outcome[0] else 0
+            print(f"[{len(results)}/{len(jobs)}] {kind}-{seed}: {size} branches, {outcome[1]:.1f} s",
+                  file=sys.stderr, flush=True)
+
     try:
         if workers <= 1:
             for k, job in enumerate(jobs):
-                results[k] = _run(job)
-                if progress:
-                    progress.advance(task)
+                done(k, _run(job))
         else:
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -171,13 +183,24 @@ def run_all(jobs: list[tuple[str, int, tuple[int, ...]]], workers: int) -> list[
                                      initializer=_init_worker) as pool:
                 futures = {pool.submit(_run, job): k for k, job in enumerate(jobs)}
                 for future in as_completed(futures):
-                    results[futures[future]] = future.result()
-                    if progress:
-                        progress.advance(task)
+                    done(futures[future], future.result())
     finally:
         if progress:
             progress.stop()
     return [c for k in range(len(jobs)) for c in results[k]]
+
+
+def _command(argv: list[str]) -> str:
+    """The command line, without the options that do not change the tables (--jobs, --out)."""
+    kept, skip = [], False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg in ("--jobs", "--out"):
+            skip = True
+        elif not arg.startswith(("--jobs=", "--out=")):
+            kept.append(arg)
+    return " ".join(["python bench/lod_family.py"] + kept)
 
 
 def _fraction(cases: list[Case]) -> str:
@@ -290,8 +313,8 @@ def main(argv: list[str] | None = None) -> int:
     begin = time.perf_counter()
     chosen = select(seeds, args.kinds, args.quick)
     cases = run_all([(k, s, levels) for k, s in chosen], max(1, args.jobs))
-    command = "python bench/lod_family.py " + " ".join(sys.argv[1:] if argv is None else argv)
-    head = [f"`{command.strip()}` — {len(chosen)} trees (seeds {seeds[0]}-{seeds[-1]}, kind = "
+    argv = sys.argv[1:] if argv is None else argv
+    head = [f"`{_command(argv)}` — {len(chosen)} trees (seeds {seeds[0]}-{seeds[-1]}, kind = "
             f"kinds[seed % {len(KINDS)}]), levels {', '.join(map(str, levels))} (--form {FORM}); "
             f"winds {', '.join(f'{s:g}' for s in SPEEDS)} m/s toward "
             f"{', '.join(f'{d:g}' for d in DIRECTIONS)}°, dt {DT} s, {DURATION:g} s from rest; "
@@ -300,7 +323,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines), flush=True)
     if args.out:
         pathlib.Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print(f"\nwall time {time.perf_counter() - begin:.0f} s ({len(chosen)} trees, --jobs {args.jobs})")
+    print(f"\n`python bench/lod_family.py {' '.join(argv)}`: wall time "
+          f"{time.perf_counter() - begin:.0f} s ({len(chosen)} trees)")
     return 0
 
 

@@ -59,8 +59,8 @@ DRAG_RANGE = (0.001, 0.003)    # C_d of a mixed tree's symbols
 # k_FA (log-uniform) per kind: sized so that the largest combined angle at 10 m/s is
 # mostly 0.01-0.08 rad (measured on seeds 0-199 of the tuning range, not the held-out one).
 FORCE_ABSORBED = {
-    "stalk": (0.001, 0.004),
-    "monopodial": (0.0005, 0.002),
+    "stalk": (0.003, 0.012),
+    "monopodial": (0.001, 0.004),
     "sympodial": (0.0005, 0.0015),
     "bush": (0.0005, 0.002),
     "bush3d": (0.001, 0.003),

@@ -1,8 +1,8 @@
 """bench/tree_family.py (the generated family of trees) and bench/lod_family.py (its table).
 
 The kinds are told apart from the derived tree's rest geometry, computed here from
-the branches' ZYZ rest rotations (model.md section 2), independently of the
-simulator's kinematics.
+the branches' ZYZ rest rotations (model.md section 2) with the reference model's
+rotations (tests/reference_model.py), independently of the simulator's kinematics.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 import pytest
+from reference_model import rot_y, rot_z
 
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
@@ -27,16 +28,6 @@ SEEDS = (0, 1, 2, 3)                       # per kind: trees every structural ch
 DT = 0.01
 
 
-def _rz(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _ry(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
 def rest_geometry(tree) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(B, 3, 3) world frames, (B, 3) bases and (B, 3) tips at rest, parent before child."""
     b = tree.n_branches
@@ -45,7 +36,7 @@ def rest_geometry(tree) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p = int(tree.parent[i])
         up, start = (np.eye(3), np.zeros(3)) if p < 0 else (frames[p], tips[p])
         phi, alpha, psi = tree.euler[i]
-        frames[i] = up @ _rz(phi) @ _ry(alpha) @ _rz(psi)
+        frames[i] = up @ np.array(rot_z(phi)) @ np.array(rot_y(alpha)) @ np.array(rot_z(psi))
         bases[i] = start + up @ tree.offset[i]
         tips[i] = bases[i] + tree.length[i] * frames[i][:, 2]
     return frames, bases, tips
