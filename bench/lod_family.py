@@ -73,6 +73,7 @@ class Case:
 
     @property
     def excluded(self) -> bool:
+        """The original passed SMALL_ANGLE_LIMIT in this wind: the targets do not apply."""
         return not self.error and self.angle > SMALL_ANGLE_LIMIT
 
     def limits(self, level: int | None = None) -> tuple[tuple[str, float], ...] | None:
@@ -120,6 +121,7 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     cases = []
     for level in levels:
         def case(wind, **kw):
+            """A Case of this tree and level in ``wind``."""
             return Case(name, kind, seed, level, wind.speed, wind.direction, stalk, **kw)
         try:
             tree = simplify(system, Options(level=level, form=FORM)).tree
@@ -293,6 +295,7 @@ def select(seeds: list[int], kinds: tuple[str, ...], quick: bool) -> list[tuple[
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line: measures the chosen trees, prints the tables; exit status 0."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=parse_seeds, default=None,
                         help=f"seed range A-B (default {TUNING_SEEDS}, the tuning range)")

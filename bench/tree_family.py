@@ -57,7 +57,7 @@ LEAF_AREA = (0.001, 0.005)     # m^2 (log-uniform)
 DRAG = 0.0015                  # C_d, the thesis' value (mixed trees draw their own per symbol)
 DRAG_RANGE = (0.001, 0.003)    # C_d of a mixed tree's symbols
 # k_FA (log-uniform) per kind: sized so that the largest combined angle at 10 m/s is
-# mostly 0.01-0.08 rad (measured on seeds 0-199 of the tuning range, not the held-out one).
+# mostly 0.005-0.08 rad at level 1 (probed on tuning seeds 0-71, never on held-out ones).
 FORCE_ABSORBED = {
     "stalk": (0.003, 0.012),
     "monopodial": (0.001, 0.004),
@@ -70,6 +70,20 @@ FORCE_ABSORBED = {
     "mixed": (0.0005, 0.002),
 }
 DIGITS = 3                     # significant digits of every drawn number written
+# Planar bush templates (ABOP figure 1.24): productions, axiom, leaf interpretation.
+BUSH_TEMPLATES = {
+    "1.24a": ("F", ["F -> F [+F] F [-F] F"], ["F -> F [/(90) L]"]),
+    "1.24b": ("F", ["F -> F [+F] F [-F] [F]"], ["F -> F [/(90) L]"]),
+    "1.24c": ("F", ["F -> F F - [- F + F + F] + [+ F - F - F]"], ["F -> F [/(90) L]"]),
+    "1.24d": ("X", ["X -> F [+X] F [-X] + X", "F -> F F"], ["X -> /(90) L"]),
+    "1.24e": ("X", ["X -> F [+X] [-X] F X", "F -> F F"], ["X -> /(90) L"]),
+    "1.24f": ("X", ["X -> F - [[X] + X] + F [+ F X] - X", "F -> F F"], ["X -> /(90) L"]),
+}
+# Successors of the stochastic kind's shoot X (each draws F and grows on).
+STOCHASTIC_SUCCESSORS = (
+    "F [+X L] F X", "F [-X L] / F X", "F [&X] [^X L] F X", "F / [+X] [-X L] X",
+    "F [\\X L] F", "F F X", "F [^X] &(10) F X L",
+)
 
 
 def _num(x: float) -> str:
@@ -294,17 +308,6 @@ def _sympodial(d: Draw, seed: int) -> Spec:
                 [_leaf(d)], "A(1)", [f"A(s) -> F(s) {' '.join(parts)}"], depths=(3, 10))
 
 
-# Planar bush templates (ABOP figure 1.24): productions, axiom, leaf interpretation.
-BUSH_TEMPLATES = {
-    "1.24a": ("F", ["F -> F [+F] F [-F] F"], ["F -> F [/(90) L]"]),
-    "1.24b": ("F", ["F -> F [+F] F [-F] [F]"], ["F -> F [/(90) L]"]),
-    "1.24c": ("F", ["F -> F F - [- F + F + F] + [+ F - F - F]"], ["F -> F [/(90) L]"]),
-    "1.24d": ("X", ["X -> F [+X] F [-X] + X", "F -> F F"], ["X -> /(90) L"]),
-    "1.24e": ("X", ["X -> F [+X] [-X] F X", "F -> F F"], ["X -> /(90) L"]),
-    "1.24f": ("X", ["X -> F - [[X] + X] + F [+ F X] - X", "F -> F F"], ["X -> /(90) L"]),
-}
-
-
 def _bush(d: Draw, seed: int) -> Spec:
     """A planar bush from an ABOP 1.24 template, turns 15-35 deg about one axis only; leaves
     rolled out of the plane (drawing nothing after them, so the branches stay planar)."""
@@ -342,13 +345,6 @@ def _bush3d(d: Draw, seed: int) -> Spec:
     return Spec("bush3d", seed, f"3D bush ({variant}), roll {rotation:.1f} deg",
                 _header(d, "bush3d", d.uniform(20, 40) if variant == "abop" else 45, rotation),
                 decls, [_leaf(d)], axiom, productions, depths=(2, 12))
-
-
-# Successors of the stochastic kind's shoot X (each draws F and grows on).
-STOCHASTIC_SUCCESSORS = (
-    "F [+X L] F X", "F [-X L] / F X", "F [&X] [^X L] F X", "F / [+X] [-X L] X",
-    "F [\\X L] F", "F F X", "F [^X] &(10) F X L",
-)
 
 
 def _stochastic(d: Draw, seed: int) -> Spec:
@@ -413,6 +409,7 @@ def _mixed(d: Draw, seed: int) -> Spec:
     trunk = d.uniform(0.2, 0.5)
 
     def own(kind: str) -> str:
+        """A symbol's own k_FA (FORCE_ABSORBED[kind]), k_fp and C_d keys."""
         lo, hi = FORCE_ABSORBED[kind]
         return (f"force_absorbed={_num(d.log_uniform(lo, hi))} "
                 f"force_propagated={_num(d.uniform(*FORCE_PROPAGATED))} "
@@ -428,7 +425,8 @@ def _mixed(d: Draw, seed: int) -> Spec:
     overrides = [(d.uniform(0.3, 3.0), d.uniform(*FORCE_PROPAGATED)) for _ in range(2)]
 
     def rows(depth: int) -> list[str]:
-        # an axiom module with no production is copied: index 0 at every step (model.md 1)
+        """The override lines at derivation length ``depth``: an axiom module that no
+        production rewrites is copied, index 0 at every step (model.md 1)."""
         return [f"{i}{'.0' * depth}: force_absorbed={_num(f * FORCE_ABSORBED['mixed'][0])} "
                 f"force_propagated={_num(p)}" for i, (f, p) in enumerate(overrides)]
 
@@ -489,6 +487,7 @@ def parse_kinds(text: str) -> tuple[str, ...]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line: writes OUT/<kind>-<seed>.lsys for every seed; exit status 0."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=parse_seeds, default=parse_seeds("0-199"))
     parser.add_argument("--out", required=True, help="directory for <kind>-<seed>.lsys")
