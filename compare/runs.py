@@ -152,11 +152,11 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     tips_o = tip_series(original.tree, original.bend[cut], original.rot[cut], last)
     tips_s = tip_series(simplified.tree, simplified.bend[cut], simplified.rot[cut], np.arange(g))
     simp_b, simp_r = simplified.bend[cut], simplified.rot[cut]
-    if simplified.tree.group_root:
-        # explicit form: a chord's swing frame is turned against its group root's; its
-        # angles are carried into the root's frame, where the combined angles are
-        simp_b, simp_r = carry_angles(swing_turns(original.tree, simplified.tree, paths),
-                                      simp_b, simp_r)
+    # every simplified branch is read in its group root's rest swing frame W_0 (model.md 6),
+    # either form: a chord's frame turns against its root's, and a grammar-form branch's may
+    # too; where the frames agree the carry is the identity and changes no value
+    simp_b, simp_r = carry_angles(swing_turns(original.tree, simplified.tree, paths),
+                                  simp_b, simp_r)
     report = compare_groups(original.times[cut], combined_b[cut], combined_r[cut],
                             simp_b, simp_r, tips_o, tips_s,
                             rest_height(original.tree), list(simplified.tree.address))

@@ -109,7 +109,7 @@ class Runs:
         """One section-6 report per wind. Raises InputError when the simplified run diverges."""
         from plantlod.compare.groups import carry_angles, swing_turns
 
-        turn = swing_turns(self.original, simplified, self.gmap.paths) if simplified.group_root else None
+        turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
         reports = []
         every_branch = np.arange(simplified.n_branches)
         try:

@@ -340,7 +340,11 @@ def simplify_grammar(system: LSystem, options: Options,
         skeleton_tree = build(skeleton).tree if expanded else plain_tree
         if expanded:
             notes.append(f"equivalent leaves at the modules {', '.join(expanded)}")
-        params = closed_form(original, skeleton_tree, gmap, speeds=tuple(options.wind_range))
+        # fitted where compare reads it: in each group root's frame W_0 (model.md 6)
+        from plantlod.compare.groups import swing_turns
+
+        params = closed_form(original, skeleton_tree, gmap, speeds=tuple(options.wind_range),
+                             turn=swing_turns(original, skeleton_tree, gmap.paths))
     out = write_parameters(skeleton, params.branch, params.leaf_areas)
     tree = _read_back(out)
     check_stability(tree, options.dt)
