@@ -16,6 +16,9 @@ from .io import check_output_path, open_output, say
               help="Write the report (JSON) here; - for stdout.")
 @click.option("--verify", is_flag=True,
               help="Also run every tree at full detail and measure the error spent, in pixels.")
+@click.option("--verify-sample", "sample", type=click.IntRange(min=1), default=None, metavar="N",
+              help="With --verify: verify about N trees, every level and distance band "
+                   "represented, instead of all (for big scenes).")
 @click.option("--budget", "budget_px", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Pixel budget (overrides the scene's budget_px).")
 @click.option("--cache", "cache_dir", default=None, metavar="DIR",
@@ -32,7 +35,7 @@ from .io import check_output_path, open_output, say
               "verified) per frame.")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
-def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path,
+def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cache, angles_path,
           plot_path, scheduler, frame_rate, threads):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
@@ -56,6 +59,8 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         raise click.UsageError("--cache and --no-cache do not go together")
     for path in (report_path, plot_path):
         check_output_path(path)                 # refuse an unwritable output before running
+    if sample is not None and not verify:
+        raise click.UsageError("--verify-sample N goes with --verify")
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
@@ -82,7 +87,7 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         try:
             report = run_scene(spec, cache=cache, threads=threads, verify=verify,
                                progress=progress, store_path=tmp, scheduler=scheduler,
-                               frame_rate=frame_rate)
+                               frame_rate=frame_rate, sample=sample)
         finally:
             if bar is not None:
                 bar.stop()

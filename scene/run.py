@@ -92,11 +92,13 @@ def frame_steps(scene: Scene, frame_rate: float) -> int:
 
 def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,
               steps: int, every: int, *, threads: int | None = None, store=None,
-              keep_tips: bool = False) -> BatchResult:
+              keep_tips: "bool | np.ndarray" = False) -> BatchResult:
     """Step one batch through its schedule (module doc, step 3).
 
     winds : (n, steps, 3) m/s, each member's wind in its own frame
     store : a zarr group (`scene.store`) receiving the angles, or None
+    keep_tips : keep every member's level tips (True), or those of the members where the
+                (n,) bool array is True (a verified sample)
     """
     from plantlod.sim.lanes import new_state, run_lanes
 
@@ -106,7 +108,9 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
     n, frames = sched.shape
     cuts = [0] + [f for f in range(1, frames) if np.any(sched[:, f] != sched[:, f - 1])] + [frames]
     states = [new_state(chain.lane_model(int(sched[i, 0])), 1)[0] for i in range(n)]
-    result = BatchResult(tips=[[] for _ in range(n)] if keep_tips else [])
+    keep = (np.full(n, bool(keep_tips)) if np.ndim(keep_tips) == 0
+            else np.asarray(keep_tips, dtype=bool))
+    result = BatchResult(tips=[[] for _ in range(n)] if keep.any() else [])
     for fa, fb in zip(cuts[:-1], cuts[1:]):
         s0, s1 = fa * every, min(fb * every, steps)
         if s1 <= s0:
@@ -127,9 +131,10 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
                 block_r = np.full((n, rows, tree.n_branches), np.nan)
                 block_b[idx], block_r[idx] = bend, rot
                 write_block(store, batch.file_index, level, batch.first, fa, block_b, block_r)
-            if keep_tips and level > 0 and rows:
+            if keep.any() and level > 0 and rows:
                 for j, i in enumerate(idx.tolist()):
-                    result.tips[i].append((fa, level, pose(tree, bend[j], rot[j]).tip))
+                    if keep[i]:
+                        result.tips[i].append((fa, level, pose(tree, bend[j], rot[j]).tip))
         if fb < frames:                                   # switches at the cut
             for i in np.flatnonzero(sched[:, fb] != sched[:, fb - 1]).tolist():
                 a, b = int(sched[i, fb - 1]), int(sched[i, fb])
@@ -170,15 +175,46 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float
     return batches, levels, files
 
 
+def verify_sample(scene: Scene, levels: np.ndarray, every: int, count: int) -> np.ndarray:
+    """(N,) bool: a stratified sample of about ``count`` trees to verify at full detail.
+
+    Strata: the finest level a tree uses in the run (its levels (N, F) row) and its distance
+    band (the nearest it comes to the camera, in octaves: [2^k, 2^(k+1)) m). Every stratum
+    gets at least one tree, the rest go to strata in proportion to their size; within a
+    stratum the trees are taken evenly spread in scene order. Deterministic.
+    """
+    n = len(scene.trees)
+    if count >= n:
+        return np.ones(n, dtype=bool)
+    times = frame_times(scene, every)
+    d, _ahead = distances(scene, list(range(n)), times)
+    band = np.floor(np.log2(np.maximum(d.min(axis=1), 1e-3))).astype(np.int64)
+    finest = levels.min(axis=1).astype(np.int64)
+    key = finest * 4096 + (band + 2048)
+    strata, inverse = np.unique(key, return_inverse=True)
+    sizes = np.bincount(inverse, minlength=len(strata))
+    share = np.maximum(1, np.floor(sizes * (max(count, len(strata)) - len(strata))
+                                   / n).astype(np.int64) + 1)
+    share = np.minimum(share, sizes)
+    chosen = np.zeros(n, dtype=bool)
+    for s_ in range(len(strata)):
+        members = np.flatnonzero(inverse == s_)
+        pick = np.unique(np.round(np.linspace(0, len(members) - 1, share[s_])).astype(np.int64))
+        chosen[members[pick]] = True
+    return chosen
+
+
 def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: bool = False,
               progress=None, store_path: str | None = None, scheduler: str | None = None,
-              frame_rate: float = FRAME_RATE) -> dict:
+              frame_rate: float = FRAME_RATE, sample: int | None = None) -> dict:
     """Run ``scene``; the report document of docs/scene.md, and its levels (N, F) under the
     private key ``_levels`` (for the plot; the CLI removes it).
 
     store_path : a new zarr store (`scene.store`) to receive every tree's angles
     scheduler  : the address of a Dask scheduler: the batches run on its workers, each
                  writing its own chunks of the store (nothing gathered through this process)
+    sample     : with ``verify``, verify about this many trees (`verify_sample`: every level
+                 and distance band represented) instead of all
     progress   : called as progress(stage, done, total, what): stage "levels" while a tree
                  file's level chain is fitted (what: the file, done: level k of total), then
                  "batches" as batches finish
@@ -214,6 +250,8 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     spent = switches = 0
     verify_s = 0.0                                    # not part of the simulation's speed
     errors = np.full(len(scene.trees), np.nan)
+    checked = (verify_sample(scene, levels, every, sample) if verify and sample is not None
+               else np.full(len(scene.trees), verify))
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
@@ -222,13 +260,14 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         chain = chains[pathlib.Path(batch.file)]
         result = run_batch(chain, transfers[pathlib.Path(batch.file)], batch,
                            winds[batch.members], scene.dt, steps, every, threads=threads,
-                           store=store, keep_tips=verify)
+                           store=store, keep_tips=checked[batch.members])
         spent += result.spent
         switches += result.switches
-        if verify:
+        if checked[batch.members].any():
             checking = time.perf_counter()
-            errors[batch.members] = _verify(scene, chain, batch, winds, every, result.tips,
-                                            threads)
+            mine = checked[batch.members]
+            found = _verify(scene, chain, batch, winds, every, result.tips, threads)
+            errors[np.asarray(batch.members)[mine]] = found[mine]
             verify_s += time.perf_counter() - checking
         if progress:
             progress("batches", n + 1, len(batches), "")
@@ -269,6 +308,13 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     if verify:
         report["max_error_px"] = float(np.nanmax(errors)) if np.isfinite(errors).any() else 0.0
         report["mean_error_px"] = float(np.nanmean(errors)) if np.isfinite(errors).any() else 0.0
+        report["verified_trees"] = int(np.isfinite(errors).sum())
+        if sample is not None:
+            worst = int(np.nanargmax(errors)) if np.isfinite(errors).any() else -1
+            report["verify_sample"] = {
+                "asked": int(sample), "trees": int(checked.sum()),
+                "levels": sorted({int(v) for v in levels[checked].min(axis=1)}),
+                "worst_tree": worst}
     report["_levels"] = levels
     report["_branches_in_use"] = in_use
     return report

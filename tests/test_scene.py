@@ -207,6 +207,26 @@ def test_report_cache_threads_and_verified_budget(tmp_path):
         assert second[key] == first[key]
 
 
+def test_a_verified_sample_covers_every_level_and_measures_what_full_verify_does(tmp_path, chains):
+    """--verify-sample N: each sampled tree's error is the one --verify measures for it (the
+    same full-detail run), the sample's maximum at most the whole scene's, and every level a
+    tree starts at is in the sample (`verify_sample`'s strata)."""
+    from plantlod.scene.run import run_scene, verify_sample
+    from plantlod.scene.file import read_scene as read
+
+    scene = read(_scene(tmp_path, BASE))
+    full = run_scene(scene, cache=chains, verify=True)
+    part = run_scene(scene, cache=chains, verify=True, sample=4)
+    levels = full["_levels"]
+    chosen = verify_sample(scene, levels, 3, 4)
+    assert part["verify_sample"]["trees"] == int(chosen.sum()) >= 1
+    assert set(part["verify_sample"]["levels"]) == {int(v) for v in levels.min(axis=1)}
+    assert part["verified_trees"] == int(chosen.sum())
+    assert part["max_error_px"] <= full["max_error_px"] + 1e-12
+    assert part["branch_steps_spent"] == full["branch_steps_spent"]
+    run_cli("scene", _scene(tmp_path, BASE), "--verify-sample", "3", exit_code=2)
+
+
 def test_angles_do_not_depend_on_threads(tmp_path, chains):
     from plantlod.scene.run import tree_winds
 
