@@ -18,3 +18,6 @@ STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
+# Part of every cached chain's key: raise it whenever the explicit fit changes what it writes
+# (2: gain matrices, group swings from the carried superposition, merges by similar periods).
+CHAIN_FIT_VERSION = 2

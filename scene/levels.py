@@ -23,7 +23,7 @@ from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
-from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS
+from .constants import CACHE_ENV, CHAIN_FIT_VERSION, TIP_ERROR_DIRECTIONS
 
 
 @dataclass
@@ -75,7 +75,8 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
     except PackageNotFoundError:
         program = "0+unknown"
     h = hashlib.sha256()
-    for part in (data, program.encode(), repr((speed, dt, duration, damping_ratio)).encode()):
+    for part in (data, program.encode(), repr((speed, dt, duration, damping_ratio,
+                                               CHAIN_FIT_VERSION)).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest()[:32]
