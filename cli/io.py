@@ -142,8 +142,14 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
     if path is None or path == "-":
         if sys.stdout is None:
             raise RunFailure("standard output is closed; give -o FILE or redirect it")
-        out = sys.stdout.buffer if binary else sys.stdout
         with _write_errors("standard output"):
+            sys.stdout.flush()                  # what click or print left there goes first
+            buffer = getattr(sys.stdout, "buffer", None)
+            if buffer is None:                  # a text-only stdout (a StringIO in a test)
+                yield sys.stdout
+                sys.stdout.flush()
+                return
+            out = WholeWrites(buffer, text=not binary)
             yield out
             out.flush()
         return
@@ -159,6 +165,45 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
                 yield out
         finally:
             _temporary.discard(tmp)
+
+
+class WholeWrites:
+    """A binary stream's writer that writes every byte or raises: a buffered stream may
+    accept part of a large write and report it by a short count (a disk that fills up
+    mid-write), which a text layer drops without a word. ``text``: write() takes str
+    (UTF-8, no newline translation)."""
+
+    def __init__(self, stream: IO[bytes], text: bool):
+        self.stream, self.text = stream, text
+
+    def write(self, data) -> int:
+        raw = data.encode("utf-8") if self.text else data
+        view = memoryview(raw).cast("B")
+        while len(view):
+            n = self.stream.write(view)
+            if not n:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            view = view[n:]
+        return len(data)
+
+    def writelines(self, lines) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def close(self) -> None:
+        self.stream.close()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 _temporary: set[str] = set()     # temporary files open_output holds right now
@@ -188,8 +233,6 @@ def _write_errors(name: str) -> Iterator[None]:
 _BAD_NAME_ERRORS = {errno.ENAMETOOLONG, errno.ENOTDIR, errno.ENOENT, errno.EISDIR}
 
 
-def _open_stream(target, binary: bool) -> IO:
-    """Open a path or file descriptor for writing: bytes, or UTF-8 text with \\n line ends."""
-    if binary:
-        return io.open(target, "wb")
-    return io.open(target, "w", encoding="utf-8", newline="\n")
+def _open_stream(target, binary: bool) -> WholeWrites:
+    """Open a path for writing: bytes, or UTF-8 text with \\n line ends; every write whole."""
+    return WholeWrites(io.open(target, "wb"), text=not binary)
