@@ -12,8 +12,12 @@ import contextlib
 import errno
 import io
 import os
+import shutil
+import signal
 import stat
 import sys
+import tempfile
+import threading
 from typing import IO, Iterator
 
 # Re-exported: every command reads its inputs through formats.text_input.
@@ -207,13 +211,67 @@ class WholeWrites:
 
 
 _temporary: set[str] = set()     # temporary files open_output holds right now
+_temporary_folders: set[str] = set()     # temporary folders output_folder holds right now
 
 
 def remove_temporary_files() -> None:
-    """Remove every temporary file of `open_output` (the signal handler calls this)."""
+    """Remove every temporary file of `open_output` and every temporary folder of
+    `output_folder` (the signal handler calls this)."""
     for tmp in list(_temporary):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+    for folder in list(_temporary_folders):
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[str]:
+    """A new, empty temporary folder ``.plantlod-*SUFFIX`` beside ``path`` to fill.
+
+    When the block ends normally it becomes ``path`` (renamed), or with ``merge`` and an
+    existing folder ``path``, its files are moved into that folder; on any exception, and on
+    a signal (`remove_temporary_files`), it is removed with everything in it, so a failed
+    run leaves no folder behind. A missing parent folder is an `InputError`.
+    """
+    if not path:
+        raise InputError("the output folder name is empty")
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(parent):
+        raise InputError("output directory does not exist", path)
+    if os.path.exists(path) and not (merge and os.path.isdir(path)):
+        raise InputError("exists; expected a new path" if not os.path.isdir(path) or not merge
+                         else "is not a folder", path)
+    with _write_errors(path), _signals_held():
+        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=parent)
+        _temporary_folders.add(tmp)
+    try:
+        yield tmp
+        with _write_errors(path):
+            if merge and os.path.isdir(path):
+                for name in sorted(os.listdir(tmp)):
+                    os.replace(os.path.join(tmp, name), os.path.join(path, name))
+                os.rmdir(tmp)
+            else:
+                os.replace(tmp, path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+        _temporary_folders.discard(tmp)
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT, SIGTERM and SIGHUP for the block (a temporary made and registered at once)."""
+    from .discipline import CAUGHT_SIGNALS
+
+    block = getattr(signal, "pthread_sigmask", None)
+    if block is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = block(signal.SIG_BLOCK, CAUGHT_SIGNALS)
+    try:
+        yield
+    finally:
+        block(signal.SIG_SETMASK, old)
 
 
 @contextlib.contextmanager

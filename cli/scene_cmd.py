@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from .io import check_output_path, open_output, say
+from .io import check_output_path, open_output, output_folder, say
 
 
 @click.command()
@@ -56,6 +56,12 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         raise click.UsageError("--cache and --no-cache do not go together")
     for path in (report_path, plot_path):
         check_output_path(path)                 # refuse an unwritable output before running
+    if angles_path is not None:
+        import os
+
+        if os.path.lexists(angles_path):
+            raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
+        check_output_path(angles_path)
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
@@ -67,32 +73,27 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
         if show:
             click.echo(f"\rscene: {done}/{total} batches", err=True, nl=done == total)
 
-    tmp = None
-    if angles_path is not None:
-        import os
-        import tempfile
+    import contextlib
 
-        if os.path.exists(angles_path):
-            raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
-        folder = os.path.dirname(os.path.abspath(angles_path))
-        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=".zarr", dir=folder)
-        os.rmdir(tmp)
-    try:
+    with contextlib.ExitStack() as stack:
+        tmp = None
+        if angles_path is not None:     # a new zarr store: in place only when every output is
+            tmp = stack.enter_context(output_folder(angles_path, suffix=".zarr"))
         report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
                            store_path=tmp, scheduler=scheduler, frame_rate=frame_rate)
-        if tmp is not None:
-            os.replace(tmp, angles_path)          # all or nothing
-    except BaseException:
-        if tmp is not None and os.path.exists(tmp):
-            import shutil
+        _write_outputs(spec, report, plot_path, report_path, frame_rate)
+    say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
+        f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
+        + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
+        + f", {report['wall_s']:.1f} s")
 
-            shutil.rmtree(tmp)
-        raise
+
+def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float) -> None:
+    """The picture (with --plot) and the report; takes the private keys out of ``report``."""
     levels = report.pop("_levels")
     in_use = report.pop("_branches_in_use")
     if plot_path is not None:
         from plantlod.scene.plot import scene_png
-
         from plantlod.scene.run import frame_steps
 
         png = scene_png(spec, levels, in_use, report["branches_full"],
@@ -101,7 +102,3 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
             out.write(png)
     with open_output(report_path) as out:
         out.write(json.dumps(report, indent=2, sort_keys=False) + "\n")
-    say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
-        f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
-        + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
-        + f", {report['wall_s']:.1f} s")

@@ -12,7 +12,7 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import display_name, open_output, say
+from .io import display_name, open_output, output_folder, say
 
 
 def _wind_range(ctx, param, value):
@@ -129,16 +129,18 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise InputError("--levels needs a directory; this is a file", folder)
     last = len(merge_levels(build(system).tree)) - 1
-    os.makedirs(folder, exist_ok=True)
-    for k in range(1, last + 1):
-        result = simplify_explicit(system, Options(level=k, wind_range=wind_range, dt=dt,
-                                                   duration=duration, form="explicit"))
-        with open_output(os.path.join(folder, f"level{k}.lsys")) as out:
-            out.write(result.text)
-        s = result.summary
-        say(f"simplify: {display_name(input_path)} level {k}/{last}: {result.original.n_branches:,}"
-            f" -> {result.tree.n_branches:,} branches; worst amplitude {_pct(s.amplitude)}, "
-            f"tip {_pct(s.tip)} of height")
+    # every level into a temporary folder beside DIR, moved into DIR only when all are
+    # written: a failure or a signal leaves neither a partial set nor a new empty DIR
+    with output_folder(folder, merge=True) as tmp:
+        for k in range(1, last + 1):
+            result = simplify_explicit(system, Options(level=k, wind_range=wind_range, dt=dt,
+                                                       duration=duration, form="explicit"))
+            with open_output(os.path.join(tmp, f"level{k}.lsys")) as out:
+                out.write(result.text)
+            s = result.summary
+            say(f"simplify: {display_name(input_path)} level {k}/{last}: "
+                f"{result.original.n_branches:,} -> {result.tree.n_branches:,} branches; "
+                f"worst amplitude {_pct(s.amplitude)}, tip {_pct(s.tip)} of height")
 
 
 def _pct(x: float) -> str:

@@ -84,3 +84,92 @@ def test_tree_entries_that_are_not_tables(tmp_path):
     path.write_text("tree = [1, 2]\n" + HEAD.format(duration=1))
     one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
              "trees are [[tree]] entries")
+
+
+# --- folders a command creates: removed on every signal and error ------------------------
+
+SLOWED = """import sys, time
+import {module} as m
+real = m.{name}
+def slow(*a, **k):
+    time.sleep(0.5)
+    return real(*a, **k)
+m.{name} = slow
+{extra}
+from plantlod.cli.main import main
+sys.argv[0] = "plantlod"
+main()
+"""
+
+
+def _signal_when_a_temporary_appears(tmp_path, script: str, args: list[str], signum: int):
+    import signal as _signal  # noqa: F401
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", script, *args], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
+        assert proc.poll() is None, proc.communicate()[1]
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(0.3)
+    proc.send_signal(signum)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signum, stderr
+    assert len(stderr.strip().splitlines()) == 1 and "Traceback" not in stderr, stderr
+
+
+@pytest.mark.parametrize("signum", [2, 15, 1])
+def test_a_signal_during_scene_angles_leaves_no_store(tmp_path, signum):
+    scene = tmp_path / "s.toml"
+    scene.write_text(HEAD.format(duration=1) + f'[scatter]\nfiles = ["{STALK}"]\ncount = 200\n'
+                     'area = [-20, -20, 20, 20]\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    script = SLOWED.format(module="plantlod.scene.run", name="run_batch", extra="")
+    _signal_when_a_temporary_appears(out, script, ["scene", str(scene), "--cache",
+                                                   str(tmp_path / "cache"), "--angles",
+                                                   str(out / "a.zarr"), "--report", os.devnull],
+                                     signum)
+    assert os.listdir(out) == []
+
+
+def test_a_failure_after_the_store_leaves_no_store(tmp_path):
+    scene = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli("scene", scene, "--cache", str(tmp_path / "cache"), "--angles",
+                     str(out / "a.zarr"), "--report", "/dev/full", exit_code=None)
+    one_line(result, 1, "No space left on device")
+    assert os.listdir(out) == []
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_signal_during_simplify_levels_leaves_no_folder(tmp_path, existing):
+    out = tmp_path / "out"
+    out.mkdir()
+    target = out / "levels"
+    if existing:
+        target.mkdir()
+        (target / "mine.txt").write_text("keep")
+    script = SLOWED.format(module="plantlod.simplify.pipeline", name="simplify_explicit",
+                           extra="")
+    _signal_when_a_temporary_appears(out, script, ["simplify", STALK, "--levels", str(target),
+                                                   "--duration", "1"], 2)
+    assert os.listdir(out) == (["levels"] if existing else [])
+    if existing:
+        assert os.listdir(target) == ["mine.txt"]
+
+
+def test_simplify_levels_fills_an_existing_folder_and_refuses_a_missing_parent(tmp_path):
+    target = tmp_path / "lv"
+    target.mkdir()
+    (target / "mine.txt").write_text("keep")
+    run_cli("simplify", STALK, "--levels", str(target), "--duration", "1")
+    names = sorted(os.listdir(target))
+    assert "mine.txt" in names and "level1.lsys" in names
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
+    one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "no" / "lv"), exit_code=None),
+             2, "output directory does not exist")
