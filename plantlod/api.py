@@ -78,10 +78,16 @@ def derive(system: LSystem, n: int | None = None, *, max_modules: int | None = N
     Returns the `Tree` (plantlod.lsys.tree: per-branch arrays of shape (B,),
     per-leaf arrays (F,), rest rotations as ZYZ angles (B, 3)).
     """
+    import warnings
+
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
+    from plantlod.lsys.errors import PlantlodWarning
 
-    return build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES).tree
+    built = build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES)
+    for message in built.warnings:
+        warnings.warn(message, PlantlodWarning, stacklevel=2)
+    return built.tree
 
 
 def read_tree(path_or_file: PathOrFile) -> Tree:
@@ -131,9 +137,25 @@ def simulate(tree: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0), dt: float = 0.01
         raise InputError("an empty list of winds; expected at least one wind")
     winds = [_wind(w) for w in (wind if many else [wind])]
     time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
+    _warn_large_angles(tree, time, bend, rot, many)
     if not many:
         bend, rot = bend[0], rot[0]
     return Angles(time, bend, rot, tuple(tree.address))
+
+
+def _warn_large_angles(tree: Tree, time, bend, rot, many: bool) -> None:
+    """A `PlantlodWarning` for the first run (lane) whose angles leave the small-angle model."""
+    import warnings
+
+    from plantlod.lsys.errors import PlantlodWarning
+    from plantlod.sim.angle_range import first_large_angle
+
+    for lane in range(len(bend)):
+        large = first_large_angle(time, bend[lane], rot[lane], tree.address)
+        if large is not None:
+            what = (tree.source or "tree") + (f", wind {lane}" if many else "")
+            warnings.warn(large.message(what), PlantlodWarning, stacklevel=3)
+            return
 
 
 def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping: float,

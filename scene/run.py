@@ -56,6 +56,7 @@ class BatchResult:
     spent: int = 0
     switches: int = 0
     tips: list = field(default_factory=list)
+    large: tuple | None = None     # (scene tree index, LargeAngle): the first beyond the model
 
 
 def tree_winds(scene: Scene, steps: int) -> np.ndarray:
@@ -121,6 +122,8 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
                                   addresses=tree.address)
             for j, i in enumerate(idx.tolist()):
                 states[i] = state[j]
+            if result.large is None and rows:
+                result.large = _first_large(batch, idx, tree, bend, rot, fa, every * dt)
             result.spent += tree.n_branches * (s1 - s0) * len(idx)
             if store is not None and rows:
                 block_b = np.full((n, rows, tree.n_branches), np.nan)
@@ -136,6 +139,20 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
                 states[i] = transfer.carry(a, b, states[i], winds[i, min(fb * every, steps - 1)])
                 result.switches += 1
     return result
+
+
+def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.ndarray,
+                 row0: int, row_seconds: float) -> tuple | None:
+    """(scene tree index, LargeAngle) of the first member of this block beyond the model's
+    range, or None; rows from ``row0`` at ``row_seconds`` apart (row r ends at (r+1) x)."""
+    from plantlod.sim.angle_range import first_large_angle
+
+    times = (row0 + 1 + np.arange(bend.shape[1])) * row_seconds
+    for j, i in enumerate(idx.tolist()):
+        large = first_large_angle(times, bend[j], rot[j], tree.address)
+        if large is not None:
+            return batch.members[i], large
+    return None
 
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
@@ -192,6 +209,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     spent = switches = 0
     verify_s = 0.0                                    # not part of the simulation's speed
     errors = np.full(len(scene.trees), np.nan)
+    large = None
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
@@ -203,6 +221,8 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
                            store=store, keep_tips=verify)
         spent += result.spent
         switches += result.switches
+        if result.large is not None and large is None:
+            large = result.large
         if verify:
             checking = time.perf_counter()
             errors[batch.members] = _verify(scene, chain, batch, winds, every, result.tips,
@@ -211,6 +231,14 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         if progress:
             progress(n + 1, len(batches))
     simulate_s = time.perf_counter() - started - verify_s
+    if large is not None:
+        import warnings
+
+        from plantlod.lsys.errors import PlantlodWarning
+
+        k, first = large
+        warnings.warn(first.message(f"{scene.source}: tree {k} ({scene.trees[k].file.name})"),
+                      PlantlodWarning, stacklevel=2)
     full = sum(chains[t.file].trees[0].n_branches for t in scene.trees) * steps
     counts = {path: np.array([t.n_branches for t in chain.trees]) for path, chain in chains.items()}
     in_use = np.zeros(levels.shape[1])
