@@ -65,10 +65,14 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
              duration, evaluations, progress):
     """Write a level-n L-system that sways like FILE's tree.
 
-    The result keeps FILE's axiom and productions and derives N - n steps; its
-    branch at address a stands for the original branches whose addresses begin
-    with a. Its header comment records the source, level, method and the errors
-    (docs/model.md section 6) measured for it over the winds of --wind-range.
+    In the grammar form the result keeps FILE's axiom and productions and derives
+    N - n steps; in the explicit form it writes the level's branches out one by one
+    (groups merged from the tips, each branch a chord of its group) and names each
+    branch's group in a groups: section. Either way its branch at address a stands for
+    the original branches of its group. --form auto (the default) keeps the grammar
+    form where it meets the level's bounds. The header comment records the source,
+    level, form, method and the errors (docs/model.md section 6) measured for it over
+    the winds of --wind-range.
 
     \b
     Example:

@@ -117,3 +117,28 @@ def test_the_api_warns_of_large_angles_once_per_call():
         plantlod.simulate(tree, wind=[(5.0, 0, 0), (6.0, 0, 0)], dt=0.01, duration=3)
     messages = [str(w.message) for w in caught if issubclass(w.category, PlantlodWarning)]
     assert len(messages) == 1 and "big.lsys, wind 0: branch 0.0.0.0 tilts" in messages[0]
+
+
+# --- texts that must not go out of date -------------------------------------------------
+
+def test_the_group_help_lists_every_command_without_a_stale_count():
+    import re
+
+    from plantlod.cli.main import cli
+
+    text = run_cli("--help").stdout
+    listed = re.findall(r"^    (\w+)  ", text, re.M)
+    assert sorted(listed) == sorted(cli.commands), listed
+    words = ("two", "three", "four", "five", "six", "seven", "eight", "nine")
+    assert not re.search(rf"\b({'|'.join(words)}) commands\b", text)
+
+
+def test_simplify_help_does_not_promise_the_grammar_form():
+    text = " ".join(run_cli("simplify", "--help").stdout.split())
+    assert "The result keeps FILE's axiom and productions" not in text
+    assert "explicit form" in text and "groups: section" in text
+
+
+def test_scene_docs_describe_plot_as_built():
+    text = (ROOT / "docs" / "scene.md").read_text()
+    assert "Not built yet" not in text and "`--plot FILE.png` draws" in text
