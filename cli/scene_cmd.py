@@ -54,6 +54,10 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
 
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache do not go together")
+    if scheduler is not None:
+        from plantlod.scene.run import check_scheduler_address
+
+        check_scheduler_address(scheduler)
     for path in (report_path, plot_path):
         check_output_path(path)                 # refuse an unwritable output before running
     if angles_path is not None:

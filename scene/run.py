@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import math
 import pathlib
+import re
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.sim.kinematics import pose
 
 from .constants import (
@@ -292,6 +293,16 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
     return result.spent, result.switches
 
 
+SCHEDULER_ADDRESS = re.compile(r"(tcp|tls|ws|wss|ucx|inproc)://[^\s/]+:[0-9]{1,5}/?\Z")
+
+
+def check_scheduler_address(address: str) -> None:
+    """A Dask scheduler's address, PROTOCOL://HOST:PORT; anything else is bad input (exit 2)."""
+    if not SCHEDULER_ADDRESS.match(address):
+        raise InputError(f"--scheduler {address!r} is not a scheduler address; expected "
+                         "tcp://HOST:PORT (what `dask scheduler` prints)")
+
+
 def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batch],
                     winds: np.ndarray, every: int, store: str | None) -> tuple[int, int]:
     """Every batch as a task of the Dask cluster at ``address`` (dask.distributed)."""
@@ -299,7 +310,15 @@ def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batc
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler needs dask.distributed: pip install 'plantlod[cluster]'") from None
-    with Client(address, timeout="30s") as client:
+    check_scheduler_address(address)
+    try:
+        client = Client(address, timeout="30s")
+    except ValueError as exc:
+        raise InputError(f"--scheduler {address}: {exc}") from None
+    except (OSError, TimeoutError) as exc:
+        raise RunFailure(f"cannot reach the scheduler at {address}: {exc or type(exc).__name__}"
+                         ) from None
+    with client:
         futures = []
         for batch in batches:
             chain = chains[pathlib.Path(batch.file)]

@@ -173,3 +173,120 @@ def test_simplify_levels_fills_an_existing_folder_and_refuses_a_missing_parent(t
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
     one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "no" / "lv"), exit_code=None),
              2, "output directory does not exist")
+
+
+# --- random scene files: exit 0, 1 or 2 with one line, never an internal error -----------
+
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if value != value:
+            return "nan"
+        if value in (float("inf"), float("-inf")):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(value)
+
+
+SCALARS = st.one_of(
+    st.sampled_from([0, 1, -1, 2, 10**9, 10**30, 0.0, 0.01, -0.5, 1e-300, 1e308, float("nan"),
+                     float("inf"), True, "x", "", STALK, "no-such.lsys", ROOT.name]),
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-2**63, 2**63 - 1))
+VALUES = st.one_of(SCALARS, st.lists(SCALARS, max_size=5), st.dictionaries(
+    st.sampled_from(["t", "position", "target", "file", "x"]), SCALARS, max_size=3))
+KEYS = {
+    "": ["dt", "duration", "budget_px", "tree", "wind", "camera", "scatter", "x"],
+    "wind": ["speed", "direction", "gust_strength", "gust_seed", "front_speed", "x"],
+    "camera": ["position", "target", "fov_deg", "height_px", "key", "x"],
+    "scatter": ["files", "count", "seed", "area", "min_spacing", "scale", "x"],
+    "tree": ["file", "seed", "position", "heading", "scale", "x"],
+}
+
+
+@st.composite
+def scene_texts(draw) -> str:
+    top = {k: draw(VALUES) for k in draw(st.lists(st.sampled_from(["dt", "duration", "budget_px"]),
+                                                   unique=True))}
+    lines = [f"{k} = {_toml_value(v)}" for k, v in top.items()]
+    for table in ("wind", "camera", "scatter"):
+        if draw(st.booleans()):
+            lines.append(f"[{table}]")
+            base = {"camera": {"position": [0, -40, 1.7], "target": [0, 0, 1.7]},
+                    "scatter": {"files": [STALK], "count": 3, "area": [0, 0, 10, 10]}}.get(table, {})
+            values = dict(base) if draw(st.booleans()) else {}
+            for key in draw(st.lists(st.sampled_from(KEYS[table]), unique=True, max_size=3)):
+                values[key] = draw(VALUES)
+            lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
+    for _ in range(draw(st.integers(0, 2))):
+        lines.append("[[tree]]")
+        values = {"file": STALK} if draw(st.booleans()) else {}
+        for key in draw(st.lists(st.sampled_from(KEYS["tree"]), unique=True, max_size=3)):
+            values[key] = draw(VALUES)
+        lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _check_scene_text(tmp_path, text: str) -> None:
+    from plantlod.lsys.errors import InputError
+    from plantlod.scene.file import read_scene
+    from plantlod.scene.run import check_scene
+
+    path = tmp_path / "f.toml"
+    path.write_text(text)
+    try:
+        check_scene(read_scene(str(path)))
+    except InputError:
+        pass
+
+
+@settings(max_examples=200, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(scene_texts())
+def test_random_scene_files_raise_only_input_error(tmp_path, text):
+    _check_scene_text(tmp_path, text)
+
+
+VALID = HEAD.format(duration=1) + f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [0, 0, 9, 9]\n'
+
+
+@settings(max_examples=200, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.data())
+def test_random_edits_of_a_scene_file_raise_only_input_error(tmp_path, data):
+    text = list(VALID)
+    for _ in range(data.draw(st.integers(1, 4))):
+        at = data.draw(st.integers(0, len(text) - 1))
+        text[at] = data.draw(st.sampled_from(list("0123456789.-=[]{}\"'#\n ,eanifx")))
+    _check_scene_text(tmp_path, "".join(text))
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.lists(st.sampled_from(["--budget", "0", "-1", "nan", "1", "--frame-rate", "1e9", "30",
+                                 "--threads", "0", "2", "--report", "/dev/full", "-",
+                                 "--plot", "/no/such/p.png", "--angles", "/no/such/a.zarr",
+                                 "--no-cache", "--cache", "/dev/null", "--verify",
+                                 "--scheduler", "tcp://"]), max_size=5))
+def test_random_scene_options_follow_the_discipline(tmp_path, options):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration="0.05")
+    result = run_cli("scene", path, "--cache", str(tmp_path / "c"), *options, exit_code=None)
+    assert result.exit_code in (0, 1, 2), (options, result.exit_code, result.stderr)
+    assert "Traceback" not in result.stderr and "internal error" not in result.stderr, options
+    if result.exit_code:
+        assert "error:" in result.stderr.strip().splitlines()[-1], (options, result.stderr)
+
+
+@pytest.mark.parametrize("address", ["--budget", "foo", "tcp://", "tcp://host", "http://h:1 x"])
+def test_a_bad_scheduler_address_is_bad_input_before_any_work(tmp_path, address):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", "--scheduler", address, exit_code=None), 2,
+             "is not a scheduler address; expected tcp://HOST:PORT")
