@@ -50,7 +50,7 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
 
     from plantlod.scene.file import read_scene
     from plantlod.scene.levels import default_cache
-    from plantlod.scene.run import check_scene, run_scene
+    from plantlod.scene.run import check_frame_rate, check_scene, run_scene
 
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache do not go together")
@@ -70,6 +70,7 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
     check_scene(spec)
+    check_frame_rate(spec, frame_rate)
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
     show = sys.stderr.isatty()
 

@@ -88,8 +88,17 @@ def tree_winds(scene: Scene, steps: int) -> np.ndarray:
 
 
 def frame_steps(scene: Scene, frame_rate: float) -> int:
-    """Time steps per frame: the frame period in steps, at least 1."""
-    return max(1, int(round(1.0 / (frame_rate * scene.dt))))
+    """Time steps per frame: the frame period in steps, at least 1 (`check_frame_rate`
+    refuses a frame longer than the scene first)."""
+    return max(1, int(round(min(1.0 / (frame_rate * scene.dt), scene.steps))))
+
+
+def check_frame_rate(scene: Scene, frame_rate: float) -> None:
+    """A frame must fit in the scene: one frame at least (bad input, exit 2)."""
+    if not frame_rate * scene.duration >= 1.0:
+        raise InputError(f"--frame-rate {frame_rate:g} gives frames of {1.0 / frame_rate:.3g} s, "
+                         f"longer than the scene's {scene.duration:g} s; expected at least "
+                         f"{1.0 / scene.duration:.3g} frames per second")
 
 
 def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,

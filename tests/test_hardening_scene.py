@@ -271,7 +271,7 @@ def test_random_edits_of_a_scene_file_raise_only_input_error(tmp_path, data):
 
 @settings(max_examples=25, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-@given(st.lists(st.sampled_from(["--budget", "0", "-1", "nan", "1", "--frame-rate", "1e9", "30",
+@given(st.lists(st.sampled_from(["--budget", "0", "-1", "nan", "1", "--frame-rate", "1e9", "30", "1e-300",
                                  "--threads", "0", "2", "--report", "/dev/full", "-",
                                  "--plot", "/no/such/p.png", "--angles", "/no/such/a.zarr",
                                  "--no-cache", "--cache", "/dev/null", "--verify",
@@ -290,3 +290,10 @@ def test_a_bad_scheduler_address_is_bad_input_before_any_work(tmp_path, address)
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
     one_line(run_cli("scene", path, "--no-cache", "--scheduler", address, exit_code=None), 2,
              "is not a scheduler address; expected tcp://HOST:PORT")
+
+
+@pytest.mark.parametrize("rate", ["1e-300", "0.5"])
+def test_a_frame_longer_than_the_scene_is_bad_input(tmp_path, rate):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", "--frame-rate", rate, exit_code=None), 2,
+             f"--frame-rate {rate} gives frames of", "longer than the scene's 1 s")
