@@ -297,3 +297,12 @@ def test_a_frame_longer_than_the_scene_is_bad_input(tmp_path, rate):
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
     one_line(run_cli("scene", path, "--no-cache", "--frame-rate", rate, exit_code=None), 2,
              f"--frame-rate {rate} gives frames of", "longer than the scene's 1 s")
+
+
+def test_an_impossible_spacing_is_refused_without_drawing(tmp_path):
+    path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 100000\n'
+                                'area = [0, 0, 10, 10]\nmin_spacing = 5\n')
+    start = time.perf_counter()
+    one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+             "cannot place 100,000 trees 5 m apart in the area: at most 10 fit")
+    assert time.perf_counter() - start < 5
