@@ -1,6 +1,7 @@
 # plantlod: every target creates the virtual environment it needs.
 #   make demo   run the main job on a bundled example
 #   make test   run the test suite (what CI runs)
+#   make test-slow  the long checks too: the README's long blocks in a fresh clone (minutes)
 #   make bench  run the benchmarks and print their figures
 #   make golden regenerate the golden files (review the diff like code)
 #   make lod-table  the table of every level's errors on the evaluation trees
@@ -14,7 +15,7 @@ PY     := $(VENV)/bin/python
 PLANTLOD := $(VENV)/bin/plantlod
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-browser bench golden lod-table lod-family view-picture clean
+.PHONY: demo test test-slow test-browser bench golden lod-table lod-family view-picture clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -47,6 +48,9 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+test-slow: $(STAMP)
+	$(PY) -m pytest -q --run-long -m long tests
 
 # make test-browser: the tests that open `plantlod view`'s page in headless Chromium
 # (in make test too, skipped with a reason where chromium is absent)

@@ -17,7 +17,7 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import check_output_path, display_name, open_output, say, warn
+from .io import check_output_path, display_name, open_output, say, warn, warn_once_running
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
@@ -230,6 +230,11 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
 
     samples = simulate_arrays(tree, settings.dt, settings.steps, settings.wind,
                               damping=settings.damping)
+    from plantlod.sim.angle_range import first_large_angle
+
+    large = first_large_angle(samples.times, samples.bend, samples.rot, tree.address)
+    if large is not None:
+        warn_once_running(large.message(name))
     return Run(tree, samples.times, samples.bend, samples.rot, name)
 
 

@@ -48,4 +48,8 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
 
     system = parse_lsys(text, name)
     built = build(system, steps, max_modules=max_modules or DEFAULT_MAX_MODULES)
+    from .io import warn_once_running
+
+    for message in built.warnings:
+        warn_once_running(f"{name}: {message}")
     return built.tree, system

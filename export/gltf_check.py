@@ -29,12 +29,12 @@ TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT
 
 def check_glb_container(data: bytes, path: str) -> None:
     """Refuse a GLB whose header or chunks do not match the file's bytes."""
+    if data[:4] != GLB_MAGIC:
+        raise InputError("not a glTF file (a .glb starts with 'glTF')", path)
     if len(data) < 12:
-        raise InputError(f"a GLB file is at least 12 bytes; this one has {len(data)} "
-                         "(truncated?)", path)
-    magic, version, length = struct.unpack_from("<4sII", data, 0)
-    if magic != GLB_MAGIC:
-        raise InputError("not a GLB file (it does not start with 'glTF')", path)
+        raise InputError(f"not a glTF file: a GLB is at least 12 bytes, this one has "
+                         f"{len(data)} (truncated)", path)
+    _, version, length = struct.unpack_from("<4sII", data, 0)
     if version != 2:
         raise InputError(f"GLB version {version}; expected glTF 2.0", path)
     if length != len(data):

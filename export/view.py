@@ -31,7 +31,8 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     import pygltflib as g
 
     data = _read_bytes(path)
-    if data[:4] == GLB_MAGIC or path.lower().endswith(".glb"):
+    if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
+                                 and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
         check_glb_container(data, path)
     try:
         with warnings.catch_warnings():        # pygltflib warns on stderr; the checks below say it
@@ -66,21 +67,14 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
 
 def _read_bytes(path: str) -> bytes:
     """The file's bytes, refused beyond VIEW_MAX_FILE_BYTES before it is read."""
-    try:
-        with open(path, "rb") as handle:
-            size = os.fstat(handle.fileno()).st_size
-            if size > VIEW_MAX_FILE_BYTES:
-                raise InputError(f"the file has {size:,} bytes, more than the limit of "
-                                 f"{VIEW_MAX_FILE_BYTES:,}", path)
-            return handle.read(VIEW_MAX_FILE_BYTES + 1)
-    except FileNotFoundError:
-        raise InputError("no such file", path) from None
-    except IsADirectoryError:
-        raise InputError("is a directory; expected a .glb or .gltf file", path) from None
-    except PermissionError:
-        raise InputError("permission denied", path) from None
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror or exc}", path) from None
+    from plantlod.formats.text_input import reading
+
+    with reading(path), open(path, "rb") as handle:
+        size = os.fstat(handle.fileno()).st_size
+        if size > VIEW_MAX_FILE_BYTES:
+            raise InputError(f"the file has {size:,} bytes, more than the limit of "
+                             f"{VIEW_MAX_FILE_BYTES:,}", path)
+        return handle.read(VIEW_MAX_FILE_BYTES + 1)
 
 
 def view_page(trees: Sequence[tuple[str, bytes, int | None]], wind_direction_deg: float = 0.0,

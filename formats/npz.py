@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import io
 import math
-import sys
 import zipfile
 
 import numpy as np
@@ -24,7 +23,7 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
 
 from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL
-from .text_input import source_name
+from .text_input import reading, source_name, stdin_bytes
 
 TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
@@ -57,24 +56,12 @@ def read_npz_file(path: str) -> bytes:
     """The bytes of the archive ``path`` (``-``: stdin), refused beyond MAX_NPZ_BYTES; a file
     that cannot be read is an `InputError` naming it, as for text inputs."""
     name = source_name(path)
-    try:
+    with reading(name):
         if path == "-":
-            if sys.stdin is None:
-                raise InputError("standard input is closed; expected a file name or data on stdin",
-                                 name)
-            handle = sys.stdin.buffer
-            data = handle.read(MAX_NPZ_BYTES + 1)
+            data = stdin_bytes(name).read(MAX_NPZ_BYTES + 1)
         else:
             with open(path, "rb") as handle:
                 data = handle.read(MAX_NPZ_BYTES + 1)
-    except FileNotFoundError:
-        raise InputError("no such file", name) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not a file", name) from None
-    except PermissionError:
-        raise InputError("permission denied", name) from None
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror or exc}", name) from None
     if len(data) > MAX_NPZ_BYTES:
         raise InputError(f"the archive is larger than the limit of {MAX_NPZ_BYTES:,} bytes", name)
     return data

@@ -284,6 +284,14 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
         raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0", "area")
     spacing = r.number(table, "min_spacing", 0.0, low=0)
     scale = r.number(table, "scale", 1.0, low=0, low_open=True)
+    if spacing > 0:
+        # points at least s apart in a w x h rectangle: disks of radius s/2 in the rectangle
+        # grown by s/2 a side, packed at most hexagonally (density pi / (2 sqrt 3))
+        most = (x1 - x0 + spacing) * (y1 - y0 + spacing) / (spacing * spacing * math.sqrt(3) / 2)
+        if count > most:
+            raise r.error(f"cannot place {count:,} trees {spacing:g} m apart in the area: at most "
+                          f"{int(most):,} fit; expected a larger area or a smaller spacing",
+                          "min_spacing")
     rng = np.random.default_rng(seed)
     points: list[tuple[float, float]] = []
     cell = max(spacing, 1e-9)

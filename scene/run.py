@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import math
 import pathlib
+import re
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.sim.kinematics import pose
 
 from .constants import (
@@ -56,6 +57,7 @@ class BatchResult:
     spent: int = 0
     switches: int = 0
     tips: list = field(default_factory=list)
+    large: tuple | None = None     # (scene tree index, LargeAngle): the first beyond the model
 
 
 def tree_winds(scene: Scene, steps: int) -> np.ndarray:
@@ -86,8 +88,17 @@ def tree_winds(scene: Scene, steps: int) -> np.ndarray:
 
 
 def frame_steps(scene: Scene, frame_rate: float) -> int:
-    """Time steps per frame: the frame period in steps, at least 1."""
-    return max(1, int(round(1.0 / (frame_rate * scene.dt))))
+    """Time steps per frame: the frame period in steps, at least 1 (`check_frame_rate`
+    refuses a frame longer than the scene first)."""
+    return max(1, int(round(min(1.0 / (frame_rate * scene.dt), scene.steps))))
+
+
+def check_frame_rate(scene: Scene, frame_rate: float) -> None:
+    """A frame must fit in the scene: one frame at least (bad input, exit 2)."""
+    if not frame_rate * scene.duration >= 1.0:
+        raise InputError(f"--frame-rate {frame_rate:g} gives frames of {1.0 / frame_rate:.3g} s, "
+                         f"longer than the scene's {scene.duration:g} s; expected at least "
+                         f"{1.0 / scene.duration:.3g} frames per second")
 
 
 def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,
@@ -125,6 +136,8 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
                                   addresses=tree.address)
             for j, i in enumerate(idx.tolist()):
                 states[i] = state[j]
+            if result.large is None and rows:
+                result.large = _first_large(batch, idx, tree, bend, rot, fa, every * dt)
             result.spent += tree.n_branches * (s1 - s0) * len(idx)
             if store is not None and rows:
                 block_b = np.full((n, rows, tree.n_branches), np.nan)
@@ -155,6 +168,20 @@ def _bound_branch_steps(scene: Scene, chains: dict, counts: dict, every: int,
         best = coarsest_levels(scene, members, chains[path].tip_error_m, times, budget)
         total += float((counts[path][best] * per_frame[None, :]).sum())
     return total
+
+
+def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.ndarray,
+                 row0: int, row_seconds: float) -> tuple | None:
+    """(scene tree index, LargeAngle) of the first member of this block beyond the model's
+    range, or None; rows from ``row0`` at ``row_seconds`` apart (row r ends at (r+1) x)."""
+    from plantlod.sim.angle_range import first_large_angle
+
+    times = (row0 + 1 + np.arange(bend.shape[1])) * row_seconds
+    for j, i in enumerate(idx.tolist()):
+        large = first_large_angle(times, bend[j], rot[j], tree.address)
+        if large is not None:
+            return batch.members[i], large
+    return None
 
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
@@ -252,6 +279,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     errors = np.full(len(scene.trees), np.nan)
     checked = (verify_sample(scene, levels, every, sample) if verify and sample is not None
                else np.full(len(scene.trees), verify))
+    large = None
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
@@ -263,6 +291,8 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
                            store=store, keep_tips=checked[batch.members])
         spent += result.spent
         switches += result.switches
+        if result.large is not None and large is None:
+            large = result.large
         if checked[batch.members].any():
             checking = time.perf_counter()
             mine = checked[batch.members]
@@ -272,6 +302,14 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         if progress:
             progress("batches", n + 1, len(batches), "")
     simulate_s = time.perf_counter() - started - verify_s
+    if large is not None:
+        import warnings
+
+        from plantlod.lsys.errors import PlantlodWarning
+
+        k, first = large
+        warnings.warn(first.message(f"{scene.source}: tree {k} ({scene.trees[k].file.name})"),
+                      PlantlodWarning, stacklevel=2)
     full = sum(chains[t.file].trees[0].n_branches for t in scene.trees) * steps
     counts = {path: np.array([t.n_branches for t in chain.trees]) for path, chain in chains.items()}
     in_use = np.zeros(levels.shape[1])
@@ -337,6 +375,16 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
     return result.spent, result.switches
 
 
+SCHEDULER_ADDRESS = re.compile(r"(tcp|tls|ws|wss|ucx|inproc)://[^\s/]+:[0-9]{1,5}/?\Z")
+
+
+def check_scheduler_address(address: str) -> None:
+    """A Dask scheduler's address, PROTOCOL://HOST:PORT; anything else is bad input (exit 2)."""
+    if not SCHEDULER_ADDRESS.match(address):
+        raise InputError(f"--scheduler {address!r} is not a scheduler address; expected "
+                         "tcp://HOST:PORT (what `dask scheduler` prints)")
+
+
 def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batch],
                     winds: np.ndarray, every: int, store: str | None) -> tuple[int, int]:
     """Every batch as a task of the Dask cluster at ``address`` (dask.distributed)."""
@@ -344,7 +392,15 @@ def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batc
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler needs dask.distributed: pip install 'plantlod[cluster]'") from None
-    with Client(address, timeout="30s") as client:
+    check_scheduler_address(address)
+    try:
+        client = Client(address, timeout="30s")
+    except ValueError as exc:
+        raise InputError(f"--scheduler {address}: {exc}") from None
+    except (OSError, TimeoutError) as exc:
+        raise RunFailure(f"cannot reach the scheduler at {address}: {exc or type(exc).__name__}"
+                         ) from None
+    with client:
         futures = []
         for batch in batches:
             chain = chains[pathlib.Path(batch.file)]
