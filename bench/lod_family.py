@@ -105,7 +105,6 @@ class Case:
 def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     """Every Case of tree (kind, seed): each level simplified and measured in every wind."""
     from plantlod.lsys.build import build
-    from plantlod.lsys.errors import InputError, RunFailure
     from plantlod.lsys.parse import parse_lsys
     from plantlod.simplify.evaluate import Runs, WindCase
     from plantlod.simplify.explicit import is_stalk
@@ -128,8 +127,11 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
             runs = Runs(original, group_map(original, tree), winds, DT, int(round(DURATION / DT)), EVERY)
             reports = runs.compare(tree)
             angles = runs.largest_combined_angle()
-        except (InputError, RunFailure) as exc:
-            message = getattr(exc, "message", str(exc)).splitlines()[0]
+        except Exception as exc:     # noqa: BLE001 - refused, diverged or a bug: a row, not the end
+            message = (getattr(exc, "message", "") or f"{type(exc).__name__}: {exc}").splitlines()[0]
+        else:
+            message = ""
+        if message:
             cases += [case(w, branches=(original.n_branches, 0), form="–", angle=math.nan,
                            error=message) for w in winds]
             continue
