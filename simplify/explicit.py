@@ -333,8 +333,9 @@ def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: fl
 
 def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, duration: float,
                        damping_ratio: float = 0.0, directions: np.ndarray | None = None
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """k_bs', k_rs' (G,) and amplitude factors (G, 2) of each group in its root's frame W_0.
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """k_bs', k_rs' (G,), amplitude factors (G, 2) and swings Σ_d A_c(d) (G, 2) (rad) of each
+    group in its root's frame W_0.
 
     At small angles each main-path member j swings on its own from rest toward its static
     angles (θb_j, θr_j), each component with its own strength (model.md 4), and compare
@@ -373,6 +374,7 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
     g_count = len(paths)
     out = np.empty((g_count, 2))
     gain = np.ones((g_count, 2))
+    swing = np.zeros((g_count, 2))              # Σ_d A_c(d): how much each component swings
     at = 0
     for g, p in enumerate(paths):
         m = len(p)
@@ -382,11 +384,14 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
             # weights (D, M, 2): each member component's part in W_0 component c
             w = carry[rows, c, :][None] * static[:, rows, :]
             mine = code[rows]                                               # (m, 2)
+            settled = np.abs(w.sum(axis=(1, 2)))                            # |X_c(d, ∞)|
             if np.all(mine == mine[0, c]) and np.all(np.abs(carry[rows, c, 1 - c]) < 1e-12):
                 out[g, c] = distinct[mine[0, c]]                            # one strength
+                swing[g, c] = float(settled.sum() * amplitude(responses[:, mine[0, c]]))
                 continue
             signal = responses[:, mine.reshape(-1)] @ w.reshape(len(directions), -1).T
             amp = np.atleast_1d(amplitude(signal))
+            swing[g, c] = float(amp.sum())
             per = np.atleast_1d(period(t, signal))
             ok = np.isfinite(per) & (amp > 0)
             if ok.any():
@@ -394,10 +399,9 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
                 out[g, c] = float(strength_of_period(p_mean, dt))
             else:
                 out[g, c] = float(np.exp(np.log(distinct[mine.reshape(-1)]).mean()))
-            settled = np.abs(w.sum(axis=(1, 2)))                            # |X_c(d, ∞)|
             if settled.sum() > 0:
                 gain[g, c] = float(amp.sum() / settled.sum())
-    return out[:, 0].copy(), out[:, 1].copy(), gain
+    return out[:, 0].copy(), out[:, 1].copy(), gain, swing
 
 
 def strength_of_period(period: np.ndarray, dt: float) -> np.ndarray:
@@ -411,8 +415,8 @@ def period_of_strength(strength: np.ndarray, dt: float) -> np.ndarray:
     return 2.0 * math.pi * dt / np.arccos(1.0 - np.asarray(strength) * dt / 2000.0)
 
 
-def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: float
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: float,
+                  swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A chord's own k_bs', k_rs' (G,) from its group's strengths in the group root's frame W_0.
 
     compare reads the chord's angles carried into W_0 (model.md 6): y = C θ' with C the 2×2
@@ -420,7 +424,9 @@ def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: f
     that component's strength goes with it (a chord turned by 90° about its axis swaps
     them). Where C mixes them (both a diagonal and an off-diagonal entry above
     MIXED_CARRY), a bend and a rotation of different periods would beat in every W_0
-    component, so both get the strength of the two periods' geometric mean.
+    component, so both get one strength: that of the two W_0 periods' mean weighted by the
+    squares of the components' swings (``swing`` (G, 2), `dominant_strengths`; the period
+    error counts only the components that swing most), or their geometric mean without it.
     """
     c = np.abs(carry)
     w0 = np.stack([kb_w0, kr_w0], axis=1)                                  # (G, 2)
@@ -429,8 +435,13 @@ def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: f
     off = np.maximum(c[:, 0, 1], c[:, 1, 0])
     mixed = np.minimum(diagonal, off) > MIXED_CARRY
     same = c[:, :, 0].argmax(axis=1) == c[:, :, 1].argmax(axis=1)          # both onto one
-    mid = strength_of_period(np.sqrt(period_of_strength(kb_w0, dt)
-                                     * period_of_strength(kr_w0, dt)), dt)
+    periods = np.stack([period_of_strength(kb_w0, dt), period_of_strength(kr_w0, dt)], axis=1)
+    if swing is None:
+        mid = strength_of_period(np.sqrt(periods[:, 0] * periods[:, 1]), dt)
+    else:
+        weight = np.asarray(swing, dtype=np.float64) ** 2
+        weight = np.where(weight.sum(axis=1, keepdims=True) > 0, weight, 1.0)
+        mid = strength_of_period((weight * periods).sum(axis=1) / weight.sum(axis=1), dt)
     own = np.where((mixed | same)[:, None], mid[:, None], own)
     return own[:, 0].copy(), own[:, 1].copy()
 
@@ -467,8 +478,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     # the groups' own strengths and amplitude factors, in group order (any leaf set)
     paths = main_paths(original, grouping.group, grouping.count)
-    kb_group, kr_group, gain_group = dominant_strengths(original, paths, dt, duration,
-                                                        damping_ratio)
+    kb_group, kr_group, gain_group, swing_group = dominant_strengths(original, paths, dt,
+                                                                     duration, damping_ratio)
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
 
@@ -500,7 +511,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         to_group = np.array([position[a] for a in order])
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
         turn = swing_turns(original, skeleton, gmap.paths)
-        kb, kr = own_strengths(kb_group[to_group], kr_group[to_group], carry_matrix(turn), dt)
+        kb, kr = own_strengths(kb_group[to_group], kr_group[to_group], carry_matrix(turn), dt,
+                               swing_group[to_group])
         params = closed_form(original, skeleton, gmap, refine=refine, turn=turn,
                              kappa_range=KAPPA_RANGE, strengths=(kb, kr),
                              target_gain=gain_group[to_group], settings=settings)
