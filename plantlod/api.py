@@ -140,7 +140,8 @@ def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
 def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.01,
              steps: int | None = None, *, duration: float | None = None, every: int = 1,
              damping: float = 0.0, threads: int | None = None,
-             wind_speed: float | None = None, wind_direction: float | None = None) -> Angles:
+             wind_speed: float | None = None, wind_direction: float | None = None,
+             damping_ratio: float | None = None) -> Angles:
     """Simulate ``tree`` in ``wind`` (model.md 3-4); an `LSystem` is derived first, a path
     is read (an .lsys file, a tree file or a tree .npz).
 
@@ -155,10 +156,14 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     steps    : time steps, or ``duration`` seconds (rounded to whole steps)
     every    : keep every ``every``-th step (row 0 is t = 0)
     threads  : engine threads for a list of winds (default: all cores or $PLANTLOD_THREADS)
+    damping  : the velocity damping c per step, or ``damping_ratio`` ζ (each branch damped
+               by its own period, model.md 4); not both
     Raises `InputError` for an unstable dt (model.md 4) and `RunFailure` when a run diverges.
     """
+    from plantlod.sim.damping import as_damping
     from plantlod.sim.stability import check_stability
 
+    damping = as_damping(damping, damping_ratio)
     tree = _as_tree(tree)
     wind = _wind_option(wind, wind_speed, wind_direction)
     steps = _step_count(dt, steps, duration)
@@ -191,7 +196,7 @@ def _warn_large_angles(tree: Tree, time, bend, rot, many: bool) -> None:
             return
 
 
-def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping: float,
+def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping,
                threads: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """All winds in one pass of the lanes engine: times (T,), bend and rot (W, T, B).
     One wind runs on the single-run kernel (the same values, without lanes' padding)."""
@@ -243,7 +248,7 @@ def simplify(system: LSystem | PathOrText, level: int = 1, **options: Any) -> LS
     .lsys file; docs/simplify.md).
 
     options : those of `plantlod.simplify.pipeline.Options` (method, calibrate,
-              wind_range, dt, duration, max_evaluations). Its header comment
+              wind_range, dt, duration, max_evaluations, form, damping_ratio). Its header comment
               (``.comment``) records the errors measured for it.
     """
     from plantlod.simplify.pipeline import simplified_system
@@ -256,7 +261,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
             duration: float | None = None,
             window: tuple[float | None, float | None] | None = None,
             bounds: dict[str, float] | None = None, damping: float = 0.0,
-            wind_speed: float | None = None, wind_direction: float | None = None) -> dict:
+            wind_speed: float | None = None, wind_direction: float | None = None,
+            damping_ratio: float | None = None) -> dict:
     """Compare simplified trees with the original in one wind (model.md 6); trees, systems
     or paths, and the wind as `simulate` takes them. Each is labelled by its file, or, where
     that repeats an earlier one (a level made by `simplify`), by its name.
@@ -278,7 +284,7 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     runs = []
     for item, label in zip(items, _labels(items)):
         tree = _as_tree(item)
-        a = simulate(tree, w, dt, n, damping=damping)
+        a = simulate(tree, w, dt, n, damping=damping, damping_ratio=damping_ratio)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
     t0, t1 = window if window else (None, None)
     comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
