@@ -1,9 +1,11 @@
 # plantlod: every target creates the virtual environment it needs.
 #   make demo   run the main job on a bundled example
 #   make test   run the test suite (what CI runs)
+#   make test-slow  the long checks too: the README's long blocks in a fresh clone (minutes)
 #   make bench  run the benchmarks and print their figures
 #   make golden regenerate the golden files (review the diff like code)
 #   make lod-table  the table of every level's errors on the evaluation trees
+#   make lod-family pass fractions of levels 1-3 on 200 generated trees (LOD_FAMILY_ARGS)
 #   make test-browser  install Debian's chromium if missing, run the page tests in it
 #   make view-picture  docs/view.png: a frame of `plantlod view` (original and levels)
 
@@ -13,7 +15,7 @@ PY     := $(VENV)/bin/python
 PLANTLOD := $(VENV)/bin/plantlod
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-browser bench golden lod-table view-picture clean
+.PHONY: demo test test-slow test-browser bench golden lod-table lod-family view-picture clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -47,6 +49,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q
 
+test-slow: $(STAMP)
+	$(PY) -m pytest -q --run-long -m long tests
+
 # make test-browser: the tests that open `plantlod view`'s page in headless Chromium
 # (in make test too, skipped with a reason where chromium is absent)
 test-browser: $(STAMP)
@@ -78,6 +83,12 @@ bench: $(STAMP)
 # make lod-table: worst errors of every level of the evaluation trees (docs/lod-table.md)
 lod-table: $(STAMP)
 	$(PY) bench/lod_table.py --out docs/lod-table.md
+
+# make lod-family: levels 1-3 of the generated family (bench/tree_family.py), pass fractions per
+# kind; e.g. make lod-family LOD_FAMILY_ARGS="--held-out --jobs 2 --out out/lod-family.md"
+LOD_FAMILY_ARGS ?= --jobs 2
+lod-family: $(STAMP)
+	$(PY) bench/lod_family.py $(LOD_FAMILY_ARGS)
 
 golden: $(STAMP)
 	PLANTLOD_REGEN_GOLDEN=1 $(PY) -m pytest -q tests -k golden

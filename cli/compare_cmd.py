@@ -1,14 +1,13 @@
 """`plantlod compare`: how far simplified trees move from the original (docs/compare.md).
 
-The work is in `plantlod.simplify.compare` (groups, combined angles, report),
-`plantlod.simplify.report` (table, JSON), `plantlod.export.obj` and
-`plantlod.simplify.plot`; this module reads the inputs, runs what needs running
+The work is in `plantlod.compare.runs` (groups, combined angles, report),
+`plantlod.compare.report` (table, JSON), `plantlod.export.obj` and
+`plantlod.compare.plot`; this module reads the inputs, runs what needs running
 and writes the report; `compare_exports` writes the OBJ frames and the picture.
 """
 
 from __future__ import annotations
 
-import io
 import math
 import os
 import sys
@@ -18,13 +17,13 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import check_output_path, display_name, open_output, read_text, say, warn
+from .io import check_output_path, display_name, open_output, say, warn, warn_once_running
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
 SIMULATION_PARAMS = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
-                     "wind_file", "gust_strength", "gust_seed", "damping")
+                     "wind_file", "gust_strength", "gust_seed", "damping", "damping_ratio")
 
 
 def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[float | None]:
@@ -137,7 +136,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     if plot_at is not None and plot_path is None:
         raise click.UsageError("--plot-at chooses the time of the trees in --plot FILE.png; give --plot too")
     if plot_path is not None:
-        from plantlod.simplify.plot import require_matplotlib
+        from plantlod.compare.plot import require_matplotlib
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
@@ -150,7 +149,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     settings = _settings_if_needed(ctx, sides, sim_kwargs)
     runs = [_run_side(path, csv, n, degrees, settings) for path, csv, n in sides]
 
-    from plantlod.simplify.compare import check_bounds, compare_runs
+    from plantlod.compare.runs import check_bounds, compare_runs
 
     comparisons = [compare_runs(runs[0], run, window[0] if window else None,
                                 window[1] if window else None) for run in runs[1:]]
@@ -211,16 +210,15 @@ def _check_angles_mode(ctx, simplified) -> None:
 
 
 def _read_csv(path: str, degrees: bool):
-    from plantlod.formats.angles_csv import read_angles_csv
-    from plantlod.formats.constants import MAX_CSV_LINE_BYTES
+    """The angles of an angle CSV or an .npz archive (`simulate -o X.npz`)."""
+    from plantlod.formats.angles_csv import read_angles_file
 
-    return read_angles_csv(io.StringIO(read_text(path, MAX_CSV_LINE_BYTES)), display_name(path),
-                           degrees=degrees)
+    return read_angles_file(path, degrees)
 
 
 def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):
     """A `Run` of one side: its tree, with angles from its CSV or simulated here."""
-    from plantlod.simplify.compare import Run, angles_in_tree_order
+    from plantlod.compare.runs import Run, angles_in_tree_order
 
     tree, _system = load_tree(path, n)
     name = display_name(path) if n is None else f"{display_name(path)} (n={n})"
@@ -232,13 +230,18 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
 
     samples = simulate_arrays(tree, settings.dt, settings.steps, settings.wind,
                               damping=settings.damping)
+    from plantlod.sim.angle_range import first_large_angle
+
+    large = first_large_angle(samples.times, samples.bend, samples.rot, tree.address)
+    if large is not None:
+        warn_once_running(large.message(name))
     return Run(tree, samples.times, samples.bend, samples.rot, name)
 
 
 # --- outputs ---------------------------------------------------------------------------
 
 def _write_report(comparisons, bounds, violations, as_json: bool, output: str | None) -> None:
-    from plantlod.simplify import report as fmt
+    from plantlod.compare import report as fmt
 
     if as_json:
         text = fmt.dumps(fmt.comparison_document(comparisons, bounds, violations))
@@ -270,8 +273,8 @@ def _g(value: float) -> str:
 
 def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, as_json: bool,
                   output: str | None) -> None:
-    from plantlod.simplify import report as fmt
-    from plantlod.simplify.compare import angle_differences
+    from plantlod.compare import report as fmt
+    from plantlod.compare.runs import angle_differences
 
     name_a, name_b = display_name(path_a), display_name(path_b)
     times_a, addr_a, bend_a, rot_a = _read_csv(path_a, degrees)

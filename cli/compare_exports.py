@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 
 from plantlod.lsys.errors import InputError
-from plantlod.simplify.constants import DEFAULT_PLOT_TIME
+from plantlod.compare.constants import DEFAULT_PLOT_TIME
 
 from .io import open_output, say
 
@@ -39,7 +39,7 @@ def prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
     at_frames = [(t, _sample_index(times, t, "--at")) for t in at_times]
     png = None
     if plot_path is not None:
-        from plantlod.simplify.plot import plot_comparison
+        from plantlod.compare.plot import plot_comparison
 
         if plot_at is None:
             t_plot = at_times[0] if at_times else min(DEFAULT_PLOT_TIME, float(times[-1]))

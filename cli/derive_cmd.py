@@ -8,7 +8,7 @@ import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-from .io import count, display_name, open_output, say, warn
+from .io import count, display_name, open_output, say, warn_once_running
 from .loading import load_system
 
 
@@ -42,7 +42,7 @@ def derive(file, output, fmt, steps, max_modules):
     system = load_system(file)
     built = build(system, steps, max_modules=max_modules)
     for message in built.warnings:
-        warn(f"{display_name(file)}: {message}")
+        warn_once_running(f"{display_name(file)}: {message}")
     from plantlod.formats.npz import is_npz, tree_bytes
 
     if is_npz(output) and fmt == "tree":

@@ -22,6 +22,7 @@ infinities, an integer option anything beyond int64, whatever command declares t
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import math
 import os
@@ -31,7 +32,7 @@ from typing import Callable
 
 import click
 
-from plantlod.lsys.errors import InputError, PlantlodError
+from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning
 
 # Signals that end a command: temporary files removed, exit 128 + n.
 CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
@@ -199,7 +200,8 @@ def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
 
     drop_pending_warnings()
     try:
-        result = call()
+        with _library_warnings():
+            result = call()
         flush_pending_warnings()
         end_warnings()
         _flush_stdout()
@@ -221,6 +223,29 @@ def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
             pass
         _discard_stdout()
         return code
+
+
+@contextlib.contextmanager
+def _library_warnings():
+    """`PlantlodWarning`s raised by the library become the command's one-line warnings
+    (pending until it writes its output or ends well; every one, each once); other
+    warnings keep Python's handling."""
+    import warnings
+
+    from .io import warn_once_running
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", PlantlodWarning)
+        previous = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, PlantlodWarning):
+                warn_once_running(str(message))
+            else:
+                previous(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
 
 
 def _flush_stdout() -> None:

@@ -28,10 +28,8 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
       plantlod export examples/stalk8.lsys s.csv -o stalk8.glb
     """
     from plantlod.export.files import export_animation
-    from plantlod.formats.angles_csv import read_angles_csv
-    from plantlod.formats.text_input import read_text
-    from plantlod.simplify.compare import angles_in_tree_order
-    import io
+    from plantlod.formats.angles_csv import read_angles_file
+    from plantlod.compare.runs import angles_in_tree_order
 
     check_output_path(output)                     # a missing folder is refused before any work
     frames = None
@@ -44,14 +42,7 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
             raise click.BadParameter("expected 0 <= A < B", param_hint="--frames")
         frames = (a, b)
     tree, _ = load_tree(tree_path)
-    from plantlod.formats.npz import is_npz, read_angles_bytes
-
-    if is_npz(angles_path):
-        with open(angles_path, "rb") as handle:
-            times, addresses, bend, rot = read_angles_bytes(handle.read(), display_name(angles_path))
-    else:
-        times, addresses, bend, rot = read_angles_csv(io.StringIO(read_text(angles_path)),
-                                                      display_name(angles_path), degrees=degrees)
+    times, addresses, bend, rot = read_angles_file(angles_path, degrees)
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
     export_animation(output, tree, times, bend, rot, fps, frames)
     say(f"export: {display_name(tree_path)}: {tree.n_branches:,} branches, "

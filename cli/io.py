@@ -12,8 +12,12 @@ import contextlib
 import errno
 import io
 import os
+import shutil
+import signal
 import stat
 import sys
+import tempfile
+import threading
 from typing import IO, Iterator
 
 # Re-exported: every command reads its inputs through formats.text_input.
@@ -154,8 +158,14 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
     if path is None or path == "-":
         if sys.stdout is None:
             raise RunFailure("standard output is closed; give -o FILE or redirect it")
-        out = sys.stdout.buffer if binary else sys.stdout
         with _write_errors("standard output"):
+            sys.stdout.flush()                  # what click or print left there goes first
+            buffer = getattr(sys.stdout, "buffer", None)
+            if buffer is None:                  # a text-only stdout (a StringIO in a test)
+                yield sys.stdout
+                sys.stdout.flush()
+                return
+            out = WholeWrites(buffer, text=not binary)
             yield out
             out.flush()
         return
@@ -173,14 +183,107 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             _temporary.discard(tmp)
 
 
+class WholeWrites:
+    """A binary stream's writer that writes every byte or raises: a buffered stream may
+    accept part of a large write and report it by a short count (a disk that fills up
+    mid-write), which a text layer drops without a word. ``text``: write() takes str
+    (UTF-8, no newline translation)."""
+
+    def __init__(self, stream: IO[bytes], text: bool):
+        self.stream, self.text = stream, text
+
+    def write(self, data) -> int:
+        raw = data.encode("utf-8") if self.text else data
+        view = memoryview(raw).cast("B")
+        while len(view):
+            n = self.stream.write(view)
+            if not n:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            view = view[n:]
+        return len(data)
+
+    def writelines(self, lines) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def close(self) -> None:
+        self.stream.close()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 _temporary: set[str] = set()     # temporary files open_output holds right now
+_temporary_folders: set[str] = set()     # temporary folders output_folder holds right now
 
 
 def remove_temporary_files() -> None:
-    """Remove every temporary file of `open_output` (the signal handler calls this)."""
+    """Remove every temporary file of `open_output` and every temporary folder of
+    `output_folder` (the signal handler calls this)."""
     for tmp in list(_temporary):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+    for folder in list(_temporary_folders):
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[str]:
+    """A new, empty temporary folder ``.plantlod-*SUFFIX`` beside ``path`` to fill.
+
+    When the block ends normally it becomes ``path`` (renamed), or with ``merge`` and an
+    existing folder ``path``, its files are moved into that folder; on any exception, and on
+    a signal (`remove_temporary_files`), it is removed with everything in it, so a failed
+    run leaves no folder behind. A missing parent folder is an `InputError`.
+    """
+    if not path:
+        raise InputError("the output folder name is empty")
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(parent):
+        raise InputError("output directory does not exist", path)
+    if os.path.exists(path) and not (merge and os.path.isdir(path)):
+        raise InputError("exists; expected a new path" if not os.path.isdir(path) or not merge
+                         else "is not a folder", path)
+    with _write_errors(path), _signals_held():
+        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=parent)
+        _temporary_folders.add(tmp)
+    try:
+        yield tmp
+        with _write_errors(path):
+            if merge and os.path.isdir(path):
+                for name in sorted(os.listdir(tmp)):
+                    os.replace(os.path.join(tmp, name), os.path.join(path, name))
+                os.rmdir(tmp)
+            else:
+                os.replace(tmp, path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+        _temporary_folders.discard(tmp)
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT, SIGTERM and SIGHUP for the block (a temporary made and registered at once)."""
+    from .discipline import CAUGHT_SIGNALS
+
+    block = getattr(signal, "pthread_sigmask", None)
+    if block is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = block(signal.SIG_BLOCK, CAUGHT_SIGNALS)
+    try:
+        yield
+    finally:
+        block(signal.SIG_SETMASK, old)
 
 
 @contextlib.contextmanager
@@ -200,8 +303,6 @@ def _write_errors(name: str) -> Iterator[None]:
 _BAD_NAME_ERRORS = {errno.ENAMETOOLONG, errno.ENOTDIR, errno.ENOENT, errno.EISDIR}
 
 
-def _open_stream(target, binary: bool) -> IO:
-    """Open a path or file descriptor for writing: bytes, or UTF-8 text with \\n line ends."""
-    if binary:
-        return io.open(target, "wb")
-    return io.open(target, "w", encoding="utf-8", newline="\n")
+def _open_stream(target, binary: bool) -> WholeWrites:
+    """Open a path for writing: bytes, or UTF-8 text with \\n line ends; every write whole."""
+    return WholeWrites(io.open(target, "wb"), text=not binary)

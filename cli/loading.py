@@ -33,13 +33,9 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     if is_npz(path):
         if steps is not None:
             raise InputError("-n applies to .lsys input, not to a tree archive", name)
-        from plantlod.formats.npz import read_tree_bytes
-        try:
-            with open(path, "rb") as handle:
-                data = handle.read()
-        except OSError as exc:
-            raise InputError(f"cannot read: {exc.strerror}", name) from None
-        return read_tree_bytes(data, name), None
+        from plantlod.formats.npz import read_npz_file, read_tree_bytes
+
+        return read_tree_bytes(read_npz_file(path), name), None
     text = read_text(path)
     if looks_like_tree_file(text):
         if steps is not None:
@@ -52,4 +48,8 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
 
     system = parse_lsys(text, name)
     built = build(system, steps, max_modules=max_modules or DEFAULT_MAX_MODULES)
+    from .io import warn_once_running
+
+    for message in built.warnings:
+        warn_once_running(f"{name}: {message}")
     return built.tree, system

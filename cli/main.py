@@ -100,7 +100,7 @@ def cli():
     """Wind-blown L-system trees with levels of detail.
 
     \b
-    A pipeline of four commands:
+    The commands (each `plantlod CMD --help` says more):
       derive    L-system -> branch tree (JSON Lines)
       simulate  wind model -> angle CSV
       simplify  level-n L-system that sways like the original

@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from .io import check_output_path, open_output, say
+from .io import check_output_path, open_output, output_folder, say
 
 
 @click.command()
@@ -16,6 +16,9 @@ from .io import check_output_path, open_output, say
               help="Write the report (JSON) here; - for stdout.")
 @click.option("--verify", is_flag=True,
               help="Also run every tree at full detail and measure the error spent, in pixels.")
+@click.option("--verify-sample", "sample", type=click.IntRange(min=1), default=None, metavar="N",
+              help="With --verify: verify about N trees, every level and distance band "
+                   "represented, instead of all (for big scenes).")
 @click.option("--budget", "budget_px", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Pixel budget (overrides the scene's budget_px).")
 @click.option("--cache", "cache_dir", default=None, metavar="DIR",
@@ -32,7 +35,7 @@ from .io import check_output_path, open_output, say
               "verified) per frame.")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
-def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angles_path,
+def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cache, angles_path,
           plot_path, scheduler, frame_rate, threads):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
@@ -50,49 +53,63 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
 
     from plantlod.scene.file import read_scene
     from plantlod.scene.levels import default_cache
-    from plantlod.scene.run import check_scene, run_scene
+    from plantlod.scene.run import check_frame_rate, check_scene, run_scene
 
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache do not go together")
+    if scheduler is not None:
+        from plantlod.scene.run import check_scheduler_address
+
+        check_scheduler_address(scheduler)
     for path in (report_path, plot_path):
         check_output_path(path)                 # refuse an unwritable output before running
+    if sample is not None and not verify:
+        raise click.UsageError("--verify-sample N goes with --verify")
+    if angles_path is not None:
+        import os
+
+        if os.path.lexists(angles_path):
+            raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
+        check_output_path(angles_path)
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
     check_scene(spec)
+    check_frame_rate(spec, frame_rate)
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
     show = sys.stderr.isatty()
+    bar = _ProgressBar() if show else None
 
-    def progress(done: int, total: int) -> None:
-        if show:
-            click.echo(f"\rscene: {done}/{total} batches", err=True, nl=done == total)
+    def progress(stage: str, done: int, total: int, what: str) -> None:
+        if bar is not None:
+            bar.show(stage, done, total, what)
 
-    tmp = None
-    if angles_path is not None:
-        import os
-        import tempfile
+    import contextlib
 
-        if os.path.exists(angles_path):
-            raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
-        folder = os.path.dirname(os.path.abspath(angles_path))
-        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=".zarr", dir=folder)
-        os.rmdir(tmp)
-    try:
-        report = run_scene(spec, cache=cache, threads=threads, verify=verify, progress=progress,
-                           store_path=tmp, scheduler=scheduler, frame_rate=frame_rate)
-        if tmp is not None:
-            os.replace(tmp, angles_path)          # all or nothing
-    except BaseException:
-        if tmp is not None and os.path.exists(tmp):
-            import shutil
+    with contextlib.ExitStack() as stack:
+        tmp = None
+        if angles_path is not None:     # a new zarr store: in place only when every output is
+            tmp = stack.enter_context(output_folder(angles_path, suffix=".zarr"))
+        try:
+            report = run_scene(spec, cache=cache, threads=threads, verify=verify,
+                               progress=progress, store_path=tmp, scheduler=scheduler,
+                               frame_rate=frame_rate, sample=sample)
+        finally:
+            if bar is not None:
+                bar.stop()
+        _write_outputs(spec, report, plot_path, report_path, frame_rate)
+    say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
+        f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
+        + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
+        + f", {report['wall_s']:.1f} s")
 
-            shutil.rmtree(tmp)
-        raise
+
+def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float) -> None:
+    """The picture (with --plot) and the report; takes the private keys out of ``report``."""
     levels = report.pop("_levels")
     in_use = report.pop("_branches_in_use")
     if plot_path is not None:
         from plantlod.scene.plot import scene_png
-
         from plantlod.scene.run import frame_steps
 
         png = scene_png(spec, levels, in_use, report["branches_full"],
@@ -101,7 +118,29 @@ def scene(scene_path, report_path, verify, budget_px, cache_dir, no_cache, angle
             out.write(png)
     with open_output(report_path) as out:
         out.write(json.dumps(report, indent=2, sort_keys=False) + "\n")
-    say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
-        f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
-        + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
-        + f", {report['wall_s']:.1f} s")
+
+
+class _ProgressBar:
+    """rich progress on stderr (a terminal only): one task while a file's levels are
+    fitted ("levels: FILE, level k of n"), then one for the batches."""
+
+    def __init__(self):
+        from rich.progress import Progress
+
+        from .io import console
+
+        self.bar = Progress(console=console(), transient=True, redirect_stdout=False,
+                            redirect_stderr=False)
+        self.bar.start()
+        self.tasks: dict[str, int] = {}
+
+    def show(self, stage: str, done: int, total: int, what: str) -> None:
+        label = f"levels: {what}, level {done} of {total}" if stage == "levels" else "batches"
+        key = f"{stage}:{what}"
+        if key not in self.tasks:
+            self.tasks[key] = self.bar.add_task(label, total=total)
+        self.bar.update(self.tasks[key], description=label,
+                        completed=done if stage == "batches" else done - 1)
+
+    def stop(self) -> None:
+        self.bar.stop()

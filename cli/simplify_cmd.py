@@ -12,7 +12,7 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import display_name, open_output, say
+from .io import display_name, open_output, output_folder, say
 
 
 def _wind_range(ctx, param, value):
@@ -59,16 +59,23 @@ def _wind_range(ctx, param, value):
               show_default=True, help="Length (s) of each measurement and calibration run.")
 @click.option("--evaluations", type=click.IntRange(min=1), default=CALIBRATION_EVALUATIONS, show_default=True,
               help="Calibration budget: candidate trees simulated (each at every wind).")
+@click.option("--damping-ratio", type=click.FloatRange(min=0), default=0.0, show_default=True,
+              help="Fit and measure the level under this damping ratio ζ (model.md 4); "
+                   "simulate the result with the same --damping-ratio.")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: only when stderr is a terminal).")
 def simplify(input_path, output, level, level_n, form, levels_dir, method, calibrate, wind_range, dt,
-             duration, evaluations, progress):
+             duration, evaluations, damping_ratio, progress):
     """Write a level-n L-system that sways like FILE's tree.
 
-    The result keeps FILE's axiom and productions and derives N - n steps; its
-    branch at address a stands for the original branches whose addresses begin
-    with a. Its header comment records the source, level, method and the errors
-    (docs/model.md section 6) measured for it over the winds of --wind-range.
+    In the grammar form the result keeps FILE's axiom and productions and derives
+    N - n steps; in the explicit form it writes the level's branches out one by one
+    (groups merged from the tips, each branch a chord of its group) and names each
+    branch's group in a groups: section. Either way its branch at address a stands for
+    the original branches of its group. --form auto (the default) keeps the grammar
+    form where it meets the level's bounds. The header comment records the source,
+    level, form, method and the errors (docs/model.md section 6) measured for it over
+    the winds of --wind-range.
 
     \b
     Example:
@@ -94,10 +101,11 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     if levels_dir is not None:
         if output is not None:
             raise click.UsageError("--levels writes DIR/level<k>.lsys; -o does not apply")
-        _write_levels(system, levels_dir, input_path, wind_range, dt, duration)
+        _write_levels(system, levels_dir, input_path, wind_range, dt, duration, damping_ratio)
         return
     options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
-                      dt=dt, duration=duration, max_evaluations=evaluations, form=form)
+                      dt=dt, duration=duration, max_evaluations=evaluations, form=form,
+                      damping_ratio=damping_ratio)
     show = sys.stderr.isatty() if progress is None else progress
     if show:
         result = _with_progress(run_simplify, system, options)
@@ -116,7 +124,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
 
 
 def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
-                  duration: float) -> None:
+                  duration: float, damping_ratio: float = 0.0) -> None:
     """Every explicit level, 1 to the last, into ``folder`` (created), one measured file each."""
     import os
 
@@ -129,16 +137,22 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise InputError("--levels needs a directory; this is a file", folder)
     last = len(merge_levels(build(system).tree)) - 1
-    os.makedirs(folder, exist_ok=True)
-    for k in range(1, last + 1):
-        result = simplify_explicit(system, Options(level=k, wind_range=wind_range, dt=dt,
-                                                   duration=duration, form="explicit"))
-        with open_output(os.path.join(folder, f"level{k}.lsys")) as out:
-            out.write(result.text)
-        s = result.summary
-        say(f"simplify: {display_name(input_path)} level {k}/{last}: {result.original.n_branches:,}"
-            f" -> {result.tree.n_branches:,} branches; worst amplitude {_pct(s.amplitude)}, "
-            f"tip {_pct(s.tip)} of height")
+    # every level into a temporary folder beside DIR, moved into DIR only when all are
+    # written: a failure or a signal leaves neither a partial set nor a new empty DIR
+    with output_folder(folder, merge=True) as tmp:
+        for k in range(1, last + 1):
+            result = simplify_explicit(system, Options(level=k, wind_range=wind_range, dt=dt,
+                                                       duration=duration, form="explicit",
+                                                       damping_ratio=damping_ratio))
+            with open_output(os.path.join(tmp, f"level{k}.lsys")) as out:
+                out.write(result.text)
+            s = result.summary
+            tip_m = max((r.tip_error_max_m for _w, r in result.reports
+                         if math.isfinite(r.tip_error_max_m)), default=math.nan)
+            say(f"simplify: {display_name(input_path)} level {k}/{last}: "
+                f"{result.original.n_branches:,} -> {result.tree.n_branches:,} branches; "
+                f"worst amplitude {_pct(s.amplitude)}, tip {_pct(s.tip)} of height, "
+                f"tip error (max) {tip_m:.4g} m at {wind_range[0]:g}-{wind_range[1]:g} m/s")
 
 
 def _pct(x: float) -> str:

@@ -7,7 +7,7 @@ import time
 
 import click
 
-from .io import count, display_name, open_output, say
+from .io import count, display_name, open_output, say, warn
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
@@ -55,8 +55,11 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
         kernel.compiled()          # numba loads here (the cached machine code on the first call)
 
     start = time.perf_counter()
-    chunks = run_simulation(tree, settings.dt, settings.steps, settings.wind,
-                            every=every, damping=settings.damping)
+    from plantlod.sim.angle_range import LargeAngleWatch
+
+    watch = LargeAngleWatch(tree.address)
+    chunks = _watched(run_simulation(tree, settings.dt, settings.steps, settings.wind,
+                                     every=every, damping=settings.damping), watch)
     from plantlod.formats.npz import angles_bytes, is_npz
 
     if is_npz(output):
@@ -77,6 +80,8 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
             else:
                 for chunk in chunks:
                     writer.write(*chunk)
+    if watch.first is not None:
+        warn(watch.first.message(display_name(input_path)))
     seconds = time.perf_counter() - start
     branch_steps = tree.n_branches * settings.steps
     rate = branch_steps / seconds if seconds > 0 else float("inf")
@@ -85,6 +90,13 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
         f"{seconds:.2f} s, {rate:,.0f} branch-steps/s with output "
         + (f"(+{start - begin:.2f} s kernel start-up)" if engine == "compiled"
            else "(interpreted kernel: a short run)"))
+
+
+def _watched(chunks, watch):
+    """The chunks of a run, each shown to ``watch`` (the model's range) on its way out."""
+    for chunk in chunks:
+        watch.see(chunk.times, chunk.bend, chunk.rot)
+        yield chunk
 
 
 def _write_with_progress(writer, chunks, steps: int, dt: float) -> None:

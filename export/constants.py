@@ -9,3 +9,4 @@ GLTF_CYLINDER_SIDES = 8        # sides of a branch tube in glTF
 
 # --- the view page (export/view.py) ---------------------------------------------------------
 VIEW_TITLE = "plantlod: original and levels side by side"
+VIEW_MAX_FILE_BYTES = 1 << 30  # a .glb / .gltf given to view (the page carries it whole)

@@ -12,12 +12,14 @@ import base64
 import json
 import os
 import re
+import warnings
 from importlib import resources
 from typing import Sequence
 
 from plantlod.lsys.errors import InputError
 
-from .constants import VIEW_TITLE
+from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
+from .gltf_check import GLB_MAGIC, check_buffer_uris, check_document, check_glb_container
 
 
 def glb_from_file(path: str) -> tuple[bytes, int | None]:
@@ -28,23 +30,51 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     """
     import pygltflib as g
 
+    data = _read_bytes(path)
+    if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
+                                 and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
+        check_glb_container(data, path)
     try:
-        doc = g.GLTF2.load(path)
-    except FileNotFoundError:
-        raise InputError("no such file", path) from None
-    except IsADirectoryError:
-        raise InputError("is a directory; expected a .glb or .gltf file", path) from None
+        with warnings.catch_warnings():        # pygltflib warns on stderr; the checks below say it
+            warnings.simplefilter("ignore")
+            doc = g.GLTF2.load(path)
     except Exception as exc:                   # pygltflib raises what its parsers raise
         raise InputError(f"not a glTF file ({type(exc).__name__}: {exc})", path) from None
-    if doc is None or not doc.nodes:
+    if doc is None or not isinstance(doc.nodes, list) or not doc.nodes:
         raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)
+    check_buffer_uris(doc, path, VIEW_MAX_FILE_BYTES)
     try:
-        doc.convert_buffers(g.BufferFormat.BINARYBLOB)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            doc.convert_buffers(g.BufferFormat.BINARYBLOB)
+        blob = doc.binary_blob() or b""
     except Exception as exc:
-        raise InputError(f"cannot read the glTF's buffers ({exc})", path) from None
-    extras = doc.asset.extras if isinstance(doc.asset.extras, dict) else {}
-    branches = extras.get("plantlod", {}).get("branches") if isinstance(extras.get("plantlod"), dict) else None
-    return b"".join(doc.save_to_bytes()), (int(branches) if isinstance(branches, int) else None)
+        raise InputError(f"cannot read the glTF's buffers ({type(exc).__name__}: {exc})",
+                         path) from None
+    check_document(doc, len(blob), path)
+    try:
+        glb = b"".join(doc.save_to_bytes())
+    except Exception as exc:
+        raise InputError(f"not a glTF file plantlod can carry ({type(exc).__name__}: {exc})",
+                         path) from None
+    asset = doc.asset
+    extras = asset.extras if asset is not None and isinstance(asset.extras, dict) else {}
+    mine = extras.get("plantlod")
+    branches = mine.get("branches") if isinstance(mine, dict) else None
+    ok = isinstance(branches, int) and not isinstance(branches, bool) and branches >= 0
+    return glb, (branches if ok else None)
+
+
+def _read_bytes(path: str) -> bytes:
+    """The file's bytes, refused beyond VIEW_MAX_FILE_BYTES before it is read."""
+    from plantlod.formats.text_input import reading
+
+    with reading(path), open(path, "rb") as handle:
+        size = os.fstat(handle.fileno()).st_size
+        if size > VIEW_MAX_FILE_BYTES:
+            raise InputError(f"the file has {size:,} bytes, more than the limit of "
+                             f"{VIEW_MAX_FILE_BYTES:,}", path)
+        return handle.read(VIEW_MAX_FILE_BYTES + 1)
 
 
 def view_page(trees: Sequence[tuple[str, bytes, int | None]], wind_direction_deg: float = 0.0,

@@ -155,3 +155,22 @@ def _raise_bad_field(parts: list[str], source: str | None, line_no: int) -> None
             value = math.nan
         if not math.isfinite(value):
             raise InputError(f"expected a finite number, got {text.strip()!r}", source, line_no, col)
+
+
+def read_angles_file(path: str, degrees: bool = False
+                     ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """The angles of ``path`` (``-``: stdin): an .npz archive (radians) or an angle CSV, as
+    `read_angles_csv` returns them; ``degrees`` applies to a CSV only (InputError for an .npz)."""
+    import io
+
+    from .npz import is_npz, read_angles_bytes, read_npz_file
+    from .constants import MAX_CSV_LINE_BYTES
+    from .text_input import read_text, source_name
+
+    name = source_name(path)
+    if is_npz(path):
+        if degrees:
+            raise InputError("--degrees applies to an angle CSV; an .npz archive holds radians",
+                             name)
+        return read_angles_bytes(read_npz_file(path), name)
+    return read_angles_csv(io.StringIO(read_text(path, MAX_CSV_LINE_BYTES)), name, degrees=degrees)

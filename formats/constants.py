@@ -9,6 +9,11 @@ MAX_LINE_BYTES = 1_000_000          # .lsys lines, tree-file records, wind keyfr
 MAX_CSV_LINE_BYTES = 100_000_000
 MAX_JSON_DEPTH = 8                  # nesting of arrays/objects in one tree-file record
 READ_CHUNK_BYTES = 1 << 20          # read inputs a MiB at a time
+# .npz archives: every member's declared shape and uncompressed size is checked against
+# these before anything is decompressed (a 390,625-branch tree is about 90 MB; a zip bomb
+# of a few MB can declare gigabytes).
+MAX_NPZ_BYTES = 2 << 30             # the archive file, and all its members uncompressed (2 GiB)
+MAX_NPZ_MEMBERS = 64                # arrays in one archive (a tree has 20)
 NORMAL_UNIT_TOL = 1e-6        # tree files: leaf normals must be unit length within this
 DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format string`
 

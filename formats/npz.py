@@ -5,23 +5,30 @@ Tree archive (`format` = "plantlod-tree-npz", `version` = 1): every array field 
 lists (`address`, `symbol`, `leaf_address`, `group_root`) as unicode arrays, and
 `leaf_force_scale`, `source` as 0-d arrays. Angles archive (`format` =
 "plantlod-angles-npz"): `time` (T,) s, `address` (B,), `bend` and `rotation` (T, B) radians.
-Read with ``allow_pickle=False``; a missing or misshapen entry is an `InputError`.
+Read with ``allow_pickle=False``, after every member's declared shape, type and uncompressed
+size are checked against the limits (formats/constants.py) from the zip directory and the
+.npy headers alone; a missing, misshapen or mistyped entry is an `InputError` naming the file.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import io
+import math
 import zipfile
 
 import numpy as np
 
 from plantlod.lsys.errors import InputError
-from plantlod.lsys.tree import Tree
+from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
+
+from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL
+from .text_input import reading, source_name, stdin_bytes
 
 TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
+ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
 
 
 def is_npz(path: str | None) -> bool:
@@ -45,42 +52,176 @@ def tree_bytes(tree: Tree) -> bytes:
     return out.getvalue()
 
 
-def _load(data: bytes, source: str, kind: str):
+def read_npz_file(path: str) -> bytes:
+    """The bytes of the archive ``path`` (``-``: stdin), refused beyond MAX_NPZ_BYTES; a file
+    that cannot be read is an `InputError` naming it, as for text inputs."""
+    name = source_name(path)
+    with reading(name):
+        if path == "-":
+            data = stdin_bytes(name).read(MAX_NPZ_BYTES + 1)
+        else:
+            with open(path, "rb") as handle:
+                data = handle.read(MAX_NPZ_BYTES + 1)
+    if len(data) > MAX_NPZ_BYTES:
+        raise InputError(f"the archive is larger than the limit of {MAX_NPZ_BYTES:,} bytes", name)
+    return data
+
+
+def _header(member, name: str, source: str) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype an .npy member declares, read from its header alone."""
+    from numpy.lib import format as npy
+
     try:
-        archive = np.load(io.BytesIO(data), allow_pickle=False)
-        if str(archive["format"]) != kind:
-            raise InputError(f"not a {kind} archive (format {str(archive['format'])!r})", source)
-        return archive
-    except (zipfile.BadZipFile, ValueError, KeyError, OSError) as exc:
-        raise InputError(f"not a readable {kind} archive: {exc}", source) from None
+        version = npy.read_magic(member)
+        if version == (1, 0):
+            shape, _, dtype = npy.read_array_header_1_0(member)
+        elif version == (2, 0):
+            shape, _, dtype = npy.read_array_header_2_0(member)
+        else:
+            raise ValueError(f"unsupported .npy version {version}")
+    except (ValueError, SyntaxError, TypeError, EOFError) as exc:
+        raise InputError(f"{name!r} in the archive is not a readable array: {exc}", source) from None
+    return tuple(int(n) for n in shape), dtype
+
+
+def _checked_members(data: bytes, source: str) -> None:
+    """Refuse, before anything is decompressed, an archive whose members would not fit the
+    limits: more than MAX_NPZ_MEMBERS, an uncompressed total beyond MAX_NPZ_BYTES, a
+    declared shape larger than the member's data, or a type that is not numbers or text
+    (object arrays, which would need pickle, included)."""
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+            infos = archive.infolist()
+            if len(infos) > MAX_NPZ_MEMBERS:
+                raise InputError(f"the archive holds {len(infos):,} members, more than the "
+                                 f"limit of {MAX_NPZ_MEMBERS}", source)
+            total = sum(info.file_size for info in infos)
+            if total > MAX_NPZ_BYTES:
+                raise InputError(f"the archive expands to {total:,} bytes, more than the limit "
+                                 f"of {MAX_NPZ_BYTES:,}", source)
+            for info in infos:
+                name = info.filename.removesuffix(".npy")
+                with archive.open(info) as member:
+                    shape, dtype = _header(member, name, source)
+                if dtype.hasobject or dtype.kind not in ALLOWED_KINDS:
+                    raise InputError(f"{name!r} in the archive is an array of {dtype}; expected "
+                                     "numbers or text", source)
+                size = math.prod(shape) * dtype.itemsize
+                if size > info.file_size:
+                    raise InputError(f"{name!r} in the archive declares shape {shape} of {dtype} "
+                                     f"({size:,} bytes) but holds {info.file_size:,} bytes",
+                                     source)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError,
+            OSError, ValueError, RuntimeError) as exc:
+        raise InputError(f"not a readable archive: {_reason(exc)}", source) from None
+
+
+def _reason(exc: BaseException) -> str:
+    return str(exc) or type(exc).__name__
+
+
+def _load(data: bytes, source: str, kind: str) -> dict[str, np.ndarray]:
+    """Every array of the archive (checked first by `_checked_members`), by name."""
+    _checked_members(data, source)
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+            arrays = {name: archive[name] for name in archive.files}
+    except (zipfile.BadZipFile, ValueError, KeyError, OSError, EOFError, RuntimeError,
+            NotImplementedError) as exc:
+        raise InputError(f"not a readable {kind} archive: {_reason(exc)}", source) from None
+    label = arrays.get("format")
+    if label is None or label.shape != () or label.dtype.kind != "U" or str(label) != kind:
+        found = f" (format {str(label)!r})" if label is not None and label.size == 1 else ""
+        raise InputError(f"not a {kind} archive{found}", source)
+    return arrays
+
+
+def _need(arrays: dict, name: str, source: str) -> np.ndarray:
+    if name not in arrays:
+        raise InputError(f"the archive has no {name!r}", source)
+    return arrays[name]
+
+
+def _numbers(arrays: dict, name: str, source: str, shape: tuple, integer: bool = False,
+             non_negative: bool = False) -> np.ndarray:
+    """Array ``name``: of ``shape`` (None: any length there), real numbers (whole numbers for
+    ``integer``), all finite (and >= 0 for ``non_negative``), as float64 or int64."""
+    a = _need(arrays, name, source)
+    if a.ndim != len(shape) or any(want is not None and got != want
+                                   for got, want in zip(a.shape, shape)):
+        want = "(" + ", ".join("N" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise InputError(f"{name!r} in the archive has shape {a.shape}; expected {want}", source)
+    kinds = "iu" if integer else "biuf"
+    if a.dtype.kind not in kinds:
+        raise InputError(f"{name!r} in the archive holds {a.dtype}; expected "
+                         f"{'whole numbers' if integer else 'numbers'}", source)
+    out = a.astype(np.int64 if integer else np.float64)
+    if integer and a.dtype.kind == "u" and a.size and int(a.max()) > np.iinfo(np.int64).max:
+        raise InputError(f"{name!r} in the archive holds values beyond int64", source)
+    if not integer and not np.all(np.isfinite(out)):
+        raise InputError(f"{name!r} in the archive holds values that are not finite", source)
+    if non_negative and np.any(out < 0):
+        raise InputError(f"{name!r} in the archive holds negative values; expected amounts >= 0",
+                         source)
+    return out
+
+
+def _strings(arrays: dict, name: str, source: str, pattern=None) -> list[str]:
+    a = _need(arrays, name, source)
+    if a.ndim != 1 or a.dtype.kind != "U":
+        raise InputError(f"{name!r} in the archive must be a list of text (1-D unicode), got "
+                         f"{a.dtype} of shape {a.shape}", source)
+    out = [str(s) for s in a.tolist()]
+    if pattern is not None:
+        bad = next((s for s in out if not pattern.match(s)), None)
+        if bad is not None:
+            raise InputError(f"{name!r} in the archive holds {bad[:60]!r}, not an address", source)
+    return out
 
 
 def read_tree_bytes(data: bytes, source: str) -> Tree:
-    archive = _load(data, source, TREE_FORMAT)
-    values = {}
-    try:
-        for f in dataclasses.fields(Tree):
-            if f.name not in archive.files:
-                if f.name in ("group_root", "force_gain"):     # optional: levels only
-                    values[f.name] = [] if f.name == "group_root" else None
-                    continue
-                raise InputError(f"the archive has no {f.name!r}", source)
-            a = archive[f.name]
-            if f.name in _STRINGS:
-                values[f.name] = [str(s) for s in a.tolist()]
-            elif f.name == "leaf_force_scale":
-                values[f.name] = float(a)
-            elif f.name == "source":
-                values[f.name] = str(a)
-            else:
-                values[f.name] = a
-    except ValueError as exc:
-        raise InputError(f"not a readable tree archive: {exc}", source) from None
+    """The tree of an archive written by `tree_bytes`; every field checked (types, shapes,
+    finite amounts, addresses, parents before children) as the tree-file reader checks."""
+    from .treefile import _BRANCH_ADDRESS, _LEAF_ADDRESS, NON_NEGATIVE_FIELDS
+
+    arrays = _load(data, source, TREE_FORMAT)
+    values: dict = {}
+    values["parent"] = _numbers(arrays, "parent", source, (None,), integer=True)
+    b = len(values["parent"])
+    for name in BRANCH_FLOAT_FIELDS:
+        values[name] = _numbers(arrays, name, source, (b,), non_negative=name in NON_NEGATIVE_FIELDS)
+    values["euler"] = _numbers(arrays, "euler", source, (b, 3))
+    values["offset"] = _numbers(arrays, "offset", source, (b, 3))
+    values["leaf_branch"] = _numbers(arrays, "leaf_branch", source, (None,), integer=True)
+    f = len(values["leaf_branch"])
+    values["leaf_area"] = _numbers(arrays, "leaf_area", source, (f,), non_negative=True)
+    values["leaf_normal"] = _numbers(arrays, "leaf_normal", source, (f, 3))
+    values["address"] = _strings(arrays, "address", source, _BRANCH_ADDRESS)
+    values["symbol"] = _strings(arrays, "symbol", source)
+    values["leaf_address"] = _strings(arrays, "leaf_address", source, _LEAF_ADDRESS)
+    values["group_root"] = _strings(arrays, "group_root", source) if "group_root" in arrays else []
+    # a level's gain matrices (model.md 5): optional, (B, 6)
+    values["force_gain"] = (_numbers(arrays, "force_gain", source, (b, 6))
+                            if "force_gain" in arrays else None)
+    scale = _numbers(arrays, "leaf_force_scale", source, (), non_negative=True)
+    values["leaf_force_scale"] = float(scale)
+    label = _need(arrays, "source", source)
+    if label.shape != () or label.dtype.kind != "U":
+        raise InputError(f"'source' in the archive must be one text, got {label.dtype} of shape "
+                         f"{label.shape}", source)
+    values["source"] = str(label)
+    norms = np.sqrt((values["leaf_normal"] ** 2).sum(axis=1))
+    if np.any(np.abs(norms - 1.0) > NORMAL_UNIT_TOL):
+        raise InputError(f"'leaf_normal' in the archive holds vectors that are not unit "
+                         f"(length within {NORMAL_UNIT_TOL:g} of 1)", source)
     tree = Tree(**values)
     try:
         tree.check()
     except (ValueError, InputError) as exc:
         raise InputError(f"the archive's tree is inconsistent: {exc}", source) from None
+    if len(set(tree.address)) != b:
+        raise InputError("the archive's tree repeats a branch address; branch addresses are "
+                         "unique", source)
     return tree
 
 
@@ -94,15 +235,18 @@ def angles_bytes(times: np.ndarray, addresses: list[str], bend: np.ndarray, rot:
 
 def read_angles_bytes(data: bytes, source: str) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
     """(times (T,), addresses [B], bend (T, B), rot (T, B)), as `read_angles_csv` returns them."""
-    archive = _load(data, source, ANGLES_FORMAT)
-    try:
-        t, b, r = archive["time"], archive["bend"], archive["rotation"]
-        addresses = [str(s) for s in archive["address"].tolist()]
-    except KeyError as exc:
-        raise InputError(f"the archive has no {exc}", source) from None
-    if t.ndim != 1 or b.shape != (len(t), len(addresses)) or r.shape != b.shape:
-        raise InputError(f"the archive's shapes disagree: time {t.shape}, bend {b.shape}, "
-                         f"rotation {r.shape}, {len(addresses)} addresses", source)
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(b)) and np.all(np.isfinite(r))):
-        raise InputError("the archive holds values that are not finite", source)
+    from .treefile import _BRANCH_ADDRESS
+
+    arrays = _load(data, source, ANGLES_FORMAT)
+    addresses = _strings(arrays, "address", source, _BRANCH_ADDRESS)
+    t = _numbers(arrays, "time", source, (None,))
+    b = _numbers(arrays, "bend", source, (len(t), len(addresses)))
+    r = _numbers(arrays, "rotation", source, (len(t), len(addresses)))
+    if len(t) == 0:
+        raise InputError("the archive holds no time samples", source)
+    if np.any(np.diff(t) <= 0):
+        raise InputError("'time' in the archive must increase", source)
+    if len(set(addresses)) != len(addresses):
+        raise InputError("the archive repeats a branch address; expected one column per branch",
+                         source)
     return t, addresses, b, r

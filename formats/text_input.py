@@ -7,8 +7,9 @@ whichever command read them. A UTF-8 byte-order mark is accepted and dropped.
 
 from __future__ import annotations
 
+import contextlib
 import sys
-from typing import BinaryIO
+from typing import BinaryIO, Iterator
 
 from plantlod.lsys.errors import InputError
 
@@ -29,23 +30,12 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES) -> str:
     once (`InputError` at file:line), so a hostile input is never held whole.
     """
     name = source_name(path)
-    try:
+    with reading(name):
         if path == "-":
-            if sys.stdin is None:
-                raise InputError("standard input is closed; expected a file name or data on stdin",
-                                 name)
-            data = _read_capped(sys.stdin.buffer, name, max_line_bytes)
+            data = _read_capped(stdin_bytes(name), name, max_line_bytes)
         else:
             with open(path, "rb") as handle:
                 data = _read_capped(handle, name, max_line_bytes)
-    except FileNotFoundError:
-        raise InputError("no such file", name) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not a file", name) from None
-    except PermissionError:
-        raise InputError("permission denied", name) from None
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror or exc}", name) from None
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -56,6 +46,29 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES) -> str:
         col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
         raise InputError(f"not UTF-8 text (byte {offset}), 0x{data[offset]:02x} cannot be "
                          "decoded; expected a UTF-8 file", name, line, col) from None
+
+
+@contextlib.contextmanager
+def reading(name: str) -> Iterator[None]:
+    """An input that cannot be read is an `InputError` naming it (one message per cause,
+    whichever reader opened it)."""
+    try:
+        yield
+    except FileNotFoundError:
+        raise InputError("no such file", name) from None
+    except IsADirectoryError:
+        raise InputError("is a directory, not a file", name) from None
+    except PermissionError:
+        raise InputError("permission denied", name) from None
+    except OSError as exc:
+        raise InputError(f"cannot read: {exc.strerror or exc}", name) from None
+
+
+def stdin_bytes(name: str = "<stdin>") -> BinaryIO:
+    """Standard input as bytes; a closed one is an `InputError`."""
+    if sys.stdin is None:
+        raise InputError("standard input is closed; expected a file name or data on stdin", name)
+    return sys.stdin.buffer
 
 
 def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int) -> bytes:

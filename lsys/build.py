@@ -42,7 +42,20 @@ def build(system: LSystem, steps: int | None = None,
     tree, warnings = build_tree_with_warnings(system, interpreted)
     if system.groups:
         tree = _with_group_roots(system, tree)
+    if tree.n_branches == 0:
+        warnings.append(no_branches_message(system))
     return Built(derived, interpreted, tree, n, warnings)
+
+
+def no_branches_message(system: LSystem) -> str:
+    """Why a tree has no branch (nothing for the wind to move), and what to write."""
+    if not system.branches:
+        return ("no branch symbol declared, so the tree has no branches and nothing moves; "
+                "declare one: 'branch F: length=1 radius=0.02 bend_strength=20 "
+                "rotation_strength=20'")
+    names = ", ".join(b.name for b in system.branches)
+    return (f"the tree has no branches: no branch symbol ({names}) is in the derived string, "
+            "so nothing moves")
 
 
 def _with_group_roots(system: LSystem, tree: Tree) -> Tree:

@@ -38,3 +38,9 @@ class RunFailure(PlantlodError):
     """A failure at run time on valid input (exit code 1)."""
 
     exit_code = 1
+
+
+class PlantlodWarning(UserWarning):
+    """Something worth a word that does not stop the run (a file with no branch symbol,
+    angles far outside the small-angle model). The CLI prints each once as a one-line
+    ``warning:`` on stderr (exit 0); a library caller sees it through `warnings`."""

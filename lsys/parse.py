@@ -25,7 +25,7 @@ import re
 from typing import Iterable, Iterator, NamedTuple
 
 from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
-from .errors import InputError
+from .errors import InputError, PlantlodWarning
 from .expr import (
     FUNCTIONS, PRECEDENCE, RIGHT_ASSOCIATIVE, UNARY_OPS, UNARY_PRECEDENCE,
     Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, expression_depth, format_number,
@@ -68,6 +68,30 @@ _BRANCH_ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*(?::[0-9]+)?")   # a tree's br
 # ABOP's captions: "n = 5, δ = 22.5°, ω: F" and what to write instead.
 _ABOP_KEYS = {"n": "derivation_length: N", "δ": "branching_angle: DEGREES", "ω": "axiom: MODULES"}
 _ABOP_CAPTION = re.compile(r"\s*(n|δ|ω)\s*[=:]")
+# What L-Py and cpfg write where plantlod writes something else (docs/notation.md): a
+# line starting with one of these words is refused with the advice.
+FOREIGN_WORDS = {
+    "endlsystem": "'endlsystem' (L-Py, cpfg) ends an L-system there; delete it: the file "
+                  "ends the system",
+    "Lsystem": "'Lsystem:' (cpfg) numbers the L-system; delete it",
+    "lsystem": "'lsystem:' (cpfg) numbers the L-system; delete it",
+    "derivation": "'derivation length: N' (L-Py, cpfg) is 'derivation_length: N' here",
+    "Axiom": "'Axiom:' (L-Py, cpfg) is 'axiom:' here",
+    "production": "'production:' (L-Py) is 'productions:' here",
+    "homomorphism": "'homomorphism:' (L-Py) is 'interpretation:' here",
+    "endhomomorphism": "'endhomomorphism' (L-Py) is not needed; delete it",
+    "endproduction": "'endproduction' (L-Py) is not needed; delete it",
+    "consider": "'consider:' (cpfg) is not supported; list the symbols context skips with "
+                "'ignore: ...' instead",
+    "module": "'module' (L-Py) declarations: declare branch symbols with 'branch F: length=...' "
+              "and leaves with 'leaf L: area=...'",
+    "import": "Python code (L-Py) is not read here; constants are 'define NAME = VALUE'",
+    "from": "Python code (L-Py) is not read here; constants are 'define NAME = VALUE'",
+    "def": "Python code (L-Py) is not read here; constants are 'define NAME = VALUE'",
+}
+_FOREIGN_LINE = re.compile(r"\s*(" + "|".join(FOREIGN_WORDS) + r")\b")
+_ASSIGNMENT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?!=)")   # L-Py's `c = 1`
+_PREPROCESSOR = re.compile(r"\s*#(define|include|ifdef|ifndef|if|else|endif|undef)\b")
 # The production arrow as ABOP prints it, as L-Py and cpfg write it, and plantlod's own;
 # longest first. docs/notation.md.
 ARROWS = ("-->", "->", "→")
@@ -151,6 +175,8 @@ def _token(cur: _Cursor) -> _Tok:
             tok = _Tok("char", text[i], i, i + 1)
     else:
         stop = m.end()
+        if m.group(kind) == "*" and text.startswith("*", stop):
+            raise cur.error("'**' (L-Py and Python: a power) is '^' here; write x^2", i)
         tok = _Tok(m.group(kind) if kind == "punct" else kind, m.group(kind), i, stop)
         if kind == "num":
             tail = _NUMBER_TAIL.match(text, stop)
@@ -557,6 +583,7 @@ class _FileParser:
         self.group_pos: dict[tuple[int, ...], Pos] = {}
         self.axiom_lines: list[Module] | None = None     # an axiom given on indented lines
         self.section: str | None = None
+        self.preprocessor_warned = False
 
     def run(self) -> LSystem:
         for number, raw in enumerate(self.text.split("\n"), start=1):
@@ -564,6 +591,8 @@ class _FileParser:
                 raise _error(Pos(self.source, number, MAX_LINE_CHARS + 1),
                              f"line longer than {MAX_LINE_CHARS:,} characters; expected "
                              "shorter lines (split a long axiom with productions)")
+            if "#" in raw:
+                self._preprocessor(raw, number)
             line = raw.split("#", 1)[0].rstrip()
             if not line:
                 continue
@@ -574,10 +603,38 @@ class _FileParser:
                 raise cur.error("expression nested too deeply") from None
         return self._finish()
 
+    def _preprocessor(self, raw: str, number: int) -> None:
+        """cpfg's C preprocessor lines (``#define c 1``) are comments here: said once."""
+        m = _PREPROCESSOR.match(raw)
+        if m and not self.preprocessor_warned:
+            self.preprocessor_warned = True
+            import warnings
+
+            warnings.warn(f"{self.source}:{number}: '#{m.group(1)}' (cpfg's C preprocessor) is "
+                          "read as a comment here; a constant is 'define NAME = VALUE'",
+                          PlantlodWarning, stacklevel=4)
+
     # statements
 
     def _statement(self, cur: _Cursor) -> None:
         line = cur.text
+        if not _has_arrow(line):
+            foreign = _FOREIGN_LINE.match(line)
+            if foreign:
+                cur.i = foreign.start(1)
+                raise cur.error(FOREIGN_WORDS[foreign.group(1)])
+            assignment = None if _ABOP_CAPTION.match(line) else _ASSIGNMENT.match(line)
+            if assignment and assignment.group(1) in HEADER_KEYS:
+                cur.i = assignment.start(1)
+                value = line[assignment.end():].strip() or "VALUE"
+                raise cur.error(f"a header key takes ':'; expected "
+                                f"'{assignment.group(1)}: {value}'")
+            if assignment and assignment.group(1) not in _STATEMENT_WORDS:
+                cur.i = assignment.start(1)
+                name = assignment.group(1)
+                value = line[assignment.end():].strip() or "VALUE"
+                raise cur.error(f"'{name} = ...' looks like an L-Py or cpfg assignment; a "
+                                f"constant is 'define {name} = {value}'")
         m = _HEADER_LINE.match(line)
         if m and len(m.group(1)) > 1:
             word = m.group(1)
@@ -882,7 +939,26 @@ class _FileParser:
         errors = list(_whole_file_errors(system))
         if errors:
             raise min(errors, key=lambda e: (e.line, e.col))
+        _warn_width_modules(system)
         return system
+
+
+def _warn_width_modules(system: LSystem) -> None:
+    """L-Py's ``_(w)`` sets the width; here '_' is an ordinary module that draws nothing
+    (unless declared): said once, at its first place."""
+    if system.branch_symbol("_") is not None or any(leaf.name == "_" for leaf in system.leaves):
+        return
+    rules = system.productions + system.interpretation
+    for module in system.axiom + tuple(m for rule in rules for m in rule.successor):
+        if module.name == "_":
+            import warnings
+
+            where = ":".join(str(p) for p in (module.pos.file or system.source, module.pos.line,
+                                               module.pos.col) if p is not None)
+            warnings.warn(f"{where}: '_' (L-Py: set the width) is an ordinary module "
+                          "here that draws nothing; a branch's radius is its 'radius=' or !(r)",
+                          PlantlodWarning, stacklevel=4)
+            return
 
 
 def _stochastic_errors(rules: tuple[Production, ...], defines: dict[str, float]) -> Iterator[InputError]:

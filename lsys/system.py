@@ -44,6 +44,10 @@ UNSUPPORTED_SYMBOLS = {
          "symbol ('leaf L: area=...') and write L instead",
     "'": "\"'\" (ABOP: increment the colour index) is not supported; colours do not "
          "matter to the wind model, delete it",
+    '"': "'\"' (cpfg and L-Py: multiply the length) is not supported; give the length as "
+         "the branch's parameter, F(l*r)",
+    ";": "';' (cpfg and L-Py: increment the colour index) is not supported; colours do not "
+         "matter to the wind model, delete it",
     # look-alikes that a paste from a PDF of ABOP brings in
     "\u2212": "'\u2212' (a minus sign from a PDF) is not '-'; write the ASCII '-'",
     "\u2013": "'\u2013' (a dash from a PDF) is not '-'; write the ASCII '-'",

@@ -9,7 +9,7 @@ The public API (docs/api.md) is loaded on first use (PEP 562), so ``import
 plantlod`` costs almost nothing. The subpackages each own one responsibility and
 import one way, bottom to top (tests/test_package_graph.py keeps it so):
 
-    lsys (language) -> sim (dynamics) -> simplify (levels of detail)
+    lsys (language) -> sim (dynamics) -> compare (error measures) -> simplify (levels of detail)
         -> scene (many trees, camera-chosen levels) / export (glTF, USD, OBJ, pages)
         -> plantlod (this API) -> cli (commands)
 
@@ -26,7 +26,7 @@ __all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "RunFailure", "Tr
            "write_view"]
 
 _FROM = {
-    **{name: "plantlod.api" for name in ("Angles", "compare", "derive", "export_animation",
+    **{name: "plantlod.api" for name in ("Angles", "derive", "export_animation",
                                          "read_angles", "write_view",
                                          "read_lsystem", "read_tree", "simulate",
                                          "write_angles", "write_lsystem", "write_tree")},
@@ -56,6 +56,9 @@ def __getattr__(name: str) -> Any:
             value = "0+unknown"
         globals()["__version__"] = value
         return value
+    if name == "compare":
+        # likewise plantlod.compare: the subpackage, callable as plantlod.api.compare
+        return importlib.import_module("plantlod.compare")
     if name == "simplify":
         # the subpackage plantlod.simplify is callable as plantlod.api.simplify, so that
         # the name stays one object once any of its modules has been imported

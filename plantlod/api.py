@@ -44,23 +44,47 @@ class Angles:
     rotation: np.ndarray
     addresses: tuple[str, ...]
 
+    def __getitem__(self, lane: int) -> "Angles":
+        """One run of a result for a list of winds: ``angles[w]`` has bend (T, B)."""
+        if np.ndim(self.bend) != 3:
+            raise InputError("these angles are one run; angles[w] selects a run of "
+                             "simulate(tree, wind=[...]) (a list of winds)")
+        lanes = np.shape(self.bend)[0]
+        if not isinstance(lane, (int, np.integer)) or isinstance(lane, bool) \
+                or not -lanes <= lane < lanes:
+            raise IndexError(f"run {lane!r} of {lanes}; expected 0..{lanes - 1}")
+        return Angles(self.time, self.bend[lane], self.rotation[lane], self.addresses)
+
+    def __len__(self) -> int:
+        """The number of runs (winds) of a result for a list of winds."""
+        if np.ndim(self.bend) != 3:
+            raise TypeError("these angles are one run; len() counts the runs of a list of winds")
+        return int(np.shape(self.bend)[0])
+
+    def __iter__(self):
+        """The runs of a result for a list of winds, in wind order."""
+        return (self[w] for w in range(len(self)))
+
 
 # --- L-systems and trees -----------------------------------------------------------------
 
 def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSystem:
     """Parse an L-system from a file path or from its text (docs/lsys-format.md).
 
-    A string with a line break, or one that names no existing file, is read as
-    the text itself. Raises `plantlod.InputError` (file:line:col) on bad input.
+    A string with a line break is the text itself (an L-system has several lines); any
+    other string, or a path object, names a file (a missing one is an `InputError`
+    "no such file"). Raises `plantlod.InputError` (file:line:col) on bad input.
     """
     from plantlod.lsys.parse import parse_lsys
 
     if isinstance(path_or_text, os.PathLike) or (
-            isinstance(path_or_text, str) and "\n" not in path_or_text
-            and os.path.exists(path_or_text)):
+            isinstance(path_or_text, str) and "\n" not in path_or_text):
         from plantlod.formats.lsys_file import read_lsys
         return read_lsys(os.fspath(path_or_text))
-    return parse_lsys(str(path_or_text), name or "<text>")
+    if not isinstance(path_or_text, str):
+        raise InputError(f"expected a path or the text of an L-system, got "
+                         f"{type(path_or_text).__name__}")
+    return parse_lsys(path_or_text, name or "<text>")
 
 
 def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> str:
@@ -72,16 +96,25 @@ def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> st
     return text
 
 
-def derive(system: LSystem, n: int | None = None, *, max_modules: int | None = None) -> Tree:
-    """Derive ``system`` ``n`` steps (default: its derivation length) and run the turtle.
+def derive(system: LSystem | PathOrText, n: int | None = None, *,
+           max_modules: int | None = None) -> Tree:
+    """Derive ``system`` (an `LSystem` or the path of an .lsys file) ``n`` steps (default:
+    its derivation length) and run the turtle.
 
     Returns the `Tree` (plantlod.lsys.tree: per-branch arrays of shape (B,),
     per-leaf arrays (F,), rest rotations as ZYZ angles (B, 3)).
     """
+    import warnings
+
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
+    from plantlod.lsys.errors import PlantlodWarning
 
-    return build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES).tree
+    system = _as_system(system)
+    built = build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES)
+    for message in built.warnings:
+        warnings.warn(message, PlantlodWarning, stacklevel=2)
+    return built.tree
 
 
 def read_tree(path_or_file: PathOrFile) -> Tree:
@@ -104,24 +137,35 @@ def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
 
 # --- simulation --------------------------------------------------------------------------
 
-def simulate(tree: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0), dt: float = 0.01,
+def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.01,
              steps: int | None = None, *, duration: float | None = None, every: int = 1,
-             damping: float = 0.0, threads: int | None = None) -> Angles:
-    """Simulate ``tree`` in ``wind`` (model.md 3-4); an `LSystem` is derived first.
+             damping: float = 0.0, threads: int | None = None,
+             wind_speed: float | None = None, wind_direction: float | None = None,
+             damping_ratio: float | None = None) -> Angles:
+    """Simulate ``tree`` in ``wind`` (model.md 3-4); an `LSystem` is derived first, a path
+    is read (an .lsys file, a tree file or a tree .npz).
 
     wind     : (vx, vy, vz) m/s, a wind object of plantlod.sim.wind (anything with
                ``sample(times) -> (K, 3)``), or a list of either: then every array
                gets a leading lane axis (W,) and the runs step together on all
-               cores (plantlod.sim.lanes; each lane equals its single run bit for bit)
+               cores (plantlod.sim.lanes; each lane equals its single run bit for bit);
+               ``angles[w]`` is then run w. None: no wind (or ``wind_speed``).
+    wind_speed, wind_direction : instead of ``wind``, as the CLI's --wind-speed and
+               --wind-direction: a horizontal wind of this many m/s toward this azimuth
+               (degrees, 0 = +x, 90 = +y; default 0)
     steps    : time steps, or ``duration`` seconds (rounded to whole steps)
     every    : keep every ``every``-th step (row 0 is t = 0)
     threads  : engine threads for a list of winds (default: all cores or $PLANTLOD_THREADS)
+    damping  : the velocity damping c per step, or ``damping_ratio`` ζ (each branch damped
+               by its own period, model.md 4); not both
     Raises `InputError` for an unstable dt (model.md 4) and `RunFailure` when a run diverges.
     """
+    from plantlod.sim.damping import as_damping
     from plantlod.sim.stability import check_stability
 
-    if isinstance(tree, LSystem):
-        tree = derive(tree)
+    damping = as_damping(damping, damping_ratio)
+    tree = _as_tree(tree)
+    wind = _wind_option(wind, wind_speed, wind_direction)
     steps = _step_count(dt, steps, duration)
     if not isinstance(every, (int, np.integer)) or every < 1:
         raise InputError(f"every must be an integer >= 1, got {every!r}")
@@ -131,12 +175,28 @@ def simulate(tree: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0), dt: float = 0.01
         raise InputError("an empty list of winds; expected at least one wind")
     winds = [_wind(w) for w in (wind if many else [wind])]
     time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
+    _warn_large_angles(tree, time, bend, rot, many)
     if not many:
         bend, rot = bend[0], rot[0]
     return Angles(time, bend, rot, tuple(tree.address))
 
 
-def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping: float,
+def _warn_large_angles(tree: Tree, time, bend, rot, many: bool) -> None:
+    """A `PlantlodWarning` for the first run (lane) whose angles leave the small-angle model."""
+    import warnings
+
+    from plantlod.lsys.errors import PlantlodWarning
+    from plantlod.sim.angle_range import first_large_angle
+
+    for lane in range(len(bend)):
+        large = first_large_angle(time, bend[lane], rot[lane], tree.address)
+        if large is not None:
+            what = (tree.source or "tree") + (f", wind {lane}" if many else "")
+            warnings.warn(large.message(what), PlantlodWarning, stacklevel=3)
+            return
+
+
+def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, damping,
                threads: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """All winds in one pass of the lanes engine: times (T,), bend and rot (W, T, B).
     One wind runs on the single-run kernel (the same values, without lanes' padding)."""
@@ -173,7 +233,7 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
     from plantlod.formats.angles_csv import AnglesCsvWriter
 
     if np.ndim(angles.bend) != 2:
-        raise InputError("write_angles writes one run: select a lane first (angles.bend[w])")
+        raise InputError("write_angles writes one run: select it first (angles[w])")
     buf = io.StringIO()
     AnglesCsvWriter(buf, list(angles.addresses), degrees=degrees).write(
         angles.time, angles.bend, angles.rotation)
@@ -183,23 +243,29 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
 
 # --- levels of detail ----------------------------------------------------------------------
 
-def simplify(system: LSystem, level: int = 1, **options: Any) -> LSystem:
-    """The level-``level`` L-system standing for ``system`` (docs/simplify.md).
+def simplify(system: LSystem | PathOrText, level: int = 1, **options: Any) -> LSystem:
+    """The level-``level`` L-system standing for ``system`` (an `LSystem` or the path of an
+    .lsys file; docs/simplify.md).
 
     options : those of `plantlod.simplify.pipeline.Options` (method, calibrate,
-              wind_range, dt, duration, max_evaluations). Its header comment
+              wind_range, dt, duration, max_evaluations, form, damping_ratio). Its header comment
               (``.comment``) records the errors measured for it.
     """
     from plantlod.simplify.pipeline import simplified_system
 
-    return simplified_system(system, level, **options)
+    return simplified_system(_as_system(system), level, **options)
 
 
-def compare(original: Tree | LSystem, *simplified: Tree | LSystem, wind: Any = (0.0, 0.0, 0.0),
-            dt: float = 0.01, steps: int | None = None, duration: float | None = None,
+def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem | PathOrText,
+            wind: Any = None, dt: float = 0.01, steps: int | None = None,
+            duration: float | None = None,
             window: tuple[float | None, float | None] | None = None,
-            bounds: dict[str, float] | None = None, damping: float = 0.0) -> dict:
-    """Compare simplified trees with the original in one wind (model.md 6).
+            bounds: dict[str, float] | None = None, damping: float = 0.0,
+            wind_speed: float | None = None, wind_direction: float | None = None,
+            damping_ratio: float | None = None) -> dict:
+    """Compare simplified trees with the original in one wind (model.md 6); trees, systems
+    or paths, and the wind as `simulate` takes them. Each is labelled by its file, or, where
+    that repeats an earlier one (a level made by `simplify`), by its name.
 
     Returns the document ``plantlod compare --json`` prints (before rounding):
     per simplified tree the worst-group amplitude, period and tip errors, the
@@ -207,18 +273,19 @@ def compare(original: Tree | LSystem, *simplified: Tree | LSystem, wind: Any = (
     and every group. ``bounds`` maps figure names (``"motion_error"``, ...) to limits;
     ``passed`` says whether all held.
     """
-    from plantlod.simplify.compare import BOUND_OPTIONS, Run, check_bounds, compare_runs
-    from plantlod.simplify.report import comparison_document
+    from plantlod.compare.runs import BOUND_OPTIONS, Run, check_bounds, compare_runs
+    from plantlod.compare.report import comparison_document
 
     if not simplified:
         raise InputError("compare needs at least one simplified tree")
     n = _step_count(dt, steps, duration)
-    w = _wind(wind)
+    w = _wind(_wind_option(wind, wind_speed, wind_direction))
+    items = (original,) + simplified
     runs = []
-    for k, item in enumerate((original,) + simplified):
-        tree = derive(item) if isinstance(item, LSystem) else item
-        a = simulate(tree, w, dt, n, damping=damping)
-        runs.append(Run(tree, a.time, a.bend, a.rotation, _name(item, k)))
+    for item, label in zip(items, _labels(items)):
+        tree = _as_tree(item)
+        a = simulate(tree, w, dt, n, damping=damping, damping_ratio=damping_ratio)
+        runs.append(Run(tree, a.time, a.bend, a.rotation, label))
     t0, t1 = window if window else (None, None)
     comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
     unknown = set(bounds or {}) - set(BOUND_OPTIONS)
@@ -240,11 +307,11 @@ def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLi
     ``fps``, resampled linearly; ``frames`` (A, B) keeps frames A to B-1 (docs/export.md).
     The file appears whole or not at all."""
     from plantlod.export.files import export_animation as write
-    from plantlod.simplify.compare import angles_in_tree_order
+    from plantlod.compare.runs import angles_in_tree_order
 
-    tree = derive(tree) if isinstance(tree, LSystem) else tree
+    tree = _as_tree(tree)
     if np.ndim(angles.bend) != 2:
-        raise InputError("export_animation takes one run: select a lane first (angles.bend[w])")
+        raise InputError("export_animation takes one run: select it first (angles[w])")
     bend, rot = angles_in_tree_order(tree, list(angles.addresses), np.asarray(angles.bend),
                                      np.asarray(angles.rotation), "angles")
     write(os.fspath(path), tree, np.asarray(angles.time), bend, rot, fps, frames)
@@ -292,9 +359,74 @@ def _wind(wind: Any):
     return ConstantWind(vector)
 
 
-def _name(item: Tree | LSystem, k: int) -> str:
-    source = getattr(item, "source", "") or ""
-    return source or ("original" if k == 0 else f"simplified {k}")
+def _labels(items: tuple) -> list[str]:
+    """A label per compared item: its file; where that repeats an earlier label (a level
+    `simplify` made keeps its original's file name), its name, else "simplified k"."""
+    out: list[str] = []
+    for k, item in enumerate(items):
+        if isinstance(item, (str, os.PathLike)):
+            label = os.fspath(item)
+        else:
+            label = getattr(item, "source", "") or ("original" if k == 0 else f"simplified {k}")
+        if label in out:
+            name = getattr(item, "name", "") or ""
+            label = name if name and name not in out else f"{label} (simplified {k})"
+        out.append(label)
+    return out
+
+
+def _as_system(item: Any) -> LSystem:
+    """An `LSystem`, or one read from a path."""
+    if isinstance(item, LSystem):
+        return item
+    if isinstance(item, (str, os.PathLike)):
+        return read_lsystem(item)
+    raise InputError(f"expected an LSystem or the path of an .lsys file, got {type(item).__name__}")
+
+
+def _as_tree(item: Any) -> Tree:
+    """A `Tree`: as given, derived from an `LSystem`, or read from a path (an .lsys file, a
+    tree file, a tree .npz), as the commands read their TREE argument."""
+    if isinstance(item, Tree):
+        return item
+    if isinstance(item, LSystem):
+        return derive(item)
+    if not isinstance(item, (str, os.PathLike)):
+        raise InputError(f"expected a Tree, an LSystem or a path, got {type(item).__name__}")
+    path = os.fspath(item)
+    from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
+
+    if is_npz(path):
+        return read_tree_bytes(read_npz_file(path), path)
+    from plantlod.formats.text_input import read_text
+
+    text = read_text(path)
+    if text.lstrip().startswith("{"):
+        from plantlod.formats.treefile import read_tree as _read
+
+        return _read(io.StringIO(text), path)
+    from plantlod.lsys.parse import parse_lsys
+
+    return derive(parse_lsys(text, path))
+
+
+def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any:
+    """``wind``, or the horizontal wind of ``speed`` toward ``direction`` degrees (the CLI's
+    --wind-speed, --wind-direction); no wind at all is (0, 0, 0)."""
+    if speed is None:
+        if direction is not None:
+            raise InputError("wind_direction applies to wind_speed; give a speed too (or the "
+                             "whole vector as wind=(vx, vy, vz))")
+        return (0.0, 0.0, 0.0) if wind is None else wind
+    if wind is not None:
+        raise InputError("give one of wind and wind_speed")
+    from plantlod.sim.wind import wind_from_speed
+
+    for value, what in ((speed, "wind_speed"), (direction, "wind_direction")):
+        if value is not None and (isinstance(value, bool)
+                                  or not isinstance(value, (int, float, np.floating, np.integer))):
+            raise InputError(f"{what} must be a number, got {value!r}")
+    return wind_from_speed(speed, 0.0 if direction is None else direction)
 
 
 def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:

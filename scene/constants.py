@@ -1,6 +1,12 @@
 """Constants of scenes (docs/scene.md)."""
 
-MAX_TREES = 100_000            # trees one scene may place
+MAX_TREES = 100_000            # trees one scene may place (a [scatter] count is checked before drawing)
+MAX_SCENE_STEPS = 1_000_000    # time steps of one scene (duration / dt): 10,000 s at dt = 0.01
+# trees x branches x steps of a scene at full detail (a tree with no branch counts as one):
+# the bound on the work a scene may ask for; forest10k.toml asks about 2e9
+MAX_SCENE_BRANCH_STEPS = 100_000_000_000
+# trees x steps: every tree's wind is held for the whole scene (24 bytes a tree-step, 2.4 GB)
+MAX_SCENE_TREE_STEPS = 100_000_000
 MAX_SCATTER_TRIES = 200        # random draws per tree before a scatter gives up on its spacing
 FRAME_RATE = 30.0              # frames per second: levels are chosen, and errors verified, per frame
 # Directions (deg, relative to the wind) over which a level's tip error is taken, the worst
@@ -12,3 +18,6 @@ STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
+# Part of every cached chain's key: raise it whenever the explicit fit changes what it writes
+# (2: gain matrices, group swings from the carried superposition, merges by similar periods).
+CHAIN_FIT_VERSION = 2

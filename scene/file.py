@@ -27,9 +27,9 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 
-from .constants import MAX_SCATTER_TRIES, MAX_TREES
+from .constants import MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
 
-TOP_KEYS = {"dt", "duration", "budget_px", "wind", "camera", "tree", "scatter"}
+TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
 CAMERA_KEYS = {"position", "target", "fov_deg", "height_px", "key"}
 CAMERA_KEY_KEYS = {"t", "position", "target"}
@@ -104,6 +104,7 @@ class Scene:
     budget_px: float
     dt: float
     duration: float
+    damping_ratio: float = 0.0      # ζ of every tree (model.md 4); levels fitted under it
 
     @property
     def steps(self) -> int:
@@ -183,6 +184,12 @@ def read_scene(path: str) -> Scene:
     folder = file.resolve().parent
     dt = r.number(data, "dt", 0.01, low=0, low_open=True)
     duration = r.number(data, "duration", 10.0, low=0, low_open=True)
+    steps = duration / dt
+    if not steps <= MAX_SCENE_STEPS:                 # NaN and infinity included
+        raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {steps:,.3g} steps, more than "
+                      f"the limit of {MAX_SCENE_STEPS:,}; expected a shorter scene or a larger dt",
+                      "duration" if "duration" in data else "dt")
+    damping_ratio = r.number(data, "damping_ratio", 0.0, low=0)
     budget = r.number(data, "budget_px", 1.0, low=0)
     if budget == 0:
         raise r.error("'budget_px' is 0: no level but the full tree shows no error; expected a "
@@ -205,8 +212,10 @@ def read_scene(path: str) -> Scene:
 
     trees: list[Placed] = []
     entries = data.get("tree", [])
-    if not isinstance(entries, list):
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise r.error("trees are [[tree]] entries", "tree")
+    if len(entries) > MAX_TREES:
+        raise r.error(f"{len(entries):,} trees is more than the limit of {MAX_TREES:,}", "tree")
     for entry in entries:
         r.keys(entry, TREE_KEYS, "[[tree]]")
         trees.append(Placed(r.file(entry.get("file"), "file", folder),
@@ -214,12 +223,12 @@ def read_scene(path: str) -> Scene:
                             r.number(entry, "heading", 0.0), r.number(entry, "scale", 1.0, low=0,
                                                                        low_open=True)))
     if "scatter" in data:
-        trees += _scatter(r, data["scatter"], folder)
+        trees += _scatter(r, data["scatter"], folder, MAX_TREES - len(trees))
     if not trees:
         raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
     if len(trees) > MAX_TREES:
         raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
-    return Scene(path, trees, wind, camera, budget, dt, duration)
+    return Scene(path, trees, wind, camera, budget, dt, duration, damping_ratio)
 
 
 def _camera(r: _Reader, cam_t: dict) -> Camera:
@@ -255,8 +264,9 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
     return Camera(kp[0], ktg[0], fov, height, kt, kp, ktg)
 
 
-def _scatter(r: _Reader, table, folder: pathlib.Path) -> list[Placed]:
-    """N trees drawn from ``files`` over a rectangle, at least ``min_spacing`` apart, from ``seed``."""
+def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]:
+    """N trees drawn from ``files`` over a rectangle, at least ``min_spacing`` apart, from ``seed``;
+    N beyond ``room`` (what MAX_TREES leaves after the [[tree]] entries) is refused before drawing."""
     if not isinstance(table, dict):
         raise r.error("[scatter] must be a table", "scatter")
     r.keys(table, SCATTER_KEYS, "[scatter]")
@@ -265,12 +275,23 @@ def _scatter(r: _Reader, table, folder: pathlib.Path) -> list[Placed]:
         raise r.error("'files' must be a non-empty list of .lsys files", "files")
     files = [r.file(n, "files", folder) for n in names]
     count = int(r.number(table, "count", None, low=1, integer=True))
+    if count > room:
+        raise r.error(f"[scatter] count {count:,} makes more trees than the limit of "
+                      f"{MAX_TREES:,}", "count")
     seed = int(r.number(table, "seed", 0, low=0, integer=True))
     x0, y0, x1, y1 = r.vector(table, "area", 4)
     if not (x1 > x0 and y1 > y0):
         raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0", "area")
     spacing = r.number(table, "min_spacing", 0.0, low=0)
     scale = r.number(table, "scale", 1.0, low=0, low_open=True)
+    if spacing > 0:
+        # points at least s apart in a w x h rectangle: disks of radius s/2 in the rectangle
+        # grown by s/2 a side, packed at most hexagonally (density pi / (2 sqrt 3))
+        most = (x1 - x0 + spacing) * (y1 - y0 + spacing) / (spacing * spacing * math.sqrt(3) / 2)
+        if count > most:
+            raise r.error(f"cannot place {count:,} trees {spacing:g} m apart in the area: at most "
+                          f"{int(most):,} fit; expected a larger area or a smaller spacing",
+                          "min_spacing")
     rng = np.random.default_rng(seed)
     points: list[tuple[float, float]] = []
     cell = max(spacing, 1e-9)

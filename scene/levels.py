@@ -23,7 +23,7 @@ from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
-from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS
+from .constants import CACHE_ENV, CHAIN_FIT_VERSION, TIP_ERROR_DIRECTIONS
 
 
 @dataclass
@@ -35,6 +35,7 @@ class Chain:
     tip_error_m: (L,) metres, the worst tip error (max) of each level in the scene's wind
     groups     : per level, (B0,) the level branch holding each original branch
     tips       : per level, (B_l,) the original branch whose tip each level branch stands for
+    damping_ratio : ζ (model.md 4) the levels were fitted and measured under, and run with
     """
 
     trees: list[Tree]
@@ -42,6 +43,7 @@ class Chain:
     tip_error_m: np.ndarray
     groups: list[np.ndarray]
     tips: list[np.ndarray]
+    damping_ratio: float = 0.0
     _lane_models: dict = field(default_factory=dict, repr=False, compare=False)
 
     def lane_model(self, level: int):
@@ -49,7 +51,10 @@ class Chain:
         if level not in self._lane_models:
             from plantlod.sim.lanes import LaneModel
 
-            self._lane_models[level] = LaneModel.from_tree(self.trees[level])
+            from plantlod.sim.damping import Damping
+
+            self._lane_models[level] = LaneModel.from_tree(self.trees[level],
+                                                           Damping(ratio=self.damping_ratio))
         return self._lane_models[level]
 
 
@@ -61,7 +66,8 @@ def default_cache() -> pathlib.Path:
     return pathlib.Path(base) / "plantlod"
 
 
-def cache_key(data: bytes, speed: float, dt: float, duration: float) -> str:
+def cache_key(data: bytes, speed: float, dt: float, duration: float,
+              damping_ratio: float = 0.0) -> str:
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -69,38 +75,47 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float) -> str:
     except PackageNotFoundError:
         program = "0+unknown"
     h = hashlib.sha256()
-    for part in (data, program.encode(), repr((speed, dt, duration)).encode()):
+    for part in (data, program.encode(), repr((speed, dt, duration, damping_ratio,
+                                               CHAIN_FIT_VERSION)).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest()[:32]
 
 
 def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
-                cache: pathlib.Path | None) -> tuple[Chain, bool]:
-    """The chain of ``path`` and whether it came from the cache."""
+                cache: pathlib.Path | None, damping_ratio: float = 0.0,
+                progress=None) -> tuple[Chain, bool]:
+    """The chain of ``path`` and whether it came from the cache (one per damping ratio ζ).
+
+    progress: called as progress(level k, of n levels) while levels are fitted, if given.
+    """
     data = path.read_bytes()
-    key = cache_key(data, speed, dt, duration)
+    key = cache_key(data, speed, dt, duration, damping_ratio)
     entry = None if cache is None else cache / f"{key}.json"
     if entry is not None and entry.is_file():
         stored = json.loads(entry.read_text(encoding="utf-8"))
-        return _chain(path, data, stored["levels"], np.array(stored["tip_error_m"])), True
-    texts, errors = _simplify_all(path, data, speed, dt, duration)
+        return _chain(path, data, stored["levels"], np.array(stored["tip_error_m"]),
+                      damping_ratio), True
+    texts, errors = _simplify_all(path, data, speed, dt, duration, damping_ratio, progress)
     if entry is not None:
         entry.parent.mkdir(parents=True, exist_ok=True)
         tmp = entry.with_suffix(".tmp")
         tmp.write_text(json.dumps({"file": str(path), "levels": texts,
                                    "tip_error_m": [float(e) for e in errors]}), encoding="utf-8")
         os.replace(tmp, entry)
-    return _chain(path, data, texts, np.asarray(errors)), False
+    return _chain(path, data, texts, np.asarray(errors), damping_ratio), False
 
 
-def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray) -> Chain:
+def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray,
+                     damping_ratio: float = 0.0) -> Chain:
     """A chain rebuilt from its level texts (level 0 the original's), as a worker does."""
-    return _chain(pathlib.Path(source), texts[0].encode("utf-8"), texts[1:], tip_error_m)
+    return _chain(pathlib.Path(source), texts[0].encode("utf-8"), texts[1:], tip_error_m,
+                  damping_ratio)
 
 
-def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
-    from plantlod.simplify.groups import assign_groups, main_paths
+def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
+           damping_ratio: float = 0.0) -> Chain:
+    from plantlod.compare.groups import assign_groups, main_paths
 
     original = build(parse_lsys(data.decode("utf-8"), str(path))).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
@@ -110,12 +125,16 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray) -> Chain:
         trees.append(tree)
         groups.append(g)
         tips.append(np.array([p[-1] for p in main_paths(original, g, tree.n_branches)], dtype=np.int64))
-    return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips)
+    return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips, damping_ratio)
 
 
-def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float):
+def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
+                  damping_ratio: float = 0.0, progress=None):
+    """Every explicit level's text and tip error (max, m) in the scene's wind; the original
+    is simulated once for the whole chain (its runs serve every level's measure)."""
+    from plantlod.sim.damping import Damping
     from plantlod.simplify.targets import group_map
-    from plantlod.simplify.evaluate import Runs, WindCase
+    from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
     from plantlod.simplify.explicit import explicit_system_text, merge_levels
 
     system = parse_lsys(data.decode("utf-8"), str(path))
@@ -127,10 +146,16 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float):
     winds = [WindCase(speed, d) for d in TIP_ERROR_DIRECTIONS]
     steps = int(round(duration / dt))
     texts, errors = [], [0.0]
+    damping = Damping(ratio=damping_ratio)
+    simulated = list(simulate_runs(original, winds, dt, steps, 1, damping))
     for k in range(1, len(levels)):
+        if progress is not None:
+            progress(k, len(levels) - 1)
         text, tree = explicit_system_text(original, levels[k], name=system.name or path.stem,
-                                          header=header, level=k, dt=dt, duration=duration)
-        runs = Runs(original, group_map(original, tree), winds, dt, steps, every=1)
+                                          header=header, level=k, dt=dt, duration=duration,
+                                          damping_ratio=damping_ratio)
+        runs = Runs(original, group_map(original, tree), winds, dt, steps, every=1,
+                    damping=damping, simulated=simulated)
         worst = max(r.tip_error_max_m for r in runs.compare(tree))
         texts.append(text)
         errors.append(float(worst) if np.isfinite(worst) else float("inf"))

@@ -19,18 +19,21 @@ from __future__ import annotations
 
 import math
 import pathlib
+import re
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.sim.kinematics import pose
 
-from .constants import FRAME_RATE, STORE_BATCH_TREES, VERIFY_LANES
+from .constants import (
+    FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
+)
 from .file import Scene
 from .levels import Chain, chain_from_texts, level_chain
-from .schedule import distances, frame_times, level_schedule
+from .schedule import coarsest_levels, distances, frame_times, level_schedule
 from .switch import Transfer
 
 
@@ -54,6 +57,7 @@ class BatchResult:
     spent: int = 0
     switches: int = 0
     tips: list = field(default_factory=list)
+    large: tuple | None = None     # (scene tree index, LargeAngle): the first beyond the model
 
 
 def tree_winds(scene: Scene, steps: int) -> np.ndarray:
@@ -84,17 +88,28 @@ def tree_winds(scene: Scene, steps: int) -> np.ndarray:
 
 
 def frame_steps(scene: Scene, frame_rate: float) -> int:
-    """Time steps per frame: the frame period in steps, at least 1."""
-    return max(1, int(round(1.0 / (frame_rate * scene.dt))))
+    """Time steps per frame: the frame period in steps, at least 1 (`check_frame_rate`
+    refuses a frame longer than the scene first)."""
+    return max(1, int(round(min(1.0 / (frame_rate * scene.dt), scene.steps))))
+
+
+def check_frame_rate(scene: Scene, frame_rate: float) -> None:
+    """A frame must fit in the scene: one frame at least (bad input, exit 2)."""
+    if not frame_rate * scene.duration >= 1.0:
+        raise InputError(f"--frame-rate {frame_rate:g} gives frames of {1.0 / frame_rate:.3g} s, "
+                         f"longer than the scene's {scene.duration:g} s; expected at least "
+                         f"{1.0 / scene.duration:.3g} frames per second")
 
 
 def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,
               steps: int, every: int, *, threads: int | None = None, store=None,
-              keep_tips: bool = False) -> BatchResult:
+              keep_tips: "bool | np.ndarray" = False) -> BatchResult:
     """Step one batch through its schedule (module doc, step 3).
 
     winds : (n, steps, 3) m/s, each member's wind in its own frame
     store : a zarr group (`scene.store`) receiving the angles, or None
+    keep_tips : keep every member's level tips (True), or those of the members where the
+                (n,) bool array is True (a verified sample)
     """
     from plantlod.sim.lanes import new_state, run_lanes
 
@@ -104,7 +119,9 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
     n, frames = sched.shape
     cuts = [0] + [f for f in range(1, frames) if np.any(sched[:, f] != sched[:, f - 1])] + [frames]
     states = [new_state(chain.lane_model(int(sched[i, 0])), 1)[0] for i in range(n)]
-    result = BatchResult(tips=[[] for _ in range(n)] if keep_tips else [])
+    keep = (np.full(n, bool(keep_tips)) if np.ndim(keep_tips) == 0
+            else np.asarray(keep_tips, dtype=bool))
+    result = BatchResult(tips=[[] for _ in range(n)] if keep.any() else [])
     for fa, fb in zip(cuts[:-1], cuts[1:]):
         s0, s1 = fa * every, min(fb * every, steps)
         if s1 <= s0:
@@ -119,21 +136,52 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
                                   addresses=tree.address)
             for j, i in enumerate(idx.tolist()):
                 states[i] = state[j]
+            if result.large is None and rows:
+                result.large = _first_large(batch, idx, tree, bend, rot, fa, every * dt)
             result.spent += tree.n_branches * (s1 - s0) * len(idx)
             if store is not None and rows:
                 block_b = np.full((n, rows, tree.n_branches), np.nan)
                 block_r = np.full((n, rows, tree.n_branches), np.nan)
                 block_b[idx], block_r[idx] = bend, rot
                 write_block(store, batch.file_index, level, batch.first, fa, block_b, block_r)
-            if keep_tips and level > 0 and rows:
+            if keep.any() and level > 0 and rows:
                 for j, i in enumerate(idx.tolist()):
-                    result.tips[i].append((fa, level, pose(tree, bend[j], rot[j]).tip))
+                    if keep[i]:
+                        result.tips[i].append((fa, level, pose(tree, bend[j], rot[j]).tip))
         if fb < frames:                                   # switches at the cut
             for i in np.flatnonzero(sched[:, fb] != sched[:, fb - 1]).tolist():
                 a, b = int(sched[i, fb - 1]), int(sched[i, fb])
                 states[i] = transfer.carry(a, b, states[i], winds[i, min(fb * every, steps - 1)])
                 result.switches += 1
     return result
+
+
+def _bound_branch_steps(scene: Scene, chains: dict, counts: dict, every: int,
+                        budget: float) -> float:
+    """Branch-steps of the whole run at `schedule.coarsest_levels` (frame f's level for the
+    every steps after it; the last frame's for what remains)."""
+    times = frame_times(scene, every)
+    per_frame = np.diff(np.r_[np.arange(len(times)) * every, scene.steps]).clip(min=0)
+    total = 0.0
+    for path in sorted({t.file for t in scene.trees}):
+        members = [k for k, t in enumerate(scene.trees) if t.file == path]
+        best = coarsest_levels(scene, members, chains[path].tip_error_m, times, budget)
+        total += float((counts[path][best] * per_frame[None, :]).sum())
+    return total
+
+
+def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.ndarray,
+                 row0: int, row_seconds: float) -> tuple | None:
+    """(scene tree index, LargeAngle) of the first member of this block beyond the model's
+    range, or None; rows from ``row0`` at ``row_seconds`` apart (row r ends at (r+1) x)."""
+    from plantlod.sim.angle_range import first_large_angle
+
+    times = (row0 + 1 + np.arange(bend.shape[1])) * row_seconds
+    for j, i in enumerate(idx.tolist()):
+        large = first_large_angle(times, bend[j], rot[j], tree.address)
+        if large is not None:
+            return batch.members[i], large
+    return None
 
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
@@ -154,15 +202,49 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float
     return batches, levels, files
 
 
+def verify_sample(scene: Scene, levels: np.ndarray, every: int, count: int) -> np.ndarray:
+    """(N,) bool: a stratified sample of about ``count`` trees to verify at full detail.
+
+    Strata: the finest level a tree uses in the run (its levels (N, F) row) and its distance
+    band (the nearest it comes to the camera, in octaves: [2^k, 2^(k+1)) m). Every stratum
+    gets at least one tree, the rest go to strata in proportion to their size; within a
+    stratum the trees are taken evenly spread in scene order. Deterministic.
+    """
+    n = len(scene.trees)
+    if count >= n:
+        return np.ones(n, dtype=bool)
+    times = frame_times(scene, every)
+    d, _ahead = distances(scene, list(range(n)), times)
+    band = np.floor(np.log2(np.maximum(d.min(axis=1), 1e-3))).astype(np.int64)
+    finest = levels.min(axis=1).astype(np.int64)
+    key = finest * 4096 + (band + 2048)
+    strata, inverse = np.unique(key, return_inverse=True)
+    sizes = np.bincount(inverse, minlength=len(strata))
+    share = np.maximum(1, np.floor(sizes * (max(count, len(strata)) - len(strata))
+                                   / n).astype(np.int64) + 1)
+    share = np.minimum(share, sizes)
+    chosen = np.zeros(n, dtype=bool)
+    for s_ in range(len(strata)):
+        members = np.flatnonzero(inverse == s_)
+        pick = np.unique(np.round(np.linspace(0, len(members) - 1, share[s_])).astype(np.int64))
+        chosen[members[pick]] = True
+    return chosen
+
+
 def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: bool = False,
               progress=None, store_path: str | None = None, scheduler: str | None = None,
-              frame_rate: float = FRAME_RATE) -> dict:
+              frame_rate: float = FRAME_RATE, sample: int | None = None) -> dict:
     """Run ``scene``; the report document of docs/scene.md, and its levels (N, F) under the
     private key ``_levels`` (for the plot; the CLI removes it).
 
     store_path : a new zarr store (`scene.store`) to receive every tree's angles
     scheduler  : the address of a Dask scheduler: the batches run on its workers, each
                  writing its own chunks of the store (nothing gathered through this process)
+    sample     : with ``verify``, verify about this many trees (`verify_sample`: every level
+                 and distance band represented) instead of all
+    progress   : called as progress(stage, done, total, what): stage "levels" while a tree
+                 file's level chain is fitted (what: the file, done: level k of total), then
+                 "batches" as batches finish
     """
     if scheduler is not None and verify:
         raise InputError("--verify runs in this process; expected it without --scheduler")
@@ -175,7 +257,12 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     speed = float(np.linalg.norm(winds, axis=-1).max()) if winds.size else 0.0
     speed = round(speed, 6)
     for path in sorted({t.file for t in scene.trees}):
-        chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache)
+        def levels_done(k: int, n: int, name: str = path.name) -> None:
+            if progress:
+                progress("levels", k, n, name)
+
+        chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache,
+                                 scene.damping_ratio, levels_done)
         chains[path] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)
@@ -190,6 +277,9 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     spent = switches = 0
     verify_s = 0.0                                    # not part of the simulation's speed
     errors = np.full(len(scene.trees), np.nan)
+    checked = (verify_sample(scene, levels, every, sample) if verify and sample is not None
+               else np.full(len(scene.trees), verify))
+    large = None
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
@@ -198,22 +288,34 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         chain = chains[pathlib.Path(batch.file)]
         result = run_batch(chain, transfers[pathlib.Path(batch.file)], batch,
                            winds[batch.members], scene.dt, steps, every, threads=threads,
-                           store=store, keep_tips=verify)
+                           store=store, keep_tips=checked[batch.members])
         spent += result.spent
         switches += result.switches
-        if verify:
+        if result.large is not None and large is None:
+            large = result.large
+        if checked[batch.members].any():
             checking = time.perf_counter()
-            errors[batch.members] = _verify(scene, chain, batch, winds, every, result.tips,
-                                            threads)
+            mine = checked[batch.members]
+            found = _verify(scene, chain, batch, winds, every, result.tips, threads)
+            errors[np.asarray(batch.members)[mine]] = found[mine]
             verify_s += time.perf_counter() - checking
         if progress:
-            progress(n + 1, len(batches))
+            progress("batches", n + 1, len(batches), "")
     simulate_s = time.perf_counter() - started - verify_s
+    if large is not None:
+        import warnings
+
+        from plantlod.lsys.errors import PlantlodWarning
+
+        k, first = large
+        warnings.warn(first.message(f"{scene.source}: tree {k} ({scene.trees[k].file.name})"),
+                      PlantlodWarning, stacklevel=2)
     full = sum(chains[t.file].trees[0].n_branches for t in scene.trees) * steps
     counts = {path: np.array([t.n_branches for t in chain.trees]) for path, chain in chains.items()}
     in_use = np.zeros(levels.shape[1])
     for k, t in enumerate(scene.trees):
         in_use += counts[t.file][levels[k]]
+    bound = _bound_branch_steps(scene, chains, counts, every, scene.budget_px)
     top = int(levels.max()) if levels.size else 0
     report = {
         "scene": scene.source,
@@ -223,6 +325,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "budget_px": scene.budget_px,
         "level_wind_speed": speed,
         "dt": scene.dt,
+        "damping_ratio": scene.damping_ratio,
         "duration": scene.duration,
         "frame_rate": frame_rate,
         "frames": rows,
@@ -232,6 +335,9 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "branch_steps_full": int(full),
         "branch_steps_spent": int(spent),
         "speedup": full / spent if spent else math.inf,
+        # the speed-up if every frame used the coarsest level its current distance allows,
+        # switching free: what the switching rule costs is speedup_bound / speedup
+        "speedup_bound": full / bound if bound else math.inf,
         "level_share": {str(k): float(np.mean(levels == k)) for k in range(top + 1)},
         "switches": int(switches),
         "simulated_seconds_per_wall_second": scene.duration / simulate_s if simulate_s > 0 else None,
@@ -240,6 +346,13 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     if verify:
         report["max_error_px"] = float(np.nanmax(errors)) if np.isfinite(errors).any() else 0.0
         report["mean_error_px"] = float(np.nanmean(errors)) if np.isfinite(errors).any() else 0.0
+        report["verified_trees"] = int(np.isfinite(errors).sum())
+        if sample is not None:
+            worst = int(np.nanargmax(errors)) if np.isfinite(errors).any() else -1
+            report["verify_sample"] = {
+                "asked": int(sample), "trees": int(checked.sum()),
+                "levels": sorted({int(v) for v in levels[checked].min(axis=1)}),
+                "worst_tree": worst}
     report["_levels"] = levels
     report["_branches_in_use"] = in_use
     return report
@@ -247,11 +360,11 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
 
 def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batch: Batch,
                    winds: np.ndarray, dt: float, steps: int, every: int,
-                   store: str | None) -> tuple[int, int]:
+                   store: str | None, damping_ratio: float = 0.0) -> tuple[int, int]:
     """One batch, wherever it runs (a Dask worker): rebuild the chain from its texts, step
     the batch through its schedule, write its chunks of the store; returns the branch-steps
     spent and the switches."""
-    chain = chain_from_texts(source, texts, np.asarray(tip_error_m))
+    chain = chain_from_texts(source, texts, np.asarray(tip_error_m), damping_ratio)
     group = None
     if store is not None:
         import zarr
@@ -262,6 +375,16 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
     return result.spent, result.switches
 
 
+SCHEDULER_ADDRESS = re.compile(r"(tcp|tls|ws|wss|ucx|inproc)://[^\s/]+:[0-9]{1,5}/?\Z")
+
+
+def check_scheduler_address(address: str) -> None:
+    """A Dask scheduler's address, PROTOCOL://HOST:PORT; anything else is bad input (exit 2)."""
+    if not SCHEDULER_ADDRESS.match(address):
+        raise InputError(f"--scheduler {address!r} is not a scheduler address; expected "
+                         "tcp://HOST:PORT (what `dask scheduler` prints)")
+
+
 def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batch],
                     winds: np.ndarray, every: int, store: str | None) -> tuple[int, int]:
     """Every batch as a task of the Dask cluster at ``address`` (dask.distributed)."""
@@ -269,13 +392,22 @@ def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batc
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler needs dask.distributed: pip install 'plantlod[cluster]'") from None
-    with Client(address, timeout="30s") as client:
+    check_scheduler_address(address)
+    try:
+        client = Client(address, timeout="30s")
+    except ValueError as exc:
+        raise InputError(f"--scheduler {address}: {exc}") from None
+    except (OSError, TimeoutError) as exc:
+        raise RunFailure(f"cannot reach the scheduler at {address}: {exc or type(exc).__name__}"
+                         ) from None
+    with client:
         futures = []
         for batch in batches:
             chain = chains[pathlib.Path(batch.file)]
             futures.append(client.submit(
                 simulate_batch, chain.texts, chain.tip_error_m.tolist(), batch.file, batch,
-                winds[batch.members], scene.dt, scene.steps, every, store, pure=False))
+                winds[batch.members], scene.dt, scene.steps, every, store, scene.damping_ratio,
+                pure=False))
         done = client.gather(futures)
     return int(sum(d[0] for d in done)), int(sum(d[1] for d in done))
 
@@ -316,13 +448,29 @@ def _verify(scene: Scene, chain: Chain, batch: Batch, winds: np.ndarray, every: 
 
 
 def check_scene(scene: Scene) -> None:
-    """Refuse what the runner cannot do (bad input, exit 2): no time step, or a dt too large
-    for some tree."""
+    """Refuse what the runner cannot do (bad input, exit 2) before it allocates anything: no
+    time step, a dt too large for some tree, or more work than the declared caps
+    (MAX_SCENE_TREE_STEPS, MAX_SCENE_BRANCH_STEPS)."""
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
+    from plantlod.sim.damping import Damping
     from plantlod.sim.stability import check_stability
 
-    if scene.steps < 1:
+    steps = scene.steps
+    if steps < 1:
         raise InputError("the scene's duration is shorter than one time step", scene.source)
+    tree_steps = len(scene.trees) * steps
+    if tree_steps > MAX_SCENE_TREE_STEPS:
+        raise InputError(f"{len(scene.trees):,} trees x {steps:,} steps is {tree_steps:,} "
+                         f"tree-steps of wind, more than the limit of {MAX_SCENE_TREE_STEPS:,}; "
+                         "expected fewer trees or a shorter scene", scene.source)
+    branches = {}
     for path in sorted({t.file for t in scene.trees}):
-        check_stability(build(read_lsys(str(path))).tree, scene.dt)
+        tree = build(read_lsys(str(path))).tree
+        check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
+        branches[path] = max(1, tree.n_branches)
+    work = sum(branches[t.file] for t in scene.trees) * steps
+    if work > MAX_SCENE_BRANCH_STEPS:
+        raise InputError(f"the scene asks {work:,} branch-steps at full detail (trees x branches "
+                         f"x steps), more than the limit of {MAX_SCENE_BRANCH_STEPS:,}; expected "
+                         "fewer or smaller trees or a shorter scene", scene.source)

@@ -65,3 +65,20 @@ def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     coarsest_well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)      # (n, F)
     # each frame: the level so far, or a coarser one within HYSTERESIS x budget
     return np.maximum(first[:, None], np.maximum.accumulate(coarsest_well, axis=1)).astype(np.int16)
+
+
+def coarsest_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
+                    times: np.ndarray, budget: float) -> np.ndarray:
+    """(n, F) int16: at each frame the coarsest level whose error at the member's *current*
+    distance is within ``budget`` px (no look-ahead, no hysteresis): what each frame could
+    use if switching cost nothing. The scene report's `speedup_bound` counts its branch-steps.
+    """
+    d, ahead = distances(scene, members, times)
+    scale = np.array([scene.trees[k].scale for k in members])[:, None]
+    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
+    with np.errstate(invalid="ignore"):
+        px = tip_error_m[None, None, :] * (scale * seen)[..., None]          # (n, F, L)
+    px[..., 0] = 0.0
+    px = np.where(np.isnan(px), np.inf, px)
+    levels = np.arange(len(tip_error_m))
+    return np.where(px <= budget, levels, 0).max(axis=-1).astype(np.int16)

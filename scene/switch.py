@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from plantlod.lsys.tree import Tree
-from plantlod.simplify.groups import carry_angles, combined_angles, main_paths, swing_turns
+from plantlod.compare.groups import carry_angles, combined_angles, main_paths, swing_turns
 from plantlod.simplify.static import rest_frames, static_angles, static_parts
 
 from .constants import SHARE_FLOOR

@@ -15,6 +15,11 @@ MAX_TIME_STEPS = 10**10       # steps of one run, --steps or round(--duration / 
 # Angles a whole run may hold in memory (compare, simplify; simulate streams): 4 GB.
 MAX_HELD_ANGLE_BYTES = 4_000_000_000
 
+# --- the model's range (docs/model.md) ---------------------------------------------
+# A branch tilted by more than this (hypot of bend and rotation, rad) is far outside the
+# small-angle model: the run goes on, and says so once (the branch and the time).
+LARGE_ANGLE_RAD = 1.0
+
 # --- the lanes engine (sim/lanes.py, docs/engine.md) --------------------------------
 THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine (default: all cores)
 # environment variable: "compiled" or "interpreted" forces the single-run kernel's engine

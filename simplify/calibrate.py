@@ -44,7 +44,7 @@ from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import wind_from_speed
 
 from .evaluate import Runs
-from .measures import amplitude, period
+from plantlod.compare.measures import amplitude, period
 
 
 @dataclass

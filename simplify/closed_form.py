@@ -30,7 +30,7 @@ from .constants import (EXPLICIT_REFINE_EVALUATIONS, EXPLICIT_REFINE_FLOOR,
                         REFINE_DIRECTIONS, REFINE_EVALUATIONS, REFINE_FLOOR,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_TILTED_DIRECTIONS,
                         SIMPLIFY_WIND_RANGE)
-from .groups import carry_matrix
+from plantlod.compare.groups import carry_matrix
 from .lengths import fit_lengths
 from .refine import StaticModel
 from .sequential_fit import sequential_solution, unit_leaf_forces

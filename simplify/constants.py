@@ -1,15 +1,6 @@
-"""Constants of levels of detail: simplification, error measures, comparison."""
+"""Constants of levels of detail: simplification (the measures' are plantlod.compare.constants)."""
 
-# --- groups and error measures (model.md 5 and 6) ---------------------------------
-ALPHA_TIE_TOL = 1e-9          # main path: alphas this close are tied (model.md 5)
-COUNTED_AMPLITUDE_FRACTION = 0.01  # error measures count components >= 1 % (model.md 6)
-MAJOR_AMPLITUDE_FRACTION = 0.10   # period error (major): components >= 10 % of A_max (model.md 6)
-
-# --- compare -------------------------------------------------------------------------
-# Two runs' times agree when they differ by at most this much, relative to
-# max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
-TIME_MATCH_RTOL = 1e-9
-DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)
+from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION  # noqa: F401  (the fit counts as compare does)
 
 # --- simplify (docs/simplify.md) ------------------------------------------------------
 SIMPLIFY_WRITE_DIGITS = 12    # significant digits of every computed value simplify writes
@@ -76,3 +67,12 @@ EXPLICIT_REFINE_LSMR_ITERATIONS = 50   # bent_leafy level 1: 18 % motion error a
 BASIS_LEAF_GAIN = 0.5
 BASIS_LEAF_FLOOR = 1e-3       # a basis leaf starts at least at this x the group's leaf area
 KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA
+
+# --- the gain matrix of a level branch (simplify/gain_matrix.py, model.md 5) -----------
+GAIN_FIT_SPEEDS = (0.5, 2.0, 5.0, 10.0, 20.0)   # m/s: the static match's wind speeds
+GAIN_TARGET_FLOOR = 0.01     # a wind's errors count against at least this x the largest target
+GAIN_RIDGE = 1e-6            # pull toward k_FA [[1,0,0],[0,1,0]], relative to the problem's scale
+MIXED_CARRY = 0.1            # a chord whose carry map has diagonal and off-diagonal entries above
+                             # this mixes bend and rotation in W_0: one strength for both
+GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
+STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x |ln k ratio|)

@@ -20,10 +20,10 @@ from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import rest_height
 from plantlod.sim.wind import wind_from_speed
 
-from .compare import tip_series
+from plantlod.compare.runs import tip_series
 from .targets import GroupMap
-from .groups import combined_angles
-from .measures import Report, compare_groups
+from plantlod.compare.groups import combined_angles
+from plantlod.compare.measures import Report, compare_groups
 
 
 
@@ -79,49 +79,37 @@ class Runs:
     """The original's runs over a set of winds, and comparisons of simplified trees with them.
 
     dt, steps, every: time step (s), steps per run, keep every k-th sample.
+    damping: c or a `plantlod.sim.damping.Damping` (a damping ratio), for both trees' runs.
     """
 
     def __init__(self, original: Tree, gmap: GroupMap, winds: list[WindCase],
-                 dt: float, steps: int, every: int = 1):
+                 dt: float, steps: int, every: int = 1, damping=0.0,
+                 simulated: list | None = None):
+        """simulated: the original's runs as `simulate_original` gives them, when one set of
+        runs serves several levels (a chain): the original is then not simulated again."""
         self.original = original
+        self.damping = damping
         self.gmap = gmap
         self.dt, self.steps, self.every = dt, steps, every
         self.height = rest_height(original)
         self.winds = list(winds)
         self.runs = []
-        for wind, times, bend, rot in self._simulated(original):
+        for wind, times, bend, rot in (self._simulated(original) if simulated is None
+                                       else simulated):
             cb, cr = combined_angles(original, gmap.paths, bend, rot)
             tips = tip_series(original, bend, rot, gmap.tips)
             self.runs.append(OriginalRun(wind, times, cb, cr, tips[0].copy(),
                                          (tips - tips[0]).astype(np.float32)))
 
     def _simulated(self, tree: Tree):
-        """(wind, times (K,), bend (K, B), rot (K, B)) for every wind, the winds stepped
-        together as lanes on all cores (`plantlod.sim.lanes`), a few lanes at a time so
-        that memory stays near RUNS_BATCH_BYTES."""
-        from plantlod.sim.lanes import LaneModel, run_lanes
-
-        model = LaneModel.from_tree(tree)
-        rows = self.steps // self.every
-        times = np.arange(rows + 1, dtype=np.float64) * self.every * self.dt
-        per_lane = 16 * (rows + 1) * max(tree.n_branches, 1)
-        from plantlod.sim.lanes_kernel import BLOCK     # the engine runs lanes in blocks:
-        batch = max(BLOCK, RUNS_BATCH_BYTES // per_lane // BLOCK * BLOCK)   # no padding lanes
-        for lo in range(0, len(self.winds), batch):
-            winds = self.winds[lo:lo + batch]
-            vectors = np.array([wind_from_speed(w.speed, w.direction).sample(np.zeros(1))[0]
-                                for w in winds])
-            bend, rot = run_lanes(model, vectors, self.dt, self.steps, every=self.every,
-                                  addresses=tree.address)
-            rest = np.zeros((1, tree.n_branches))
-            for k, wind in enumerate(winds):
-                yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])
+        """(wind, times, bend, rot) of ``tree`` for every wind (`simulate_runs`)."""
+        return simulate_runs(tree, self.winds, self.dt, self.steps, self.every, self.damping)
 
     def compare(self, simplified: Tree) -> list[Report]:
         """One section-6 report per wind. Raises InputError when the simplified run diverges."""
-        from .groups import carry_angles, swing_turns
+        from plantlod.compare.groups import carry_angles, swing_turns
 
-        turn = swing_turns(self.original, simplified, self.gmap.paths) if simplified.group_root else None
+        turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
         reports = []
         every_branch = np.arange(simplified.n_branches)
         try:
@@ -142,6 +130,30 @@ class Runs:
         """Per wind, the largest |Θb| or |Θr| of any group over the run (rad)."""
         return [float(max(np.abs(r.combined_b).max(initial=0.0), np.abs(r.combined_r).max(initial=0.0)))
                 for r in self.runs]
+
+
+def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, every: int = 1,
+                  damping=0.0):
+    """(wind, times (K,), bend (K, B), rot (K, B)) for every wind, the winds stepped
+    together as lanes on all cores (`plantlod.sim.lanes`), a few lanes at a time so
+    that memory stays near RUNS_BATCH_BYTES. A generator; `list` it to keep the runs
+    for several `Runs` of one original (``simulated=``)."""
+    from plantlod.sim.lanes import LaneModel, run_lanes
+    from plantlod.sim.lanes_kernel import BLOCK     # the engine runs lanes in blocks:
+
+    model = LaneModel.from_tree(tree, damping)
+    rows = steps // every
+    times = np.arange(rows + 1, dtype=np.float64) * every * dt
+    per_lane = 16 * (rows + 1) * max(tree.n_branches, 1)
+    batch = max(BLOCK, RUNS_BATCH_BYTES // per_lane // BLOCK * BLOCK)   # no padding lanes
+    for lo in range(0, len(winds), batch):
+        chunk = winds[lo:lo + batch]
+        vectors = np.array([wind_from_speed(w.speed, w.direction).sample(np.zeros(1))[0]
+                            for w in chunk])
+        bend, rot = run_lanes(model, vectors, dt, steps, every=every, addresses=tree.address)
+        rest = np.zeros((1, tree.n_branches))
+        for k, wind in enumerate(chunk):
+            yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])
 
 
 @dataclass

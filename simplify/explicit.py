@@ -38,8 +38,9 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, KAPPA_RANGE, LEVEL_RATIO
-from .groups import main_paths
+from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, GROUP_SWING_DIRECTIONS, KAPPA_RANGE,
+                        LEVEL_RATIO, MIXED_CARRY, STRENGTH_MISMATCH_WEIGHT)
+from plantlod.compare.groups import main_paths
 from .static import rest_frames
 
 
@@ -79,22 +80,34 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         return i
 
     roots_left = set(range(b))
+    # a merge joins a group root to the branch it hangs from: the further apart their swing
+    # periods, the later it comes (STRENGTH_MISMATCH_WEIGHT), since one level branch has one
+    # period per component and the group's combined swing mixes its members' periods
+    strength = np.sqrt(np.asarray(tree.bend_strength, dtype=np.float64)
+                       * np.asarray(tree.rotation_strength, dtype=np.float64))
+    safe_parent = np.maximum(parent, 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        apart = np.abs(np.log(strength / strength[safe_parent]))
+    factor = 1.0 + STRENGTH_MISMATCH_WEIGHT * np.where(np.isfinite(apart), apart, 0.0)
     while True:
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = [r for r in roots_left if parent[r] >= 0]
         if not mergeable:
             break
-        heap = [(int(size[r] + size[find(int(parent[r]))]), r) for r in mergeable]
+        heap = []
+        for r in mergeable:
+            total = int(size[r] + size[find(int(parent[r]))])
+            heap.append((total * float(factor[r]), total, r))
         heapq.heapify(heap)
         while heap and len(roots_left) > max(target, 1):
-            total, r = heapq.heappop(heap)
+            _key, total, r = heapq.heappop(heap)
             if r not in roots_left:
                 continue
             up = find(int(parent[r]))
             now = int(size[r] + size[up])
             if now != total:                      # sizes changed since it was pushed
-                heapq.heappush(heap, (now, r))
+                heapq.heappush(heap, (now * float(factor[r]), now, r))
                 continue
             owner[r] = up
             size[up] += size[r]
@@ -296,12 +309,17 @@ def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen")
     return Skeleton("".join(tokens), tokens, branch_address, leaf_address, leaf_area, length, paths)
 
 
-def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 0.0) -> np.ndarray:
+def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: float = 0.0
+                  ) -> np.ndarray:
     """(steps + 1, n) angle of a branch of each ``strength`` (k, model units) started at rest
     under a constant force whose equilibrium angle is 1, by model.md 4's step itself:
     v <- v + s (1 - theta) - c v, theta <- theta + v dt, with s = k dt / 1000 ... per step
-    (the velocity gain k/1000 times (theta_eq - theta))."""
+    (the velocity gain k/1000 times (theta_eq - theta)); c from the damping ratio ζ
+    (`plantlod.sim.damping.ratio_coefficient`)."""
+    from plantlod.sim.damping import ratio_coefficient
+
     k = np.asarray(strength, dtype=np.float64) / 1000.0
+    damping = ratio_coefficient(k, dt, damping_ratio)
     theta = np.zeros_like(k)
     v = np.zeros_like(k)
     out = np.empty((steps + 1, k.size))
@@ -313,68 +331,142 @@ def unit_response(strength: np.ndarray, dt: float, steps: int, damping: float = 
     return out
 
 
-def dominant_strengths(original: Tree, paths: list[np.ndarray],
-                       weights: tuple[list[np.ndarray], list[np.ndarray]],
-                       dt: float, duration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """k_bs', k_rs' (G,) and amplitude factors (G, 2) (bend, rotation) from the members' own swings.
+def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, duration: float,
+                       damping_ratio: float = 0.0, directions: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """k_bs', k_rs' (G,), amplitude factors (G, 2) and swings Σ_d A_c(d) (G, 2) (rad) of each
+    group in its root's frame W_0.
 
-    To first order each main-path member j swings on its own, from rest, around its
-    static angle c_j (``weights``: per group, the members' static bend angles, and their
-    rotation angles) with its own period (model.md 4), and the group's
-    combined angle is X(t) = sum_j c_j u_j(t) (`unit_response`). Its period P and
-    amplitude A are measured as model.md 6 measures them (over ``duration``); the
-    group's branch gets the strength whose period is P,
-    k' = 1000 (2 - 2 cos(2 pi dt / P)) / dt (the inverse of P = 2 pi dt / arccos(1 - s/2)),
-    and its static target is multiplied by A / sum_j c_j, per component, since a single
-    branch from rest swings with an amplitude equal to its static angle. Where every member
-    has one strength this is that strength and a factor 1, exactly.
+    At small angles each main-path member j swings on its own from rest toward its static
+    angles (θb_j, θr_j), each component with its own strength (model.md 4), and compare
+    reads the group as the members' angles carried into W_0 (model.md 5), so per wind
+    direction d the group's combined component c is the superposition
+
+        X_c(d, t) = Σ_j Σ_m C_j[c, m] θ_m,j(d) u_(k_m,j)(t)
+
+    with C_j member j's 2×2 carry map, m over bend and rotation and u_k the unit response
+    (`unit_response`, the damping ratio included). Its period P_c(d) and amplitude A_c(d)
+    are measured as model.md 6 measures them; the group's strength in W_0 is the one whose
+    period is the amplitude-weighted mean of P_c over the directions (``strength_of_period``),
+    and its amplitude factor Σ_d A_c(d) / Σ_d |X_c(d, ∞)|, the swing over the static angle
+    (1 where every member has one strength and one frame). Directions: 8 horizontal ones.
     """
-    from .measures import amplitude, period
+    from plantlod.compare.groups import carry_matrix, path_rotations
+    from plantlod.compare.measures import amplitude, period
 
+    from .static import horizontal_directions, static_angles, static_parts
+
+    if directions is None:
+        directions = horizontal_directions(GROUP_SWING_DIRECTIONS)
+    parts = static_parts(original, directions)
+    bend, rot = static_angles(original, parts.leaf + parts.drag)            # (D, B)
     steps = int(round(duration / dt))
     t = np.arange(steps + 1) * dt
-    gain = np.ones((len(paths), 2))
-    out = []
-    for which, strengths in enumerate((original.bend_strength, original.rotation_strength)):
-        strengths = np.asarray(strengths, dtype=np.float64)
-        values = np.empty(len(paths))
-        unequal = [g for g, p in enumerate(paths) if np.any(strengths[p] != strengths[p[0]])]
-        for g, p in enumerate(paths):
-            values[g] = strengths[p[0]]
-        if unequal:
-            distinct, inverse = np.unique(np.concatenate([strengths[paths[g]] for g in unequal]),
-                                          return_inverse=True)
-            responses = unit_response(distinct, dt, steps)
-            at = 0
-            for g in unequal:
-                m = len(paths[g])
-                c = np.abs(weights[which][g])
-                c = c if c.sum() > 0 else np.ones(m)
-                signal = responses[:, inverse[at:at + m]] @ c
-                at += m
-                p_measured = float(period(t, signal))
-                if math.isfinite(p_measured) and p_measured > 0:
-                    values[g] = 1000.0 * 2.0 * (1.0 - math.cos(2.0 * math.pi * dt / p_measured)) / dt
-                gain[g, which] = float(amplitude(signal)) / float(c.sum())
-        out.append(values)
-    return out[0], out[1], gain
+    members = np.concatenate(paths) if paths else np.zeros(0, dtype=np.int64)
+    carry = carry_matrix(path_rotations(original, paths))                    # (M, 2, 2)
+    strength = np.stack([np.asarray(original.bend_strength, dtype=np.float64)[members],
+                         np.asarray(original.rotation_strength, dtype=np.float64)[members]],
+                        axis=1)                                              # (M, 2)
+    distinct, code = np.unique(strength, return_inverse=True)
+    code = code.reshape(strength.shape)
+    responses = unit_response(distinct, dt, steps, damping_ratio)           # (T, S)
+    static = np.stack([bend[:, members], rot[:, members]], axis=2)          # (D, M, 2)
+    g_count = len(paths)
+    out = np.empty((g_count, 2))
+    gain = np.ones((g_count, 2))
+    swing = np.zeros((g_count, 2))              # Σ_d A_c(d): how much each component swings
+    at = 0
+    for g, p in enumerate(paths):
+        m = len(p)
+        rows = slice(at, at + m)
+        at += m
+        for c in range(2):
+            # weights (D, M, 2): each member component's part in W_0 component c
+            w = carry[rows, c, :][None] * static[:, rows, :]
+            mine = code[rows]                                               # (m, 2)
+            settled = np.abs(w.sum(axis=(1, 2)))                            # |X_c(d, ∞)|
+            if np.all(mine == mine[0, c]) and np.all(np.abs(carry[rows, c, 1 - c]) < 1e-12):
+                out[g, c] = distinct[mine[0, c]]                            # one strength
+                swing[g, c] = float(settled.sum() * amplitude(responses[:, mine[0, c]]))
+                continue
+            signal = responses[:, mine.reshape(-1)] @ w.reshape(len(directions), -1).T
+            amp = np.atleast_1d(amplitude(signal))
+            swing[g, c] = float(amp.sum())
+            per = np.atleast_1d(period(t, signal))
+            ok = np.isfinite(per) & (amp > 0)
+            if ok.any():
+                p_mean = float((amp[ok] * per[ok]).sum() / amp[ok].sum())
+                out[g, c] = float(strength_of_period(p_mean, dt))
+            else:
+                out[g, c] = float(np.exp(np.log(distinct[mine.reshape(-1)]).mean()))
+            if settled.sum() > 0:
+                gain[g, c] = float(amp.sum() / settled.sum())
+    return out[:, 0].copy(), out[:, 1].copy(), gain, swing
+
+
+def strength_of_period(period: np.ndarray, dt: float) -> np.ndarray:
+    """k whose swing has period P s at time step dt: 1000 (2 - 2 cos(2π dt / P)) / dt, the
+    inverse of model.md 4's P = 2π dt / arccos(1 - k dt / 2000)."""
+    return 1000.0 * 2.0 * (1.0 - np.cos(2.0 * math.pi * dt / np.asarray(period))) / dt
+
+
+def period_of_strength(strength: np.ndarray, dt: float) -> np.ndarray:
+    """Model.md 4's P = 2π dt / arccos(1 - k dt / 2000), s."""
+    return 2.0 * math.pi * dt / np.arccos(1.0 - np.asarray(strength) * dt / 2000.0)
+
+
+def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: float,
+                  swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A chord's own k_bs', k_rs' (G,) from its group's strengths in the group root's frame W_0.
+
+    compare reads the chord's angles carried into W_0 (model.md 6): y = C θ' with C the 2×2
+    carry map (G, 2, 2). Where C maps each own component mostly onto one W_0 component,
+    that component's strength goes with it (a chord turned by 90° about its axis swaps
+    them). Where C mixes them (both a diagonal and an off-diagonal entry above
+    MIXED_CARRY), a bend and a rotation of different periods would beat in every W_0
+    component, so both get one strength: that of the two W_0 periods' mean weighted by the
+    squares of the components' swings (``swing`` (G, 2), `dominant_strengths`; the period
+    error counts only the components that swing most), or their geometric mean without it.
+    """
+    c = np.abs(carry)
+    w0 = np.stack([kb_w0, kr_w0], axis=1)                                  # (G, 2)
+    own = np.take_along_axis(w0, c.argmax(axis=1), axis=1)                 # W_0 comp. per own
+    diagonal = np.maximum(c[:, 0, 0], c[:, 1, 1])
+    off = np.maximum(c[:, 0, 1], c[:, 1, 0])
+    mixed = np.minimum(diagonal, off) > MIXED_CARRY
+    same = c[:, :, 0].argmax(axis=1) == c[:, :, 1].argmax(axis=1)          # both onto one
+    periods = np.stack([period_of_strength(kb_w0, dt), period_of_strength(kr_w0, dt)], axis=1)
+    if swing is None:
+        mid = strength_of_period(np.sqrt(periods[:, 0] * periods[:, 1]), dt)
+    else:
+        weight = np.asarray(swing, dtype=np.float64) ** 2
+        weight = np.where(weight.sum(axis=1, keepdims=True) > 0, weight, 1.0)
+        mid = strength_of_period((weight * periods).sum(axis=1) / weight.sum(axis=1), dt)
+    own = np.where((mixed | same)[:, None], mid[:, None], own)
+    return own[:, 0].copy(), own[:, 1].copy()
 
 
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
-                         refine: bool = True) -> tuple[str, Tree]:
+                         refine: bool = True, gains: bool = True,
+                         damping_ratio: float = 0.0) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
              force_absorbed, force_propagated, drag_coefficient, leaf_force_scale)
+    gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
+    damping_ratio : ζ of model.md 4 the groups' swings are measured under
     """
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
 
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
-    from .groups import assign_stated_groups, swing_turns
+    from plantlod.compare.groups import assign_stated_groups, swing_turns
+    from .gain_matrix import fit_gain_matrices
+    from plantlod.compare.groups import carry_matrix
     from .static import fit_directions, static_angles, static_parts
+    from plantlod.lsys.system import GAIN_KEYS
 
     root_address = [original.address[r] for r in grouping.root]
     radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
@@ -386,11 +478,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     # the groups' own strengths and amplitude factors, in group order (any leaf set)
     paths = main_paths(original, grouping.group, grouping.count)
-    parts = static_parts(original, fit_directions(4, 0, 0.0))
-    bend, rot = static_angles(original, parts.leaf + parts.drag)
-    weights = ([np.abs(bend[:, p]).mean(axis=0) for p in paths],
-               [np.abs(rot[:, p]).mean(axis=0) for p in paths])
-    kb_group, kr_group, gain_group = dominant_strengths(original, paths, weights, dt, duration)
+    kb_group, kr_group, gain_group, swing_group = dominant_strengths(original, paths, dt,
+                                                                     duration, damping_ratio)
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
 
@@ -421,9 +510,10 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         position = {int(a): g for g, a in enumerate(sk.branch_address)}
         to_group = np.array([position[a] for a in order])
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
-        kb, kr = kb_group[to_group], kr_group[to_group]
-        params = closed_form(original, skeleton, gmap, refine=refine,
-                             turn=swing_turns(original, skeleton, gmap.paths),
+        turn = swing_turns(original, skeleton, gmap.paths)
+        kb, kr = own_strengths(kb_group[to_group], kr_group[to_group], carry_matrix(turn), dt,
+                               swing_group[to_group])
+        params = closed_form(original, skeleton, gmap, refine=refine, turn=turn,
                              kappa_range=KAPPA_RANGE, strengths=(kb, kr),
                              target_gain=gain_group[to_group], settings=settings)
         fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
@@ -436,6 +526,13 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         by_address = {addr: area for (addr, _k), area in params.leaf_areas.items()}
         leaf_area = [np.array([by_address[a] for a in sk.leaf_address[g]])
                      for g in range(grouping.count)]
+        if gains:
+            # k_FA becomes each branch's gain matrix, fitted to its group's static response
+            level = build(parse_lsys(text(values, leaf_area), name)).tree
+            matrices = fit_gain_matrices(level, original, gmap, turn=turn,
+                                         target_gain=gain_group[to_group])[back]
+            del values["force_absorbed"]
+            values.update({key: matrices[:, k] for k, key in enumerate(GAIN_KEYS)})
         return text(values, leaf_area), params.static_error
 
     # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;

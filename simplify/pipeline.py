@@ -35,7 +35,7 @@ from .targets import GroupMap, group_map
 from .closed_form import closed_form
 from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
 from .levels import check_level, level_system, round_sig, write_parameters
-from .measures import Report
+from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
 
 METHODS = ("derived", "thesis")
@@ -56,6 +56,7 @@ class Options:
     form         : "grammar" (model.md 5: same productions, N - n steps), "explicit"
                    (groups merged from the tips, chords), or "auto": the grammar form
                    where it meets the level's bounds (`LEVEL_BOUNDS`), else the explicit form
+    damping_ratio: ζ of model.md 4 under which the level is fitted and measured (0: undamped)
     """
 
     level: int
@@ -67,6 +68,7 @@ class Options:
     every: int = SIMPLIFY_EVERY
     max_evaluations: int = CALIBRATION_EVALUATIONS
     form: str = "auto"
+    damping_ratio: float = 0.0
 
     def __post_init__(self) -> None:
         from plantlod.lsys.errors import InputError
@@ -81,6 +83,13 @@ class Options:
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
+
+    @property
+    def damping(self):
+        """The runs' damping (`plantlod.sim.damping.Damping`)."""
+        from plantlod.sim.damping import as_damping
+
+        return as_damping(0.0, self.damping_ratio or None)
 
     @property
     def steps(self) -> int:
@@ -115,16 +124,21 @@ def simplify(system: LSystem, options: Options,
     """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input."""
     if options.form not in FORMS:
         raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
-    if options.form == "explicit" or (options.form == "auto" and options.method == "derived"
-                                      and not options.calibrate
-                                      and options.level >= system.derivation_length):
+    if options.form == "explicit":
         return simplify_explicit(system, options, progress)
     if options.form == "grammar" or options.method != "derived" or options.calibrate:
         return simplify_grammar(system, options, progress)
+    plan = chain_plan(system, options.level)
+    if plan.grammar_fits is False or options.level >= system.derivation_length:
+        result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
+        if options.level < system.derivation_length:
+            result.notes.insert(0, "explicit form: the grammar form would have more branches "
+                                   "than a finer level")
+        return result
     try:
         grammar = simplify_grammar(system, options, progress)
     except InputError as exc:               # the grammar form cannot follow this tree
-        result = simplify_explicit(system, options, progress)
+        result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
         result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
         return result
     grammar_score = bounds_score(grammar.reports, options.level, grammar.largest_angles)
@@ -132,7 +146,7 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, "grammar form: it meets the level's bounds")
         return grammar
     try:
-        explicit = simplify_explicit(system, options, progress)
+        explicit = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
     except InputError as exc:
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
@@ -145,6 +159,63 @@ def simplify(system: LSystem, options: Options,
                             f"less ({_bounds_text(grammar.reports)}; explicit: "
                             f"{_bounds_text(explicit.reports)})")
     return grammar
+
+
+@dataclass(frozen=True)
+class ChainPlan:
+    """What `--form auto` may use at one level so that a chain only gets coarser.
+
+    budget            : the most branches level n may have: the fewest that any form has at
+                        any finer level k < n (the original at k = 0)
+    grammar_fits      : the grammar form's level n has at most ``budget`` branches (None: the
+                        grammar form does not apply at this level)
+    explicit_grouping : the explicit grouping (an index into `explicit.merge_levels`) for level
+                        n: level n's own, or the first coarser one within ``budget``; None
+                        past the explicit form's last level
+    """
+
+    budget: int
+    grammar_fits: bool | None
+    explicit_grouping: int | None
+
+
+def chain_plan(system: LSystem, level: int) -> ChainPlan:
+    """The `ChainPlan` of ``level``: counts only (derivations and groupings, no fit), so that
+    level n + 1 never has more branches than level n, whichever form each level takes.
+
+    Each form's count falls with the level (the grammar form derives fewer steps, each
+    explicit grouping keeps at most 60 % of the one before), but across forms it need not:
+    a tree whose last steps add few branches has a grammar level above the explicit level
+    before it. Any level chosen within ``budget`` has no more branches than any choice at
+    a finer level, since ``budget`` is the minimum over every form there.
+    """
+    from .explicit import merge_levels
+
+    original = build(system).tree
+    groupings = merge_levels(original)
+    explicit_counts = [g.count for g in groupings]          # index k: level k's groups
+    n = system.derivation_length
+
+    def grammar_count(k: int) -> int | None:
+        if not 1 <= k < n:
+            return None
+        try:
+            return build(replace(system, derivation_length=n - k, overrides=())).tree.n_branches
+        except InputError:
+            return None
+
+    budget = original.n_branches
+    for k in range(1, level):
+        counts = [c for c in (grammar_count(k),
+                              explicit_counts[k] if k < len(explicit_counts) else None) if c]
+        budget = min([budget, *counts])
+    own = grammar_count(level)
+    if level >= len(groupings):                 # past the explicit form's last level
+        return ChainPlan(budget, None if own is None else own <= budget, None)
+    grouping = level
+    while grouping < len(groupings) - 1 and explicit_counts[grouping] > budget:
+        grouping += 1
+    return ChainPlan(budget, None if own is None else own <= budget, grouping)
 
 
 def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
@@ -176,8 +247,13 @@ def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
 
 
 def simplify_explicit(system: LSystem, options: Options,
-                      progress: Callable[[str, float], None] | None = None) -> Result:
-    """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form."""
+                      progress: Callable[[str, float], None] | None = None,
+                      grouping: int | None = None) -> Result:
+    """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form.
+
+    grouping: the explicit grouping to use (an index into `explicit.merge_levels`), default
+    the level's own; `chain_plan` gives a coarser one where a finer level has fewer branches.
+    """
     from .explicit import explicit_system_text, merge_levels
 
     source = system.source or None
@@ -190,7 +266,7 @@ def simplify_explicit(system: LSystem, options: Options,
     check_stability(original, options.dt)
     levels = merge_levels(original)
     last = len(levels) - 1
-    if not 1 <= options.level <= last:
+    if grouping is None and not 1 <= options.level <= last:
         raise InputError(f"level {options.level} is past the last: this tree has {last} levels in "
                          f"the explicit form (1 to {last}, the last a single branch)", source)
     if progress:
@@ -198,14 +274,17 @@ def simplify_explicit(system: LSystem, options: Options,
     header = {key: getattr(system, key) for key in (
         "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
         "drag_coefficient", "leaf_force_scale")}
-    text, tree = explicit_system_text(original, levels[options.level], name=system.name or "tree",
+    text, tree = explicit_system_text(original, levels[options.level if grouping is None
+                                                      else min(grouping, last)],
+                                      name=system.name or "tree",
                                       header=header, level=options.level, dt=options.dt,
-                                      duration=options.duration)
+                                      duration=options.duration,
+                                      damping_ratio=options.damping_ratio)
     check_stability(tree, options.dt)
     if progress:
         progress("measuring", 0.5)
     runs = Runs(original, group_map(original, tree), options.winds(), options.dt, options.steps,
-                options.every)
+                options.every, options.damping)
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
@@ -261,7 +340,11 @@ def simplify_grammar(system: LSystem, options: Options,
         skeleton_tree = build(skeleton).tree if expanded else plain_tree
         if expanded:
             notes.append(f"equivalent leaves at the modules {', '.join(expanded)}")
-        params = closed_form(original, skeleton_tree, gmap, speeds=tuple(options.wind_range))
+        # fitted where compare reads it: in each group root's frame W_0 (model.md 6)
+        from plantlod.compare.groups import swing_turns
+
+        params = closed_form(original, skeleton_tree, gmap, speeds=tuple(options.wind_range),
+                             turn=swing_turns(original, skeleton_tree, gmap.paths))
     out = write_parameters(skeleton, params.branch, params.leaf_areas)
     tree = _read_back(out)
     check_stability(tree, options.dt)
@@ -270,7 +353,8 @@ def simplify_grammar(system: LSystem, options: Options,
     if options.calibrate:
         if progress:
             progress("simulating the original", 0.0)
-        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
+        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every,
+                    options.damping)
         cal = calibrate(runs, tree, options.max_evaluations,
                         None if progress is None else (lambda f: progress("calibrating", f)))
         values = {**params.branch, **cal.values}
@@ -282,7 +366,8 @@ def simplify_grammar(system: LSystem, options: Options,
     if progress:
         progress("measuring", 1.0)
     if runs is None:
-        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every)
+        runs = Runs(original, gmap, winds, options.dt, options.steps, options.every,
+                    options.damping)
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
@@ -322,6 +407,8 @@ def header_comment(system: LSystem, options: Options, reports: list[tuple[WindCa
         f"plantlod simplify: level {options.level} of {system.source or '<input>'} ({shape})",
         f"form: {form}",
         f"method: {options.method}" + (", calibrated" if options.calibrate else ""),
+        *([f"damping ratio: {options.damping_ratio:g} (fitted and measured under it; "
+            "simulate it with --damping-ratio)"] if options.damping_ratio else []),
         "errors of this file against the original (model.md section 6), steady winds from rest,",
         f"dt {options.dt:g} s, {options.duration:g} s, every {options.every} steps sampled:",
         "  wind m/s  toward deg  amplitude    period       tip/height   motion       period(major)",

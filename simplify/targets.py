@@ -18,7 +18,7 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
-from .groups import assign_groups, combined_angles, main_paths
+from plantlod.compare.groups import assign_groups, combined_angles, main_paths
 from .static import rest_frames, static_angles, static_parts
 
 

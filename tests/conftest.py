@@ -20,3 +20,17 @@ def runner():
     from click.testing import CliRunner
 
     return CliRunner()
+
+
+def pytest_addoption(parser):
+    parser.addoption("--run-long", action="store_true", default=False,
+                     help="also run the tests marked long (make test-slow)")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--run-long"):
+        return
+    skip = pytest.mark.skip(reason="takes minutes: make test-slow (pytest --run-long)")
+    for item in items:
+        if "long" in item.keywords:
+            item.add_marker(skip)

@@ -14,7 +14,7 @@ from plantlod.formats.lsys_file import read_lsys, write_lsys
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.targets import group_map
-from plantlod.simplify.groups import combined_angles
+from plantlod.compare.groups import combined_angles
 from plantlod.simplify.levels import level_system, write_parameters
 from plantlod.sim.run import simulate_arrays
 

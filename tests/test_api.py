@@ -36,7 +36,7 @@ def test_derive_and_simulate_give_the_commands_bytes(stalk):
 
 
 def test_simplify_and_compare_give_the_commands_bytes(stalk):
-    from plantlod.simplify.report import dumps
+    from plantlod.compare.report import dumps
 
     system = plantlod.read_lsystem("stalk8.lsys")
     level = plantlod.simplify(system, level=1)

@@ -1,4 +1,4 @@
-"""The library side of `plantlod compare` (simplify/compare.py), on synthetic runs.
+"""The library side of `plantlod compare` (compare/runs.py), on synthetic runs.
 
 Angle signals are sine waves of known amplitude and period, so every figure of
 the report is known in closed form; tips are recomputed here with scipy's
@@ -15,7 +15,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from plantlod.lsys.errors import InputError
-from plantlod.simplify.compare import (
+from plantlod.compare.runs import (
     Run, angle_differences, angles_in_tree_order, check_bounds, compare_runs,
 )
 from treegen import make_tree

@@ -169,3 +169,15 @@ def test_example_file_reads(tmp_path):
     path = tmp_path / "g.lsys"
     path.write_text(GAIN_TREE)
     assert read_lsys(str(path)).overrides
+
+
+def test_api_takes_a_damping_ratio():
+    """plantlod.simulate(..., damping_ratio=) runs as the kernel does with Damping(ratio=)."""
+    import plantlod
+
+    tree = gain_tree()
+    a = plantlod.simulate(tree, (3.0, 0.0, 0.0), dt=0.01, steps=50, damping_ratio=0.05)
+    b = simulate_arrays(tree, 0.01, 50, ConstantWind((3.0, 0.0, 0.0)), damping=Damping(ratio=0.05))
+    assert np.array_equal(a.bend, b.bend)
+    with pytest.raises(InputError, match="not both"):
+        plantlod.simulate(tree, (3.0, 0.0, 0.0), dt=0.01, steps=5, damping=0.1, damping_ratio=0.05)

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
-from plantlod.simplify.groups import (
+from plantlod.compare.groups import (
     assign_groups, combined_angles, group_tips, main_paths, parse_address, path_rotations,
 )
 
@@ -102,7 +102,7 @@ def test_stalk_group_tips_are_the_top_of_each_pair():
 
 
 def test_combined_angles_do_not_depend_on_block_size(monkeypatch):
-    import plantlod.simplify.groups as groups_module
+    import plantlod.compare.groups as groups_module
 
     original = chain(STALK8, np.random.default_rng(3).uniform(0, 3, size=(8, 3)))
     paths = main_paths(original, assign_groups(original, chain(STALK4)), n_groups=5)

@@ -296,3 +296,51 @@ def test_full_stderr_does_not_fail_the_command(tmp_path):
 ])
 def test_options_without_effect_are_usage_errors(args, fragment):
     one_line(run_cli(*args, exit_code=None), 2, fragment)
+
+
+# --- a disk that fills up mid-write (a short write, then an error) ----------------------
+
+@pytest.mark.parametrize("command", [
+    f"simulate {STALK8} --dt 0.01 --steps 3000 --wind-speed 5",
+    f"simulate {STALK8} --dt 0.01 --steps 3000 --wind-speed 5 -o {{tmp}}/a.csv",
+    f"simulate {STALK8} --dt 0.01 --steps 3000 --wind-speed 5 -o {{tmp}}/a.npz",
+    "derive examples/abop_1_24c.lsys",
+    "derive examples/abop_1_24c.lsys --format string -n 6",
+])
+def test_a_disk_filling_up_is_exit_1(tmp_path, command):
+    # RLIMIT_FSIZE behaves as a full disk: the write that crosses it is short, the next fails
+    # (SIGXFSZ ignored, as a shell's `trap '' XFSZ` does)
+    target = tmp_path / "out"
+    done = subprocess.run(["bash", "-c", f"trap '' XFSZ; ulimit -f 100; {PLANTLOD} "
+                           f"{command.format(tmp=tmp_path)} > {target}"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1, (done.returncode, done.stderr)
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and "File too large" in lines[0], done.stderr
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+
+
+def test_whole_writes_refuse_a_short_write():
+    import io as _io
+
+    from plantlod.cli.io import WholeWrites
+
+    class Short(_io.RawIOBase):
+        def __init__(self):
+            self.data, self.room = b"", 10
+
+        def writable(self):
+            return True
+
+        def write(self, b):
+            if not self.room:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            n = min(len(b), self.room)
+            self.data += bytes(b[:n])
+            self.room -= n
+            return n
+
+    stream = Short()
+    with pytest.raises(OSError, match="No space"):
+        WholeWrites(stream, text=True).write("x" * 20)
+    assert stream.data == b"x" * 10

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from plantlod.lsys.errors import InputError
-from plantlod.simplify.measures import (
+from plantlod.compare.measures import (
     amplitude, compare_groups, period, relative_error, tip_error, upward_crossings, window,
 )
 

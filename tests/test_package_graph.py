@@ -1,6 +1,6 @@
 """The packages import one way (plantlod/__init__.py):
 
-    lsys -> sim -> simplify -> {scene, export} -> plantlod (the API) -> cli
+    lsys -> sim -> compare -> simplify -> {scene, export} -> plantlod (the API) -> cli
 
 and `formats` (bytes in and out) imports nothing above `lsys`. Read from the
 source with `ast`, every import of every module, deferred ones inside functions
@@ -13,10 +13,14 @@ import ast
 import pathlib
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-FOLDERS = {"lsys": "lsys", "sim": "sim", "simplify": "simplify", "scene": "scene",
+FOLDERS = {"lsys": "lsys", "sim": "sim", "compare": "compare", "simplify": "simplify",
+           "scene": "scene",
            "export": "export", "formats": "formats", "api": "plantlod", "cli": "cli"}
-RANK = {"lsys": 0, "formats": 0, "sim": 1, "simplify": 2, "scene": 3, "export": 3,
-        "api": 4, "cli": 5}
+RANK = {"lsys": 0, "formats": 0, "sim": 1, "compare": 2, "simplify": 3, "scene": 4, "export": 4,
+        "api": 5, "cli": 6}
+# plantlod.compare is also the function plantlod.compare (as plantlod.simplify is): its
+# __call__ hands the call to the API, the one upward import allowed, in that file only.
+CALLABLE_PACKAGE_SHIMS = {("compare", "api", "compare/__init__.py")}
 # formats sits beside lsys: it may read lsys' Tree and errors, nothing else above it
 ALLOWED_FROM_FORMATS = {"lsys"}
 
@@ -57,15 +61,19 @@ def test_imports_go_one_way():
                 bad.append(f"{where}: formats imports {target}")
         elif target == "formats":
             continue                    # every package may read and write bytes
+        elif (source, target, where.split(":")[0]) in CALLABLE_PACKAGE_SHIMS:
+            continue
         elif RANK[target] >= RANK[source]:
             bad.append(f"{where}: {source} imports {target}")
-    assert not bad, "imports against lsys -> sim -> simplify -> scene/export -> plantlod -> cli:\n" \
+    assert not bad, "imports against lsys -> sim -> compare -> simplify -> scene/export -> plantlod -> cli:\n" \
         + "\n".join(bad)
 
 
 def test_no_cycles_between_packages():
     graph: dict[str, set[str]] = {}
-    for source, target, _ in edges():
+    for source, target, where in edges():
+        if (source, target, where.split(":")[0]) in CALLABLE_PACKAGE_SHIMS:
+            continue
         graph.setdefault(source, set()).add(target)
 
     def reaches(start: str, goal: str, seen: set[str]) -> bool:

@@ -1,4 +1,4 @@
-"""`plantlod compare --plot` (simplify/plot.py): the PNG, its determinism, and life without matplotlib."""
+"""`plantlod compare --plot` (compare/plot.py): the PNG, its determinism, and life without matplotlib."""
 
 from __future__ import annotations
 
@@ -44,8 +44,8 @@ def test_plot_writes_the_same_png_twice(runner, stalks):
 
 
 def test_worst_series_picks_distinct_groups():
-    from plantlod.simplify.plot import worst_series
-    from plantlod.simplify.compare import Run, compare_runs
+    from plantlod.compare.plot import worst_series
+    from plantlod.compare.runs import Run, compare_runs
     from treegen import make_tree
 
     t = np.arange(2001) * 0.01

@@ -147,6 +147,25 @@ def test_a_tree_the_camera_will_pass_starts_at_the_level_its_nearest_point_allow
     assert levels[0] == 2 and levels[-1] == 3 and np.all(np.diff(levels) >= 0)
 
 
+def test_the_bound_uses_each_frames_current_distance(tmp_path):
+    """speedup_bound's levels (`coarsest_levels`): approaching from 100 m to 10 m, each frame
+    at the coarsest level its own distance allows (by hand, model.md 7), never finer than
+    the look-ahead schedule's."""
+    from plantlod.scene.schedule import coarsest_levels
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -100.0), (2.0, -10.0)])
+    scene = replace(scene, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    times = np.arange(60) / 30.0
+    bound = coarsest_levels(scene, [0], errors, times, 1.0)[0]
+    d = 100.0 - 90.0 * np.minimum(times / 2.0, 1.0)
+    ppm = 1080 / (2 * d * math.tan(math.radians(30)))     # camera and base both at z = 1.7
+    expect = [max(k for k, e in enumerate(errors) if e * p <= 1.0) for p in ppm]
+    assert bound[0] == 3 and bound[-1] == 2
+    assert np.sum(bound != np.array(expect)) <= 1          # a frame at a boundary may round
+    assert np.all(bound >= level_schedule(scene, [0], errors, times, 1.0)[0])
+
+
 @pytest.mark.parametrize("body, message", [
     (BASE + "colour = 3\n", "unknown key 'colour'"),
     (BASE.replace("fov_deg = 60", "fov_deg = 200"), "'fov_deg' must be below 180"),
@@ -186,6 +205,26 @@ def test_report_cache_threads_and_verified_budget(tmp_path):
     assert second["chains_from_cache"] == 2                              # nothing simplified again
     for key in ("branch_steps_spent", "level_share", "branches_spent"):
         assert second[key] == first[key]
+
+
+def test_a_verified_sample_covers_every_level_and_measures_what_full_verify_does(tmp_path, chains):
+    """--verify-sample N: each sampled tree's error is the one --verify measures for it (the
+    same full-detail run), the sample's maximum at most the whole scene's, and every level a
+    tree starts at is in the sample (`verify_sample`'s strata)."""
+    from plantlod.scene.run import run_scene, verify_sample
+    from plantlod.scene.file import read_scene as read
+
+    scene = read(_scene(tmp_path, BASE))
+    full = run_scene(scene, cache=chains, verify=True)
+    part = run_scene(scene, cache=chains, verify=True, sample=4)
+    levels = full["_levels"]
+    chosen = verify_sample(scene, levels, 3, 4)
+    assert part["verify_sample"]["trees"] == int(chosen.sum()) >= 1
+    assert set(part["verify_sample"]["levels"]) == {int(v) for v in levels.min(axis=1)}
+    assert part["verified_trees"] == int(chosen.sum())
+    assert part["max_error_px"] <= full["max_error_px"] + 1e-12
+    assert part["branch_steps_spent"] == full["branch_steps_spent"]
+    run_cli("scene", _scene(tmp_path, BASE), "--verify-sample", "3", exit_code=2)
 
 
 def test_angles_do_not_depend_on_threads(tmp_path, chains):

@@ -16,8 +16,8 @@ from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.explicit import (equivalent_leaves, explicit_system_text, merge_levels,
                                         unit_response)
-from plantlod.simplify.groups import assign_groups, main_paths
-from plantlod.simplify.measures import period
+from plantlod.compare.groups import assign_groups, main_paths
+from plantlod.compare.measures import period
 from plantlod.simplify.static import rest_frames
 from plantlod.sim.kinematics import rest_pose
 
@@ -154,7 +154,7 @@ def test_carried_gains_are_the_angles_compare_measures():
     """The fit's gains in the group root's frame (closed_form.carried_gains) give, for any
     force, the chord's angles carried as `groups.carry_angles` carries them."""
     from plantlod.simplify.closed_form import carried_gains
-    from plantlod.simplify.groups import carry_angles
+    from plantlod.compare.groups import carry_angles
 
     rng = np.random.default_rng(7)
     gains = rng.normal(size=(5, 2, 3))

@@ -22,8 +22,8 @@ from plantlod.sim.kinematics import pose, rest_pose
 from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import ConstantWind, wind_from_speed
 from plantlod.simplify.closed_form import closed_form
-from plantlod.simplify.groups import combined_angles
-from plantlod.simplify.measures import amplitude
+from plantlod.compare.groups import combined_angles
+from plantlod.compare.measures import amplitude
 from plantlod.simplify.static import (fit_directions, static_angles, static_angles_at,
                                       static_parts, tilted_directions)
 

@@ -22,7 +22,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose
-from .compare import Comparison
+from .runs import Comparison
 
 # Figure layout: presentation choices of this one module, kept here with it.
 PLOT_DPI = 100

@@ -2,9 +2,9 @@
 
 The library side of `plantlod compare`: given both trees and their sampled
 angles (simulated here or read from angle CSVs), find the groups and main
-paths (`plantlod.simplify.groups`), the original's combined angles and group
+paths (`plantlod.compare.groups`), the original's combined angles and group
 tips, and the simplified branches' angles and tips, and hand them to
-`plantlod.simplify.measures.compare_groups` for the report. Also the plain
+`plantlod.compare.measures.compare_groups` for the report. Also the plain
 angle-against-angle check of two runs of one tree (`angle_differences`).
 
 Shapes: K samples, B_o original branches, G = B_s simplified branches (one
@@ -23,7 +23,7 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import rest_height
 from .groups import assign_groups, carry_angles, combined_angles, main_paths, swing_turns
-from plantlod.simplify.measures import Report, Worst, compare_groups, window
+from plantlod.compare.measures import Report, Worst, compare_groups, window
 
 from .constants import TIME_MATCH_RTOL
 
@@ -65,7 +65,7 @@ class Comparison:
     combined_bend  : (K, G) the original's combined angle Θb per group over the whole run, rad
     combined_rot   : (K, G) Θr, rad
     window         : the slice of samples the report covers
-    report         : the figures (`plantlod.simplify.measures.Report`)
+    report         : the figures (`plantlod.compare.measures.Report`)
     """
 
     original: Run
@@ -97,8 +97,9 @@ def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot
             parts.append(f"no columns for branch(es) {_examples(missing)}")
         if extra:
             parts.append(f"columns for branch(es) {_examples(extra)} that the tree does not have")
-        raise InputError(f"the angle CSV does not belong to the tree {tree.source or '?'}: "
-                         f"{'; '.join(parts)}; expected the CSV that `plantlod simulate` "
+        kind = "archive" if str(source).lower().endswith(".npz") else "CSV"
+        raise InputError(f"the angle {kind} does not belong to the tree {tree.source or '?'}: "
+                         f"{'; '.join(parts)}; expected the {kind} that `plantlod simulate` "
                          f"wrote for this tree ({tree.n_branches} branches)", source)
     order = np.asarray([column[a] for a in tree.address], dtype=np.int64)
     return np.asarray(bend)[:, order], np.asarray(rot)[:, order]
@@ -151,11 +152,11 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     tips_o = tip_series(original.tree, original.bend[cut], original.rot[cut], last)
     tips_s = tip_series(simplified.tree, simplified.bend[cut], simplified.rot[cut], np.arange(g))
     simp_b, simp_r = simplified.bend[cut], simplified.rot[cut]
-    if simplified.tree.group_root:
-        # explicit form: a chord's swing frame is turned against its group root's; its
-        # angles are carried into the root's frame, where the combined angles are
-        simp_b, simp_r = carry_angles(swing_turns(original.tree, simplified.tree, paths),
-                                      simp_b, simp_r)
+    # every simplified branch is read in its group root's rest swing frame W_0 (model.md 6),
+    # either form: a chord's frame turns against its root's, and a grammar-form branch's may
+    # too; where the frames agree the carry is the identity and changes no value
+    simp_b, simp_r = carry_angles(swing_turns(original.tree, simplified.tree, paths),
+                                  simp_b, simp_r)
     report = compare_groups(original.times[cut], combined_b[cut], combined_r[cut],
                             simp_b, simp_r, tips_o, tips_s,
                             rest_height(original.tree), list(simplified.tree.address))

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from .compare import AngleDifference, Comparison, Violation
+from .runs import AngleDifference, Comparison, Violation
 from .measures import COMPONENTS
 
 from plantlod.formats.constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
@@ -175,7 +175,7 @@ def comparison_document(comparisons: list[Comparison], bounds: dict[str, float |
                         violations: list[list[Violation]]) -> dict:
     """The JSON object of docs/compare.md ("JSON output"), before rounding.
 
-    violations : one list per comparison (`plantlod.simplify.compare.check_bounds`).
+    violations : one list per comparison (`plantlod.compare.runs.check_bounds`).
     """
     first = comparisons[0]
     o = first.original

@@ -1,0 +1,12 @@
+"""Constants of the error measures and of comparing runs (model.md 5 and 6)."""
+
+# --- groups and error measures (model.md 5 and 6) ---------------------------------
+ALPHA_TIE_TOL = 1e-9          # main path: alphas this close are tied (model.md 5)
+COUNTED_AMPLITUDE_FRACTION = 0.01  # error measures count components >= 1 % (model.md 6)
+MAJOR_AMPLITUDE_FRACTION = 0.10   # period error (major): components >= 10 % of A_max (model.md 6)
+
+# --- compare -------------------------------------------------------------------------
+# Two runs' times agree when they differ by at most this much, relative to
+# max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
+TIME_MATCH_RTOL = 1e-9
+DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)

@@ -1,0 +1,227 @@
+"""Checks of a glTF given to `plantlod view`, so that a page is made only of a whole file.
+
+Two layers, both before the page is written:
+
+- `check_glb_container`: the GLB header's declared length is the file's, and every chunk
+  lies within it (a truncated .glb is refused here);
+- `check_document`: every index a glTF object holds points at an object that exists, and
+  every accessor and buffer view lies within the bytes it declares (glTF 2.0, section 3.6),
+  with the JSON's values of the types the specification gives.
+
+Each failure is an `InputError` naming the file and saying what is wrong where.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import struct
+import urllib.parse
+
+from plantlod.lsys.errors import InputError
+
+GLB_MAGIC = b"glTF"
+GLB_JSON_CHUNK = 0x4E4F534A
+GLB_BIN_CHUNK = 0x004E4942
+COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def check_glb_container(data: bytes, path: str) -> None:
+    """Refuse a GLB whose header or chunks do not match the file's bytes."""
+    if data[:4] != GLB_MAGIC:
+        raise InputError("not a glTF file (a .glb starts with 'glTF')", path)
+    if len(data) < 12:
+        raise InputError(f"not a glTF file: a GLB is at least 12 bytes, this one has "
+                         f"{len(data)} (truncated)", path)
+    _, version, length = struct.unpack_from("<4sII", data, 0)
+    if version != 2:
+        raise InputError(f"GLB version {version}; expected glTF 2.0", path)
+    if length != len(data):
+        raise InputError(f"the GLB header declares {length:,} bytes but the file has "
+                         f"{len(data):,} ({'truncated' if length > len(data) else 'extra bytes'})",
+                         path)
+    at, kinds = 12, []
+    while at < len(data):
+        if at + 8 > len(data):
+            raise InputError(f"a GLB chunk header at byte {at:,} runs past the end of the file",
+                             path)
+        size, kind = struct.unpack_from("<II", data, at)
+        if at + 8 + size > len(data):
+            raise InputError(f"the GLB chunk at byte {at:,} declares {size:,} bytes but the file "
+                             f"ends {len(data) - at - 8:,} bytes later (truncated?)", path)
+        kinds.append(kind)
+        at += 8 + size
+    if not kinds or kinds[0] != GLB_JSON_CHUNK:
+        raise InputError("the GLB's first chunk is not its JSON", path)
+    if kinds.count(GLB_BIN_CHUNK) > 1 or (GLB_BIN_CHUNK in kinds and kinds[1] != GLB_BIN_CHUNK):
+        raise InputError("a GLB has at most one binary chunk, right after the JSON", path)
+
+
+def check_buffer_uris(doc, path: str, max_bytes: int) -> None:
+    """Before any buffer is read: at most one buffer; a buffer in another file must be a
+    regular file beside ``path`` (a relative URI, no scheme) of at most ``max_bytes``."""
+    buffers = doc.buffers if isinstance(doc.buffers, list) else []
+    if len(buffers) > 1:
+        raise InputError(f"the file has {len(buffers)} buffers; plantlod view carries glTF "
+                         "with one (as `plantlod export` writes)", path)
+    for buffer in buffers:
+        uri = getattr(buffer, "uri", None)
+        if uri is None or (isinstance(uri, str) and uri.startswith("data:")):
+            continue
+        if not isinstance(uri, str) or not uri or urllib.parse.urlsplit(uri).scheme:
+            raise InputError(f"buffer URI {str(uri)[:80]!r}: expected a data: URI or the name "
+                             "of a file beside the glTF", path)
+        target = os.path.join(os.path.dirname(os.path.abspath(path)), urllib.parse.unquote(uri))
+        try:
+            info = os.stat(target)
+        except OSError as exc:
+            raise InputError(f"buffer file {uri[:80]!r}: {exc.strerror or exc}", path) from None
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(f"buffer file {uri[:80]!r} is not a regular file", path)
+        if info.st_size > max_bytes:
+            raise InputError(f"buffer file {uri[:80]!r} has {info.st_size:,} bytes, more than "
+                             f"the limit of {max_bytes:,}", path)
+
+
+class _Checker:
+    """Index and length checks of one document; ``fail`` raises the InputError."""
+
+    def __init__(self, doc, path: str):
+        self.doc, self.path = doc, path
+
+    def fail(self, message: str):
+        raise InputError(message, self.path)
+
+    def items(self, name: str) -> list:
+        value = getattr(self.doc, name, None)
+        if value is None:
+            return []
+        if not isinstance(value, list):
+            self.fail(f"'{name}' must be a list")
+        return value
+
+    def count(self, value, what: str, default: int | None = None) -> int:
+        if value is None and default is not None:
+            return default
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            self.fail(f"{what} must be a whole number >= 0, got {value!r}")
+        return value
+
+    def index(self, value, name: str, what: str, optional: bool = False) -> int | None:
+        if value is None and optional:
+            return None
+        n = len(self.items(name))
+        if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < n:
+            self.fail(f"{what} is {value!r}; expected an index of '{name}' (0..{n - 1})"
+                      if n else f"{what} is {value!r} but the file has no '{name}'")
+        return value
+
+
+def check_document(doc, blob_length: int, path: str) -> None:
+    """Refuse a document whose indices or byte ranges point outside what it holds.
+
+    ``blob_length``: the bytes of its one binary buffer (after external and data-URI buffers
+    were folded in), which buffer 0 may not declare more of."""
+    c = _Checker(doc, path)
+    buffers = c.items("buffers")
+    for i, buffer in enumerate(buffers):
+        size = c.count(getattr(buffer, "byteLength", None), f"buffers[{i}].byteLength")
+        if i == 0 and size > blob_length:
+            c.fail(f"buffers[0] declares {size:,} bytes but holds {blob_length:,} (truncated?)")
+    views = c.items("bufferViews")
+    for i, view in enumerate(views):
+        b = c.index(view.buffer, "buffers", f"bufferViews[{i}].buffer")
+        offset = c.count(view.byteOffset, f"bufferViews[{i}].byteOffset", 0)
+        size = c.count(view.byteLength, f"bufferViews[{i}].byteLength")
+        if offset + size > buffers[b].byteLength:
+            c.fail(f"bufferViews[{i}] spans bytes {offset:,}..{offset + size:,} of buffer {b}, "
+                   f"which has {buffers[b].byteLength:,}")
+        if view.byteStride is not None:
+            stride = c.count(view.byteStride, f"bufferViews[{i}].byteStride")
+            if not 4 <= stride <= 252:
+                c.fail(f"bufferViews[{i}].byteStride is {stride}; expected 4..252")
+    for i, acc in enumerate(c.items("accessors")):
+        _check_accessor(c, i, acc, views)
+    _check_meshes(c)
+    _check_nodes(c)
+    for i, anim in enumerate(c.items("animations")):
+        samplers = anim.samplers if isinstance(anim.samplers, list) else c.fail(
+            f"animations[{i}].samplers must be a list")
+        for j, sampler in enumerate(samplers):
+            c.index(sampler.input, "accessors", f"animations[{i}].samplers[{j}].input")
+            c.index(sampler.output, "accessors", f"animations[{i}].samplers[{j}].output")
+        for j, channel in enumerate(anim.channels if isinstance(anim.channels, list) else []):
+            if not isinstance(channel.sampler, int) or not 0 <= channel.sampler < len(samplers):
+                c.fail(f"animations[{i}].channels[{j}].sampler is {channel.sampler!r}; expected "
+                       f"0..{len(samplers) - 1}")
+            target = channel.target
+            if target is None:
+                c.fail(f"animations[{i}].channels[{j}] has no target")
+            c.index(target.node, "nodes", f"animations[{i}].channels[{j}].target.node",
+                    optional=True)
+
+
+def _check_accessor(c: _Checker, i: int, acc, views: list) -> None:
+    what = f"accessors[{i}]"
+    if acc.componentType not in COMPONENT_BYTES:
+        c.fail(f"{what}.componentType is {acc.componentType!r}; expected one of "
+               f"{sorted(COMPONENT_BYTES)}")
+    if acc.type not in TYPE_COMPONENTS:
+        c.fail(f"{what}.type is {acc.type!r}; expected one of {', '.join(TYPE_COMPONENTS)}")
+    count = c.count(acc.count, f"{what}.count")
+    offset = c.count(acc.byteOffset, f"{what}.byteOffset", 0)
+    if acc.bufferView is None:
+        return
+    v = c.index(acc.bufferView, "bufferViews", f"{what}.bufferView")
+    element = COMPONENT_BYTES[acc.componentType] * TYPE_COMPONENTS[acc.type]
+    stride = views[v].byteStride or element
+    need = offset + stride * (count - 1) + element if count else offset
+    if need > views[v].byteLength:
+        c.fail(f"{what} needs {need:,} bytes of bufferViews[{v}], which has "
+               f"{views[v].byteLength:,}")
+
+
+def _check_meshes(c: _Checker) -> None:
+    for i, mesh in enumerate(c.items("meshes")):
+        primitives = mesh.primitives if isinstance(mesh.primitives, list) else c.fail(
+            f"meshes[{i}].primitives must be a list")
+        for j, prim in enumerate(primitives):
+            what = f"meshes[{i}].primitives[{j}]"
+            attributes = prim.attributes
+            values = (vars(attributes) if hasattr(attributes, "__dict__")
+                      else attributes if isinstance(attributes, dict) else c.fail(
+                          f"{what}.attributes must be an object"))
+            for name, value in values.items():
+                if value is not None:
+                    c.index(value, "accessors", f"{what}.attributes.{name}")
+            c.index(prim.indices, "accessors", f"{what}.indices", optional=True)
+            c.index(prim.material, "materials", f"{what}.material", optional=True)
+
+
+def _check_nodes(c: _Checker) -> None:
+    nodes = c.items("nodes")
+    parent: dict[int, int] = {}
+    for i, node in enumerate(nodes):
+        c.index(node.mesh, "meshes", f"nodes[{i}].mesh", optional=True)
+        children = node.children if node.children is not None else []
+        if not isinstance(children, list):
+            c.fail(f"nodes[{i}].children must be a list")
+        for child in children:
+            c.index(child, "nodes", f"nodes[{i}].children")
+            if child in parent or child == i:
+                c.fail(f"node {child} has more than one parent (nodes[{i}].children); the "
+                       "nodes must form trees")
+            parent[child] = i
+    # each node has at most one parent: a cycle is exactly a node no root reaches
+    reached, todo = 0, [i for i in range(len(nodes)) if i not in parent]
+    while todo:
+        i = todo.pop()
+        reached += 1
+        todo.extend(nodes[i].children or [])
+    if reached != len(nodes):
+        c.fail("some nodes are their own ancestors; the nodes must form trees")
+    for i, scene in enumerate(c.items("scenes")):
+        for node in scene.nodes or []:
+            c.index(node, "nodes", f"scenes[{i}].nodes")
+    c.index(getattr(c.doc, "scene", None), "scenes", "scene", optional=True)

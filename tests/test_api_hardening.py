@@ -1,0 +1,89 @@
+"""The API as a new user tries it (issue 24): paths wherever a tree or a system is taken,
+a missing file reported as missing, one run of a lanes result by index, the CLI's wind
+speed and direction, and compare's labels for a level made by simplify."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import plantlod
+from golden_util import ROOT, run_cli
+from plantlod.lsys.errors import InputError
+
+STALK = str(ROOT / "examples" / "stalk8.lsys")
+
+
+def test_derive_and_simulate_take_paths(tmp_path):
+    tree = plantlod.derive(STALK)
+    assert tree.n_branches == 8
+    assert plantlod.derive(ROOT / "examples" / "stalk8.lsys").n_branches == 8
+    direct = plantlod.simulate(plantlod.derive(plantlod.read_lsystem(STALK)), wind=(3.0, 0, 0),
+                               dt=0.01, steps=20)
+    run_cli("derive", STALK, "-o", str(tmp_path / "t.jsonl"))
+    run_cli("derive", STALK, "-o", str(tmp_path / "t.npz"))
+    for source in (STALK, tmp_path / "t.jsonl", str(tmp_path / "t.npz")):
+        a = plantlod.simulate(source, wind=(3.0, 0, 0), dt=0.01, steps=20)
+        np.testing.assert_array_equal(a.bend, direct.bend)
+    level = plantlod.simplify(STALK, level=1, duration=2)
+    assert level.derivation_length == 3 or level.groups
+
+
+def test_a_missing_file_is_reported_missing(tmp_path):
+    for call in (lambda: plantlod.read_lsystem("nope.lsys"), lambda: plantlod.derive("nope.lsys"),
+                 lambda: plantlod.simulate("nope.lsys", dt=0.01, steps=2)):
+        with pytest.raises(InputError) as info:
+            call()
+        assert str(info.value) == "nope.lsys: no such file"
+    with pytest.raises(InputError, match="expected a Tree, an LSystem or a path"):
+        plantlod.simulate(42, dt=0.01, steps=2)
+
+
+def test_text_is_still_read_as_text():
+    text = open(STALK, encoding="utf-8").read()
+    assert plantlod.read_lsystem(text).derivation_length == 3
+
+
+def test_one_run_of_a_lanes_result_by_index(tmp_path):
+    tree = plantlod.derive(STALK)
+    winds = [(2.0, 0.0, 0.0), (0.0, 5.0, 0.0)]
+    many = plantlod.simulate(tree, wind=winds, dt=0.01, steps=30)
+    assert len(many) == 2
+    one = many[1]
+    single = plantlod.simulate(tree, wind=winds[1], dt=0.01, steps=30)
+    np.testing.assert_array_equal(one.bend, single.bend)
+    np.testing.assert_array_equal(many[-1].rotation, single.rotation)
+    assert [run.bend.shape for run in many] == [single.bend.shape] * 2
+    plantlod.export_animation(tree, many[0], tmp_path / "a.glb")
+    assert (tmp_path / "a.glb").stat().st_size > 0
+    with pytest.raises(IndexError, match="run 2 of 2"):
+        many[2]
+    with pytest.raises(InputError, match="these angles are one run"):
+        single[0]
+
+
+def test_wind_speed_and_direction_as_the_cli_has(tmp_path):
+    tree = plantlod.derive(STALK)
+    a = plantlod.simulate(tree, wind_speed=5, wind_direction=90, dt=0.01, steps=50)
+    b = plantlod.simulate(tree, wind=(0.0, 5.0, 0.0), dt=0.01, steps=50)
+    np.testing.assert_array_equal(a.bend, b.bend)
+    run_cli("simulate", STALK, "--dt", "0.01", "--steps", "50", "--wind-speed", "5",
+            "--wind-direction", "90", "-o", str(tmp_path / "c.csv"))
+    c = plantlod.read_angles(tmp_path / "c.csv")
+    np.testing.assert_allclose(c.bend, a.bend, rtol=1e-9, atol=1e-15)
+    with pytest.raises(InputError, match="wind_direction applies to wind_speed"):
+        plantlod.simulate(tree, wind_direction=90, dt=0.01, steps=5)
+    with pytest.raises(InputError, match="one of wind and wind_speed"):
+        plantlod.simulate(tree, wind=(1, 0, 0), wind_speed=1, dt=0.01, steps=5)
+    with pytest.raises(InputError, match="wind speed must be a finite number"):
+        plantlod.simulate(tree, wind_speed=float("nan"), dt=0.01, steps=5)
+    report = plantlod.compare(tree, tree, wind_speed=5, dt=0.01, steps=50)
+    assert report["comparisons"][0]["tip_error"] == 0
+
+
+def test_compare_labels_a_level_by_its_name():
+    system = plantlod.read_lsystem(STALK)
+    level = plantlod.simplify(system, level=1, duration=2)
+    report = plantlod.compare(system, level, wind=(5.0, 0, 0), dt=0.01, duration=1)
+    assert report["original"]["file"] == STALK
+    assert report["comparisons"][0]["simplified"]["file"] == "stalk8 level 1 (explicit form)"

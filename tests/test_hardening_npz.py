@@ -1,0 +1,211 @@
+"""Hardening of the .npz readers (issue 24): declared shapes and uncompressed sizes checked
+against the limits before anything is allocated, object arrays and other types refused,
+every field checked; all of it bad input (exit 2) naming the file. Random archives may only
+ever raise InputError."""
+
+from __future__ import annotations
+
+import io
+import zipfile
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import plantlod
+from golden_util import ROOT, run_cli
+from plantlod.formats.npz import (
+    ANGLES_FORMAT, TREE_FORMAT, angles_bytes, read_angles_bytes, read_tree_bytes, tree_bytes,
+)
+from plantlod.lsys.errors import InputError
+from test_hardening_cli import one_line
+
+STALK = str(ROOT / "examples" / "stalk8.lsys")
+SIM = ("--dt", "0.01", "--steps", "5", "--wind-speed", "1")
+
+
+def npy(array: np.ndarray) -> bytes:
+    out = io.BytesIO()
+    np.lib.format.write_array(out, array, allow_pickle=True)
+    return out.getvalue()
+
+
+def forged_npy(descr: str, shape: tuple, payload: bytes = b"\0" * 16) -> bytes:
+    """An .npy member whose header declares ``shape`` of ``descr`` over ``payload``."""
+    out = io.BytesIO()
+    np.lib.format.write_array_header_1_0(out, {"descr": descr, "fortran_order": False,
+                                               "shape": shape})
+    return out.getvalue() + payload
+
+
+def archive(members: dict[str, bytes], compression=zipfile.ZIP_STORED) -> bytes:
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", compression) as z:
+        for name, data in members.items():
+            z.writestr(name + ".npy", data)
+    return out.getvalue()
+
+
+def angles_members(**change) -> dict[str, bytes]:
+    t = np.array([0.0, 0.01])
+    members = {"format": npy(np.array(ANGLES_FORMAT)), "version": npy(np.array(1)),
+               "time": npy(t), "address": npy(np.array(["0"])),
+               "bend": npy(np.zeros((2, 1))), "rotation": npy(np.zeros((2, 1)))}
+    members.update(change)
+    return {k: v for k, v in members.items() if v is not None}
+
+
+def refused(data: bytes, *fragments: str, reader=read_angles_bytes) -> str:
+    with pytest.raises(InputError) as info:
+        reader(data, "x.npz")
+    assert info.value.file == "x.npz"
+    for fragment in fragments:
+        assert fragment in info.value.message, info.value.message
+    return info.value.message
+
+
+def test_a_huge_declared_shape_is_refused_before_allocating():
+    refused(archive(angles_members(bend=forged_npy("<f8", (10**6, 10**6)))),
+            "'bend' in the archive declares shape (1000000, 1000000)", "holds")
+    refused(archive(angles_members(address=forged_npy("<U1000000000", (1,)))), "'address'")
+
+
+def test_a_zip_bomb_is_refused_from_its_directory(monkeypatch):
+    import plantlod.formats.npz as npz
+
+    monkeypatch.setattr(npz, "MAX_NPZ_BYTES", 1 << 20)
+    bomb = archive(angles_members(bend=npy(np.zeros((2, 200_000)))), zipfile.ZIP_DEFLATED)
+    assert len(bomb) < 100_000
+    refused(bomb, "the archive expands to", "more than the limit of 1,048,576")
+
+
+def test_an_archive_file_too_large_is_refused(tmp_path, monkeypatch):
+    import plantlod.formats.npz as npz
+
+    monkeypatch.setattr(npz, "MAX_NPZ_BYTES", 1000)
+    path = tmp_path / "big.npz"
+    path.write_bytes(b"\0" * 2000)
+    one_line(run_cli("simulate", str(path), *SIM, exit_code=None), 2,
+             "big.npz: error: the archive is larger than the limit of 1,000 bytes")
+
+
+def test_an_object_array_is_bad_input_not_an_internal_error(tmp_path):
+    data = archive(angles_members(address=npy(np.array(["0", None], dtype=object))))
+    refused(data, "'address' in the archive is an array of object; expected numbers or text")
+    tree = tmp_path / "t.npz"
+    run_cli("derive", STALK, "-o", str(tree))
+    bad = tmp_path / "a.npz"
+    bad.write_bytes(data)
+    one_line(run_cli("export", str(tree), str(bad), "-o", str(tmp_path / "x.glb"),
+                     exit_code=None), 2, "a.npz: error:", "array of object")
+
+
+@pytest.mark.parametrize("change, fragment", [
+    ({"bend": None}, "the archive has no 'bend'"),
+    ({"time": npy(np.array(["a", "b"]))}, "'time' in the archive holds <U1; expected numbers"),
+    ({"bend": npy(np.zeros((2, 1), dtype=complex))}, "array of complex128"),
+    ({"time": npy(np.array([0.0, 0.0]))}, "'time' in the archive must increase"),
+    ({"time": npy(np.zeros((0,))), "bend": npy(np.zeros((0, 1))),
+      "rotation": npy(np.zeros((0, 1)))}, "no time samples"),
+    ({"address": npy(np.array([1]))}, "'address' in the archive must be a list of text"),
+    ({"address": npy(np.array(["x y"]))}, "not an address"),
+    ({"format": npy(np.array(3))}, "not a plantlod-angles-npz archive"),
+    ({"bend": npy(np.full((2, 1), np.nan))}, "not finite"),
+    ({"bend": b"\x93NUMPY\x09\x00"}, "'bend' in the archive is not a readable array"),
+])
+def test_bad_angle_archives(change, fragment):
+    refused(archive(angles_members(**change)), fragment)
+
+
+def test_the_angle_archive_message_names_an_archive(tmp_path):
+    run_cli("simulate", STALK, *SIM, "-o", str(tmp_path / "a.npz"))
+    twin = str(ROOT / "examples" / "eval" / "twin_draw.lsys")
+    line = one_line(run_cli("export", twin, str(tmp_path / "a.npz"), "-o", str(tmp_path / "x.glb"),
+                            exit_code=None), 2, "the angle archive does not belong to the tree")
+    assert "CSV" not in line
+
+
+def test_bad_tree_archives():
+    tree = plantlod.derive(plantlod.read_lsystem(STALK))
+    good = tree_bytes(tree)
+    with zipfile.ZipFile(io.BytesIO(good)) as z:
+        members = {i.filename.removesuffix(".npy"): z.read(i) for i in z.infolist()}
+    for change, fragment in [
+        ({"length": npy(np.array(["a"] * tree.n_branches))}, "'length' in the archive holds <U1"),
+        ({"length": npy(-np.ones(tree.n_branches))}, "negative values"),
+        ({"parent": npy(np.arange(tree.n_branches, dtype=float))}, "expected whole numbers"),
+        ({"parent": npy(np.arange(tree.n_branches))}, "parent-before-child"),
+        ({"euler": npy(np.zeros(tree.n_branches))}, "'euler' in the archive has shape"),
+        ({"leaf_normal": npy(np.zeros((tree.n_leaves, 3)))}, "not unit"),
+        ({"source": npy(np.array([1, 2]))}, "'source' in the archive must be one text"),
+        ({"address": npy(np.array(["0"] * tree.n_branches))}, "repeats a branch address"),
+        ({"format": npy(np.array(TREE_FORMAT + "x"))}, "not a plantlod-tree-npz archive"),
+    ]:
+        refused(archive({**members, **change}), fragment, reader=read_tree_bytes)
+
+
+def test_a_missing_archive_is_bad_input(tmp_path):
+    one_line(run_cli("simulate", str(tmp_path / "no.npz"), *SIM, exit_code=None), 2,
+             "no.npz: error: no such file")
+    one_line(run_cli("export", STALK, str(tmp_path / "no.npz"), "-o", str(tmp_path / "x.glb"),
+                     exit_code=None), 2, "no.npz: error: no such file")
+
+
+def test_compare_reads_angle_archives(tmp_path):
+    run_cli("simulate", STALK, *SIM, "-o", str(tmp_path / "a.npz"))
+    run_cli("simulate", STALK, *SIM, "-o", str(tmp_path / "a.csv"))
+    run_cli("compare", "--angles", str(tmp_path / "a.npz"), str(tmp_path / "a.csv"),
+            "--atol", "1e-9")
+    run_cli("compare", STALK, STALK, "--original-angles", str(tmp_path / "a.npz"),
+            "--simplified-angles", str(tmp_path / "a.csv"), "--json")
+    one_line(run_cli("compare", STALK, STALK, "--original-angles", str(tmp_path / "a.npz"),
+                     "--simplified-angles", str(tmp_path / "a.csv"), "--degrees", exit_code=None),
+             2, "--degrees applies to an angle CSV")
+
+
+# --- random archives: InputError or a valid result, never anything else ----------------
+
+def _valid_angles() -> bytes:
+    return angles_bytes(np.array([0.0, 0.01]), ["0", "0.1"], np.zeros((2, 2)), np.ones((2, 2)))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_random_corruptions_of_an_archive(data):
+    raw = bytearray(_valid_angles() if data.draw(st.booleans()) else
+                    tree_bytes(plantlod.derive(plantlod.read_lsystem(STALK))))
+    for _ in range(data.draw(st.integers(1, 6))):
+        at = data.draw(st.integers(0, len(raw) - 1))
+        raw[at] = data.draw(st.integers(0, 255))
+    if data.draw(st.booleans()):
+        raw = raw[:data.draw(st.integers(0, len(raw)))]
+    for reader in (read_angles_bytes, read_tree_bytes):
+        try:
+            reader(bytes(raw), "r.npz")
+        except InputError:
+            pass
+
+
+ARRAYS = st.sampled_from([
+    np.array(1), np.array("x"), np.array([0.0, 1.0]), np.zeros((2, 2)), np.array(["0", "0.1"]),
+    np.array([True]), np.zeros((0,)), np.array([np.inf]), np.array([2**63], dtype=np.uint64),
+    np.zeros((2, 2, 2)), np.array(["0"] * 3), np.arange(3), np.array([b"x"]),
+    np.zeros(2, dtype=[("a", "<f8")]), np.array(["0", None], dtype=object),
+    np.array(np.datetime64("2020-01-01")),
+])
+NAMES = st.sampled_from(["format", "version", "time", "address", "bend", "rotation", "parent",
+                         "length", "euler", "leaf_branch", "leaf_normal", "source", "symbol",
+                         "leaf_force_scale", "x"])
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.dictionaries(NAMES, ARRAYS, max_size=8), st.booleans())
+def test_random_member_sets(members, tree):
+    raw = {k: npy(v) for k, v in members.items()}
+    raw["format"] = npy(np.array(TREE_FORMAT if tree else ANGLES_FORMAT))
+    for reader in (read_angles_bytes, read_tree_bytes):
+        try:
+            reader(archive(raw), "r.npz")
+        except InputError:
+            pass

@@ -1,0 +1,308 @@
+"""Hardening of `plantlod scene` (issue 24): declared caps refused before anything is
+allocated (trees, time steps, tree-steps of wind, branch-steps), folders removed on every
+way out, and random scene files that may only ever end in exit 0, 1 or 2 with one line."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from golden_util import ROOT, run_cli
+from test_hardening_cli import one_line
+
+STALK = str(ROOT / "examples" / "stalk8.lsys")
+
+HEAD = """dt = 0.01
+duration = {duration}
+[wind]
+speed = 5
+[camera]
+position = [0, -40, 1.7]
+target = [0, 0, 1.7]
+"""
+
+
+def scene_file(tmp_path, body: str, duration="1") -> str:
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration=duration) + body)
+    return str(path)
+
+
+def test_a_billion_scattered_trees_are_refused_at_once(tmp_path):
+    path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 1000000000\n'
+                                'area = [0, 0, 10, 10]\n')
+    start = time.perf_counter()
+    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+                    "more trees than the limit of 100,000")
+    assert time.perf_counter() - start < 5
+    assert line.startswith(f"{path}:10:1: error:")
+
+
+def test_scatter_after_tree_entries_counts_them_too(tmp_path, monkeypatch):
+    import plantlod.scene.file as scene_file_module
+
+    monkeypatch.setattr(scene_file_module, "MAX_TREES", 3)
+    body = (f'[[tree]]\nfile = "{STALK}"\n[[tree]]\nfile = "{STALK}"\n'
+            f'[scatter]\nfiles = ["{STALK}"]\ncount = 2\narea = [0, 0, 10, 10]\n')
+    one_line(run_cli("scene", scene_file(tmp_path, body), "--no-cache", exit_code=None), 2,
+             "count 2 makes more trees than the limit of 3")
+
+
+@pytest.mark.parametrize("duration", ["1e12", "1e308"])
+def test_a_scene_too_long_is_a_usage_error(tmp_path, duration):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration=duration)
+    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+                    "more than the limit of 1,000,000")
+    assert line.startswith(f"{path}:2:1: error: duration")
+
+
+def test_tree_steps_cap(tmp_path, monkeypatch):
+    import plantlod.scene.run as scene_run
+
+    monkeypatch.setattr(scene_run, "MAX_SCENE_TREE_STEPS", 150)
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+             "2 trees x 100 steps is 200 tree-steps of wind, more than the limit of 150")
+
+
+def test_branch_steps_cap(tmp_path, monkeypatch):
+    import plantlod.scene.run as scene_run
+
+    monkeypatch.setattr(scene_run, "MAX_SCENE_BRANCH_STEPS", 1000)
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n[[tree]]\nfile = "{STALK}"\n')
+    # stalk8 has 8 branches: 2 x 8 x 100
+    one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+             "1,600 branch-steps at full detail", "more than the limit of 1,000")
+
+
+def test_tree_entries_that_are_not_tables(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text("tree = [1, 2]\n" + HEAD.format(duration=1))
+    one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+             "trees are [[tree]] entries")
+
+
+# --- folders a command creates: removed on every signal and error ------------------------
+
+SLOWED = """import sys, time
+import {module} as m
+real = m.{name}
+def slow(*a, **k):
+    time.sleep(0.5)
+    return real(*a, **k)
+m.{name} = slow
+{extra}
+from plantlod.cli.main import main
+sys.argv[0] = "plantlod"
+main()
+"""
+
+
+def _signal_when_a_temporary_appears(tmp_path, script: str, args: list[str], signum: int):
+    import signal as _signal  # noqa: F401
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", script, *args], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
+        assert proc.poll() is None, proc.communicate()[1]
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(0.3)
+    proc.send_signal(signum)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signum, stderr
+    assert len(stderr.strip().splitlines()) == 1 and "Traceback" not in stderr, stderr
+
+
+@pytest.mark.parametrize("signum", [2, 15, 1])
+def test_a_signal_during_scene_angles_leaves_no_store(tmp_path, signum):
+    scene = tmp_path / "s.toml"
+    scene.write_text(HEAD.format(duration=1) + f'[scatter]\nfiles = ["{STALK}"]\ncount = 200\n'
+                     'area = [-20, -20, 20, 20]\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    script = SLOWED.format(module="plantlod.scene.run", name="run_batch", extra="")
+    _signal_when_a_temporary_appears(out, script, ["scene", str(scene), "--cache",
+                                                   str(tmp_path / "cache"), "--angles",
+                                                   str(out / "a.zarr"), "--report", os.devnull],
+                                     signum)
+    assert os.listdir(out) == []
+
+
+def test_a_failure_after_the_store_leaves_no_store(tmp_path):
+    scene = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli("scene", scene, "--cache", str(tmp_path / "cache"), "--angles",
+                     str(out / "a.zarr"), "--report", "/dev/full", exit_code=None)
+    one_line(result, 1, "No space left on device")
+    assert os.listdir(out) == []
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_signal_during_simplify_levels_leaves_no_folder(tmp_path, existing):
+    out = tmp_path / "out"
+    out.mkdir()
+    target = out / "levels"
+    if existing:
+        target.mkdir()
+        (target / "mine.txt").write_text("keep")
+    script = SLOWED.format(module="plantlod.simplify.pipeline", name="simplify_explicit",
+                           extra="")
+    _signal_when_a_temporary_appears(out, script, ["simplify", STALK, "--levels", str(target),
+                                                   "--duration", "1"], 2)
+    assert os.listdir(out) == (["levels"] if existing else [])
+    if existing:
+        assert os.listdir(target) == ["mine.txt"]
+
+
+def test_simplify_levels_fills_an_existing_folder_and_refuses_a_missing_parent(tmp_path):
+    target = tmp_path / "lv"
+    target.mkdir()
+    (target / "mine.txt").write_text("keep")
+    run_cli("simplify", STALK, "--levels", str(target), "--duration", "1")
+    names = sorted(os.listdir(target))
+    assert "mine.txt" in names and "level1.lsys" in names
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
+    one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "no" / "lv"), exit_code=None),
+             2, "output directory does not exist")
+
+
+# --- random scene files: exit 0, 1 or 2 with one line, never an internal error -----------
+
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if value != value:
+            return "nan"
+        if value in (float("inf"), float("-inf")):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(value)
+
+
+SCALARS = st.one_of(
+    st.sampled_from([0, 1, -1, 2, 10**9, 10**30, 0.0, 0.01, -0.5, 1e-300, 1e308, float("nan"),
+                     float("inf"), True, "x", "", STALK, "no-such.lsys", ROOT.name]),
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-2**63, 2**63 - 1))
+VALUES = st.one_of(SCALARS, st.lists(SCALARS, max_size=5), st.dictionaries(
+    st.sampled_from(["t", "position", "target", "file", "x"]), SCALARS, max_size=3))
+KEYS = {
+    "": ["dt", "duration", "budget_px", "tree", "wind", "camera", "scatter", "x"],
+    "wind": ["speed", "direction", "gust_strength", "gust_seed", "front_speed", "x"],
+    "camera": ["position", "target", "fov_deg", "height_px", "key", "x"],
+    "scatter": ["files", "count", "seed", "area", "min_spacing", "scale", "x"],
+    "tree": ["file", "seed", "position", "heading", "scale", "x"],
+}
+
+
+@st.composite
+def scene_texts(draw) -> str:
+    top = {k: draw(VALUES) for k in draw(st.lists(st.sampled_from(["dt", "duration", "budget_px"]),
+                                                   unique=True))}
+    lines = [f"{k} = {_toml_value(v)}" for k, v in top.items()]
+    for table in ("wind", "camera", "scatter"):
+        if draw(st.booleans()):
+            lines.append(f"[{table}]")
+            base = {"camera": {"position": [0, -40, 1.7], "target": [0, 0, 1.7]},
+                    "scatter": {"files": [STALK], "count": 3, "area": [0, 0, 10, 10]}}.get(table, {})
+            values = dict(base) if draw(st.booleans()) else {}
+            for key in draw(st.lists(st.sampled_from(KEYS[table]), unique=True, max_size=3)):
+                values[key] = draw(VALUES)
+            lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
+    for _ in range(draw(st.integers(0, 2))):
+        lines.append("[[tree]]")
+        values = {"file": STALK} if draw(st.booleans()) else {}
+        for key in draw(st.lists(st.sampled_from(KEYS["tree"]), unique=True, max_size=3)):
+            values[key] = draw(VALUES)
+        lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _check_scene_text(tmp_path, text: str) -> None:
+    from plantlod.lsys.errors import InputError
+    from plantlod.scene.file import read_scene
+    from plantlod.scene.run import check_scene
+
+    path = tmp_path / "f.toml"
+    path.write_text(text)
+    try:
+        check_scene(read_scene(str(path)))
+    except InputError:
+        pass
+
+
+@settings(max_examples=200, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(scene_texts())
+def test_random_scene_files_raise_only_input_error(tmp_path, text):
+    _check_scene_text(tmp_path, text)
+
+
+VALID = HEAD.format(duration=1) + f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [0, 0, 9, 9]\n'
+
+
+@settings(max_examples=200, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.data())
+def test_random_edits_of_a_scene_file_raise_only_input_error(tmp_path, data):
+    text = list(VALID)
+    for _ in range(data.draw(st.integers(1, 4))):
+        at = data.draw(st.integers(0, len(text) - 1))
+        text[at] = data.draw(st.sampled_from(list("0123456789.-=[]{}\"'#\n ,eanifx")))
+    _check_scene_text(tmp_path, "".join(text))
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.lists(st.sampled_from(["--budget", "0", "-1", "nan", "1", "--frame-rate", "1e9", "30", "1e-300",
+                                 "--threads", "0", "2", "--report", "/dev/full", "-",
+                                 "--plot", "/no/such/p.png", "--angles", "/no/such/a.zarr",
+                                 "--no-cache", "--cache", "/dev/null", "--verify",
+                                 "--scheduler", "tcp://"]), max_size=5))
+def test_random_scene_options_follow_the_discipline(tmp_path, options):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration="0.05")
+    result = run_cli("scene", path, "--cache", str(tmp_path / "c"), *options, exit_code=None)
+    assert result.exit_code in (0, 1, 2), (options, result.exit_code, result.stderr)
+    assert "Traceback" not in result.stderr and "internal error" not in result.stderr, options
+    if result.exit_code:
+        assert "error:" in result.stderr.strip().splitlines()[-1], (options, result.stderr)
+
+
+@pytest.mark.parametrize("address", ["--budget", "foo", "tcp://", "tcp://host", "http://h:1 x"])
+def test_a_bad_scheduler_address_is_bad_input_before_any_work(tmp_path, address):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", "--scheduler", address, exit_code=None), 2,
+             "is not a scheduler address; expected tcp://HOST:PORT")
+
+
+@pytest.mark.parametrize("rate", ["1e-300", "0.5"])
+def test_a_frame_longer_than_the_scene_is_bad_input(tmp_path, rate):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", "--frame-rate", rate, exit_code=None), 2,
+             f"--frame-rate {rate} gives frames of", "longer than the scene's 1 s")
+
+
+def test_an_impossible_spacing_is_refused_without_drawing(tmp_path):
+    path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 100000\n'
+                                'area = [0, 0, 10, 10]\nmin_spacing = 5\n')
+    start = time.perf_counter()
+    one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+             "cannot place 100,000 trees 5 m apart in the area: at most 10 fit")
+    assert time.perf_counter() - start < 5

@@ -1,0 +1,182 @@
+"""Hardening of `plantlod view` and `plantlod export` (issue 24): a glTF is carried only when
+it is whole (GLB header and chunks, every index and byte range within what the file holds),
+and random glTF bytes and argument lists may only ever end in exit 0, 1 or 2 with one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import plantlod
+from golden_util import ROOT, run_cli
+from plantlod.export.view import glb_from_file
+from plantlod.lsys.errors import InputError
+from test_hardening_cli import no_temporary_files, one_line
+
+STALK = str(ROOT / "examples" / "stalk8.lsys")
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("hv")
+    tree = plantlod.derive(plantlod.read_lsystem(STALK))
+    angles = plantlod.simulate(tree, wind=(5.0, 0.0, 0.0), dt=0.01, steps=50, every=5)
+    plantlod.export_animation(tree, angles, folder / "s.glb")
+    plantlod.export_animation(tree, angles, folder / "s.gltf")
+    run_cli("simulate", STALK, "--dt", "0.01", "--steps", "50", "--wind-speed", "5",
+            "-o", str(folder / "s.csv"))
+    return folder
+
+
+def glb_parts(path) -> tuple[dict, bytes]:
+    data = path.read_bytes()
+    size = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + size])
+    return doc, data[20 + size + 8:]
+
+
+def make_glb(doc: dict, blob: bytes) -> bytes:
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    body = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(blob),
+                                                                          0x004E4942) + blob
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
+def view_refuses(tmp_path, data: bytes, *fragments: str) -> str:
+    path = tmp_path / "x.glb"
+    path.write_bytes(data)
+    out = tmp_path / "page.html"
+    line = one_line(run_cli("view", str(path), "-o", str(out), exit_code=None), 2,
+                    f"{path}: error:", *fragments)
+    assert not out.exists()
+    no_temporary_files(tmp_path)
+    return line
+
+
+@pytest.mark.parametrize("keep", [0.95, 0.6, 0.5])
+def test_a_truncated_glb_is_bad_input(files, tmp_path, keep):
+    data = (files / "s.glb").read_bytes()
+    view_refuses(tmp_path, data[:int(len(data) * keep)], "")
+
+
+def test_a_whole_file_still_makes_a_page(files, tmp_path):
+    run_cli("view", str(files / "s.glb"), str(files / "s.gltf"), "-o", str(tmp_path / "p.html"))
+    assert (tmp_path / "p.html").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda d: d["accessors"][0].update(count=10**9), "accessors[0] needs"),
+    (lambda d: d["accessors"][0].update(bufferView=99), "accessors[0].bufferView is 99"),
+    (lambda d: d["accessors"][0].update(componentType=1), "componentType is 1"),
+    (lambda d: d["accessors"][0].update(count=-1), "count must be a whole number"),
+    (lambda d: d["bufferViews"][0].update(byteLength=10**9), "bufferViews[0] spans bytes"),
+    (lambda d: d["buffers"][0].update(byteLength=10**9), "buffers[0] declares"),
+    (lambda d: d["nodes"][0].update(children=[0]), "more than one parent"),
+    (lambda d: d["nodes"][1].update(children=[0]), "own ancestors"),
+    (lambda d: d["nodes"][0].update(mesh=50), "nodes[0].mesh is 50"),
+    (lambda d: d["animations"][0]["channels"][0]["target"].update(node=10**6), "target.node"),
+    (lambda d: d["animations"][0]["samplers"][0].update(input=-1), "samplers[0].input is -1"),
+    (lambda d: d["meshes"][0]["primitives"][0].update(indices=77), "indices is 77"),
+    (lambda d: d.update(scene=3), "scene is 3"),
+    (lambda d: d["buffers"].append({"byteLength": 4}), "2 buffers"),
+])
+def test_indices_and_lengths_are_checked(files, tmp_path, edit, fragment):
+    doc, blob = glb_parts(files / "s.glb")
+    edit(doc)
+    view_refuses(tmp_path, make_glb(doc, blob), fragment)
+
+
+def test_external_buffers_are_checked(files, tmp_path):
+    doc = json.loads((files / "s.gltf").read_text())
+    for uri, fragment in [("missing.bin", "No such file"), ("/dev/zero", "not a regular file"),
+                          ("http://example.com/x.bin", "expected a data: URI")]:
+        doc["buffers"][0]["uri"] = uri
+        path = tmp_path / "e.gltf"
+        path.write_text(json.dumps(doc))
+        with pytest.raises(InputError, match=fragment):
+            glb_from_file(str(path))
+
+
+def test_a_file_too_large_is_refused_before_reading(files, tmp_path, monkeypatch):
+    import plantlod.export.view as view
+
+    monkeypatch.setattr(view, "VIEW_MAX_FILE_BYTES", 100)
+    with pytest.raises(InputError, match="more than the limit of 100"):
+        glb_from_file(str(files / "s.glb"))
+
+
+@settings(max_examples=200, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.data())
+def test_random_corruptions_of_a_glb(files, tmp_path, data):
+    raw = bytearray((files / ("s.glb" if data.draw(st.booleans()) else "s.gltf")).read_bytes())
+    for _ in range(data.draw(st.integers(1, 8))):
+        at = data.draw(st.integers(0, len(raw) - 1))
+        raw[at] = data.draw(st.integers(0, 255))
+    if data.draw(st.booleans()):
+        raw = raw[:data.draw(st.integers(0, len(raw)))]
+    path = tmp_path / ("r.glb" if data.draw(st.booleans()) else "r.gltf")
+    path.write_bytes(bytes(raw))
+    try:
+        glb_from_file(str(path))
+    except InputError:
+        pass
+
+
+JSON_VALUES = st.sampled_from([None, -1, 0, 1, 3, 10**12, 1.5, "x", [], {}, [0], [-1], True])
+GLTF_KEYS = st.sampled_from([
+    ("accessors", 0, "count"), ("accessors", 0, "bufferView"), ("accessors", 0, "byteOffset"),
+    ("accessors", 0, "type"), ("accessors", 0, "componentType"), ("bufferViews", 0, "buffer"),
+    ("bufferViews", 0, "byteLength"), ("bufferViews", 0, "byteStride"), ("buffers", 0, "byteLength"),
+    ("nodes", 0, "children"), ("nodes", 1, "mesh"), ("meshes", 0, "primitives"),
+    ("animations", 0, "samplers"), ("animations", 0, "channels"), ("scenes", 0, "nodes"),
+])
+
+
+@settings(max_examples=200, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(GLTF_KEYS, JSON_VALUES), min_size=1, max_size=3))
+def test_random_values_in_a_glb(files, tmp_path, edits):
+    doc, blob = glb_parts(files / "s.glb")
+    for (table, index, key), value in edits:
+        doc[table][index][key] = value
+    path = tmp_path / "v.glb"
+    path.write_bytes(make_glb(doc, blob))
+    try:
+        glb_from_file(str(path))
+    except InputError:
+        pass
+
+
+# --- random argument lists of export and view -------------------------------------------
+
+def _tokens(folder) -> st.SearchStrategy:
+    f = str(folder)
+    return st.sampled_from([
+        "export", "view", STALK, f"{f}/s.csv", f"{f}/s.glb", f"{f}/s.gltf", f"{f}/none.glb",
+        f"{f}/none.csv", f"{f}/none.npz", f, "-", "-o", f"{f}/out/x.glb", "/dev/null",
+        "/dev/full", f"{f}/o.glb", f"{f}/o.gltf", f"{f}/o.usda", f"{f}/o.html", f"{f}/o.txt",
+        "--fps", "30", "0", "-1", "nan", "1e400", "1001", "--frames", "0:3", "3:1", "a:b", "0:",
+        "--degrees", "--wind-direction", "90", "inf", "--title", "<t>", "", "x" * 300,
+    ])
+
+
+@settings(max_examples=120, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(st.data())
+def test_random_export_and_view_arguments_follow_the_discipline(files, data):
+    args = data.draw(st.lists(_tokens(files), min_size=1, max_size=8))
+    result = run_cli(*args, exit_code=None)
+    assert result.exit_code in (0, 1, 2), (args, result.exit_code, result.stderr)
+    assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
+    if result.exit_code:
+        assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
+    for name in os.listdir(files):
+        assert not name.startswith(".plantlod-"), name
