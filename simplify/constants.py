@@ -56,8 +56,8 @@ SMALL_ANGLE_LIMIT = 0.1       # rad: the bounds apply while the original's combi
 # "The explicit form"; bench/lod_table.py measured the choice).
 EXPLICIT_REFINE_FLOOR = 1.0
 EXPLICIT_REFINE_PRIOR = 0.03
-EXPLICIT_REFINE_EVALUATIONS = 100
-EXPLICIT_REFINE_LSMR_ITERATIONS = 50   # bent_leafy level 1: 18 % motion error at 25, 3.5 % at 50
+EXPLICIT_REFINE_EVALUATIONS = 30    # 100 before the gain matrix: same passes on the eval trees, 3-4x the time
+EXPLICIT_REFINE_LSMR_ITERATIONS = 25   # 50 before the gain matrix (bent_leafy needed it then; no longer)
 # Equivalent leaves of an explicit level: the eigen-leaves ("eigen"), or the nine basis leaves
 # ("basis") where their fit has at most BASIS_LEAF_GAIN x the static error
 # (simplify/explicit.py). Basis

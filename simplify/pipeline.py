@@ -151,7 +151,8 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
         return grammar
-    if bounds_score(explicit.reports, options.level, explicit.largest_angles) < grammar_score:
+    if form_rank(explicit.reports, options.level, explicit.largest_angles) \
+            < form_rank(grammar.reports, options.level, grammar.largest_angles):
         explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
                                  f"({_bounds_text(grammar.reports)})")
         return explicit
@@ -237,6 +238,20 @@ def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
             if math.isfinite(value):
                 worst = max(worst, value / limit)
     return worst
+
+
+def form_rank(reports: list[tuple[WindCase, Report]], level: int,
+              largest_angles: list[float] | None = None) -> tuple[int, float]:
+    """How `--form auto` ranks two forms that both miss their bounds: first by the winds in
+    which a form misses them (a viewer sees the level in every wind, so the form that holds
+    in more of them wins), then by `bounds_score`. The winds counted as `bounds_score`
+    counts them."""
+    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
+    if len(small) != len(reports) or not any(small):
+        small = [True] * len(reports)
+    misses = sum(1 for item, counts in zip(reports, small)
+                 if counts and bounds_score([item], level) > 1.0)
+    return misses, bounds_score(reports, level, largest_angles)
 
 
 def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:

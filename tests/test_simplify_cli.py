@@ -114,3 +114,9 @@ def test_bounds_score_leaves_out_winds_past_the_small_angle_limit():
     assert bounds_score(reports, 1, [0.01, 0.02]) == pytest.approx(4.0)
     assert bounds_score(reports, 1, [1.0, 2.0]) == pytest.approx(4.0)     # none small: all count
     assert bounds_score(reports, 1) == pytest.approx(4.0)
+    # --form auto ranks by the winds missed first: one miss of 4x beats two of 1.5x
+    from plantlod.simplify.pipeline import form_rank
+
+    assert form_rank(reports, 1, [0.01, 0.02]) == (1, pytest.approx(4.0))
+    two_small_misses = [report(1.5 * motion_bound), report(1.5 * motion_bound)]
+    assert form_rank(reports, 1, [0.01, 0.02]) < form_rank(two_small_misses, 1, [0.01, 0.02])
