@@ -22,36 +22,28 @@ from plantlod.sim.trig import INVPIO2, TESTED_RANGE, sincos, sincos1
 PI = Fraction("3.14159265358979323846264338327950288419716939937510582097494")
 
 
-@numba.njit(cache=True)
-def _scalar(x, s, c):
-    for i in range(x.shape[0]):
-        a, b = sincos(x[i])
-        s[i] = a
-        c[i] = b
+def _scalar_kernel(fn):
+    """A compiled loop calling ``fn`` (sincos or sincos1) on each float of x."""
+    def run(x, s, c):
+        for i in range(x.shape[0]):
+            a, b = fn(x[i])
+            s[i] = a
+            c[i] = b
+    return numba.njit(run)
 
 
-@numba.njit(cache=True)
-def _packed(x, s, c):
-    for i in range(0, x.shape[0] - x.shape[0] % 4, 4):
-        a, b = sincos(vec4.load(x, i))
-        vec4.store(s, i, a)
-        vec4.store(c, i, b)
+def _packed_kernel(fn):
+    """A compiled loop calling ``fn`` (sincos or sincos4) on 4 floats of x at a time."""
+    def run(x, s, c):
+        for i in range(0, x.shape[0] - x.shape[0] % 4, 4):
+            a, b = fn(vec4.load(x, i))
+            vec4.store(s, i, a)
+            vec4.store(c, i, b)
+    return numba.njit(run)
 
 
-@numba.njit(cache=True)
-def _scalar_fast(x, s, c):
-    for i in range(x.shape[0]):
-        a, b = sincos1(x[i])
-        s[i] = a
-        c[i] = b
-
-
-@numba.njit(cache=True)
-def _packed_fast(x, s, c):
-    for i in range(0, x.shape[0] - x.shape[0] % 4, 4):
-        a, b = sincos4(vec4.load(x, i))
-        vec4.store(s, i, a)
-        vec4.store(c, i, b)
+_scalar, _packed = _scalar_kernel(sincos), _packed_kernel(sincos)
+_scalar_fast, _packed_fast = _scalar_kernel(sincos1), _packed_kernel(sincos4)
 
 
 def _compiled(x):
@@ -147,8 +139,7 @@ def test_fast_paths_give_the_same_bits():
 
 
 def test_generated_code_is_packed_and_unfused():
-    # inspect_asm needs code compiled in this process, not loaded from the cache
-    scalar_fn, packed_fn = numba.njit(_scalar.py_func), numba.njit(_packed.py_func)
+    scalar_fn, packed_fn = _scalar_kernel(sincos), _packed_kernel(sincos)
     scalar_fn(np.zeros(4), np.zeros(4), np.zeros(4))
     packed_fn(np.zeros(4), np.zeros(4), np.zeros(4))
     scalar = scalar_fn.inspect_asm(scalar_fn.signatures[0])
