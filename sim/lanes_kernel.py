@@ -10,7 +10,8 @@ Memory layout (docs/engine.md)::
 
     shared per branch      parent (B,)  rest (B, 9)  cos_psi, sin_psi (B,)  gain (B, 6)
     parameters             (B,) shared (broadcast), or (B, W) one value per lane
-    state                  (B, W): lane index last, 4 lanes loaded as one Vec4
+    state                  (B, W): lane index last; a block copies its 4 lanes to (B, 4)
+                           arrays of its own while it runs, 4 lanes loaded as one Vec4
     scratch per block      frames (B, 9, 4), swing axes (B, 9, 4), forces (B, 3, 4)
     output                 (W, T, B): one run per lane, as the single kernel writes it
 
@@ -96,6 +97,18 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
         swing_axes = np.empty((n, 9, BLOCK))      # S_i e_x, S_i e_y, S_i e_z
         acc = np.empty((n, 3, BLOCK))
         dragf = np.empty((n, 3, BLOCK))
+        # the block's state in arrays of its own: in the shared (B, W) planes two blocks'
+        # lanes share a cache line, and two cores writing it would take turns (false sharing)
+        bend_l = np.empty((n, BLOCK))
+        rot_l = np.empty((n, BLOCK))
+        vb_l = np.empty((n, BLOCK))
+        vr_l = np.empty((n, BLOCK))
+        for i in range(n):
+            for k in range(BLOCK):
+                bend_l[i, k] = bend[i, l0 + k]
+                rot_l[i, k] = rot[i, l0 + k]
+                vb_l[i, k] = bend_vel[i, l0 + k]
+                vr_l[i, k] = rot_vel[i, l0 + k]
         rows = 0
         stopped = False
         for j in range(n_steps):
@@ -125,8 +138,8 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                     m = (splat(rest[i, 0]), splat(rest[i, 1]), splat(rest[i, 2]),
                          splat(rest[i, 3]), splat(rest[i, 4]), splat(rest[i, 5]),
                          splat(rest[i, 6]), splat(rest[i, 7]), splat(rest[i, 8]))
-                tb = load(bend, (i, l0))
-                tr = load(rot, (i, l0))
+                tb = load(bend_l, (i, 0))
+                tr = load(rot_l, (i, 0))
                 theta = math.sqrt(tb * tb + tr * tr)
                 s, c = sincos4(theta)
                 sw = swing(m, tb, tr, theta, c, s)
@@ -187,14 +200,14 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                           + fz * load(swing_axes, (i, 8, 0)))
                     fb, fr = gained_forces(gain[i, 0], gain[i, 1], gain[i, 2], gain[i, 3],
                                            gain[i, 4], gain[i, 5], fb, fr, fa)
-                tb, vb = advance_angle(load(bend, (i, l0)), load(bend_vel, (i, l0)), kfa, fb,
+                tb, vb = advance_angle(load(bend_l, (i, 0)), load(vb_l, (i, 0)), kfa, fb,
                                        param(bend_k, i, l0), param(damp_b, i, l0), dt)
-                tr, vr = advance_angle(load(rot, (i, l0)), load(rot_vel, (i, l0)), kfa, fr,
+                tr, vr = advance_angle(load(rot_l, (i, 0)), load(vr_l, (i, 0)), kfa, fr,
                                        param(rot_k, i, l0), param(damp_r, i, l0), dt)
-                store(bend_vel, (i, l0), vb)
-                store(rot_vel, (i, l0), vr)
-                store(bend, (i, l0), tb)
-                store(rot, (i, l0), tr)
+                store(vb_l, (i, 0), vb)
+                store(vr_l, (i, 0), vr)
+                store(bend_l, (i, 0), tb)
+                store(rot_l, (i, 0), tr)
                 finite = isfinite4(tb) & isfinite4(tr)
                 if any_lane(~finite):
                     for k in range(BLOCK):
@@ -209,8 +222,14 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                 for k in range(BLOCK):
                     l = l0 + k
                     for i in range(n):
-                        out_bend[l, r, i] = bend[i, l]
-                        out_rot[l, r, i] = rot[i, l]
+                        out_bend[l, r, i] = bend_l[i, k]
+                        out_rot[l, r, i] = rot_l[i, k]
                 rows += 1
+        for i in range(n):
+            for k in range(BLOCK):
+                bend[i, l0 + k] = bend_l[i, k]
+                rot[i, l0 + k] = rot_l[i, k]
+                bend_vel[i, l0 + k] = vb_l[i, k]
+                rot_vel[i, l0 + k] = vr_l[i, k]
         for k in range(BLOCK):
             rows_written[l0 + k] = rows
