@@ -306,3 +306,20 @@ def test_an_impossible_spacing_is_refused_without_drawing(tmp_path):
     one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
              "cannot place 100,000 trees 5 m apart in the area: at most 10 fit")
     assert time.perf_counter() - start < 5
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_signal_during_compare_obj_frames_leaves_no_folder(tmp_path, existing):
+    out = tmp_path / "out"
+    out.mkdir()
+    target = out / "frames"
+    if existing:
+        target.mkdir()
+    script = SLOWED.format(module="plantlod.export.obj", name="obj_text", extra="")
+    _signal_when_a_temporary_appears(out, script, ["compare", STALK, STALK, "--dt", "0.01",
+                                                   "--steps", "200", "--wind-speed", "3",
+                                                   "--obj", str(target), "--every", "10",
+                                                   "-o", os.devnull], 15)
+    assert os.listdir(out) == (["frames"] if existing else [])
+    if existing:
+        assert os.listdir(target) == []
