@@ -323,3 +323,12 @@ def test_a_signal_during_compare_obj_frames_leaves_no_folder(tmp_path, existing)
     assert os.listdir(out) == (["frames"] if existing else [])
     if existing:
         assert os.listdir(target) == []
+
+
+def test_a_scene_file_is_read_as_every_text_input(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_bytes(b"dt = 0.01\nduration = \xff\n")
+    one_line(run_cli("scene", str(path), exit_code=None), 2,
+             f"{path}:2:12: error: not UTF-8 text")
+    one_line(run_cli("scene", str(tmp_path), exit_code=None), 2, "is a directory, not a file")
+    one_line(run_cli("scene", str(tmp_path / "none.toml"), exit_code=None), 2, "no such file")
