@@ -23,7 +23,7 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import atomic_path
+from plantlod.formats.atomic import atomic_path, hold, release, remove_pending
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -163,12 +163,8 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             yield out
         return
     with _write_errors(path), atomic_path(path) as tmp:
-        _temporary.add(tmp)
-        try:
-            with _open_stream(tmp, binary) as out:
-                yield out
-        finally:
-            _temporary.discard(tmp)
+        with _open_stream(tmp, binary) as out:
+            yield out
 
 
 class WholeWrites:
@@ -210,18 +206,10 @@ class WholeWrites:
         self.close()
 
 
-_temporary: set[str] = set()     # temporary files open_output holds right now
-_temporary_folders: set[str] = set()     # temporary folders output_folder holds right now
-
-
 def remove_temporary_files() -> None:
-    """Remove every temporary file of `open_output` and every temporary folder of
-    `output_folder` (the signal handler calls this)."""
-    for tmp in list(_temporary):
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-    for folder in list(_temporary_folders):
-        shutil.rmtree(folder, ignore_errors=True)
+    """Remove every temporary file and folder being written (`open_output`, `output_folder`,
+    the exporters: all register with formats.atomic); the signal handler calls this."""
+    remove_pending()
 
 
 @contextlib.contextmanager
@@ -243,7 +231,7 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                          else "is not a folder", path)
     with _write_errors(path), _signals_held():
         tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=parent)
-        _temporary_folders.add(tmp)
+        hold(tmp)
     try:
         yield tmp
         with _write_errors(path):
@@ -255,7 +243,7 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                 os.replace(tmp, path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        _temporary_folders.discard(tmp)
+        release(tmp)
 
 
 @contextlib.contextmanager

@@ -180,3 +180,27 @@ def test_random_export_and_view_arguments_follow_the_discipline(files, data):
         assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
     for name in os.listdir(files):
         assert not name.startswith(".plantlod-"), name
+
+
+@pytest.mark.parametrize("signum", [2, 15])
+def test_a_signal_during_export_leaves_no_temporary_file(files, tmp_path, signum):
+    from test_hardening_scene import SLOWED, _signal_when_a_temporary_appears
+
+    out = tmp_path / "out"
+    out.mkdir()
+    script = SLOWED.format(module="plantlod.export.gltf", name="gltf_bytes", extra="")
+    _signal_when_a_temporary_appears(out, script, ["export", STALK, str(files / "s.csv"), "-o",
+                                                   str(out / "x.glb")], signum)
+    assert os.listdir(out) == []
+
+
+def test_a_disk_filling_up_during_export_is_exit_1(files, tmp_path):
+    import subprocess
+
+    from test_hardening_cli import PLANTLOD
+
+    done = subprocess.run(["bash", "-c", f"trap '' XFSZ; ulimit -f 4; {PLANTLOD} export {STALK} "
+                           f"{files / 's.csv'} -o {tmp_path / 'x.gltf'}"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1 and "File too large" in done.stderr, done.stderr
+    assert os.listdir(tmp_path) == []
