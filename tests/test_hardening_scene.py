@@ -146,19 +146,30 @@ def test_a_failure_after_the_store_leaves_no_store(tmp_path):
     assert os.listdir(out) == []
 
 
+# command that fills a folder: (module, function slowed down, arguments for the folder)
+FOLDER_COMMANDS = {
+    "simplify --levels": ("plantlod.simplify.pipeline", "simplify_explicit",
+                          lambda t: ["simplify", STALK, "--levels", t, "--duration", "1"]),
+    "compare --obj": ("plantlod.export.obj", "obj_text",
+                      lambda t: ["compare", STALK, STALK, "--dt", "0.01", "--steps", "200",
+                                 "--wind-speed", "3", "--obj", t, "--every", "10",
+                                 "-o", os.devnull]),
+}
+
+
+@pytest.mark.parametrize("command", sorted(FOLDER_COMMANDS))
 @pytest.mark.parametrize("existing", [False, True])
-def test_a_signal_during_simplify_levels_leaves_no_folder(tmp_path, existing):
+def test_a_signal_while_filling_a_folder_leaves_it_as_it_was(tmp_path, command, existing):
     out = tmp_path / "out"
     out.mkdir()
-    target = out / "levels"
+    target = out / "folder"
     if existing:
         target.mkdir()
         (target / "mine.txt").write_text("keep")
-    script = SLOWED.format(module="plantlod.simplify.pipeline", name="simplify_explicit",
-                           extra="")
-    _signal_when_a_temporary_appears(out, script, ["simplify", STALK, "--levels", str(target),
-                                                   "--duration", "1"], 2)
-    assert os.listdir(out) == (["levels"] if existing else [])
+    module, name, args = FOLDER_COMMANDS[command]
+    script = SLOWED.format(module=module, name=name, extra="")
+    _signal_when_a_temporary_appears(out, script, args(str(target)), 2)
+    assert os.listdir(out) == (["folder"] if existing else [])
     if existing:
         assert os.listdir(target) == ["mine.txt"]
 
@@ -306,23 +317,6 @@ def test_an_impossible_spacing_is_refused_without_drawing(tmp_path):
     one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
              "cannot place 100,000 trees 5 m apart in the area: at most 10 fit")
     assert time.perf_counter() - start < 5
-
-
-@pytest.mark.parametrize("existing", [False, True])
-def test_a_signal_during_compare_obj_frames_leaves_no_folder(tmp_path, existing):
-    out = tmp_path / "out"
-    out.mkdir()
-    target = out / "frames"
-    if existing:
-        target.mkdir()
-    script = SLOWED.format(module="plantlod.export.obj", name="obj_text", extra="")
-    _signal_when_a_temporary_appears(out, script, ["compare", STALK, STALK, "--dt", "0.01",
-                                                   "--steps", "200", "--wind-speed", "3",
-                                                   "--obj", str(target), "--every", "10",
-                                                   "-o", os.devnull], 15)
-    assert os.listdir(out) == (["frames"] if existing else [])
-    if existing:
-        assert os.listdir(target) == []
 
 
 def test_a_scene_file_is_read_as_every_text_input(tmp_path):
