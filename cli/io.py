@@ -171,13 +171,15 @@ class WholeWrites:
     """A binary stream's writer that writes every byte or raises: a buffered stream may
     accept part of a large write and report it by a short count (a disk that fills up
     mid-write), which a text layer drops without a word. ``text``: write() takes str
-    (UTF-8, no newline translation)."""
+    (UTF-8, no newline translation; a character UTF-8 cannot hold, such as the lone
+    surrogate that stands for an undecodable byte of a file name, is written as its
+    escape ``\\udcff``, which a JSON reader turns back into it)."""
 
     def __init__(self, stream: IO[bytes], text: bool):
         self.stream, self.text = stream, text
 
     def write(self, data) -> int:
-        raw = data.encode("utf-8") if self.text else data
+        raw = data.encode("utf-8", "backslashreplace") if self.text else data
         view = memoryview(raw).cast("B")
         while len(view):
             n = self.stream.write(view)

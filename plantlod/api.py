@@ -441,7 +441,7 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
     from plantlod.formats.atomic import atomic_path, write_whole
 
     with atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
-        write_whole(tmp, text.encode("utf-8"))
+        write_whole(tmp, text.encode("utf-8", "backslashreplace"))
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",
            "simulate", "read_angles", "write_angles", "simplify", "compare",
