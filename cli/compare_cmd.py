@@ -140,8 +140,6 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
-    if obj_dir is not None and not os.path.isdir(os.path.dirname(os.path.abspath(obj_dir))):
-        raise InputError("output directory does not exist", obj_dir)
     for path in (output, plot_path):
         check_output_path(path)
 

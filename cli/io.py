@@ -216,23 +216,26 @@ def remove_temporary_files() -> None:
 
 @contextlib.contextmanager
 def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[str]:
-    """A new, empty temporary folder ``.plantlod-*SUFFIX`` beside ``path`` to fill.
+    """A new, empty temporary folder ``.plantlod-*SUFFIX`` to fill, beside ``path`` (or
+    beside its nearest existing ancestor, when folders on the way are still missing).
 
-    When the block ends normally it becomes ``path`` (renamed), or with ``merge`` and an
-    existing folder ``path``, its files are moved into that folder; on any exception, and on
-    a signal (`remove_temporary_files`), it is removed with everything in it, so a failed
-    run leaves no folder behind. A missing parent folder is an `InputError`.
+    When the block ends normally the missing folders on the way are made and the temporary
+    one becomes ``path`` (renamed), or with ``merge`` and an existing folder ``path``, its
+    files are moved into that folder; on any exception, and on a signal
+    (`remove_temporary_files`), it is removed with everything in it, so a failed run leaves
+    no folder behind, not even the ones on the way.
     """
     if not path:
         raise InputError("the output folder name is empty")
-    parent = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(parent):
-        raise InputError("output directory does not exist", path)
-    if os.path.exists(path) and not (merge and os.path.isdir(path)):
-        raise InputError("exists; expected a new path" if not os.path.isdir(path) or not merge
-                         else "is not a folder", path)
+    if os.path.lexists(path) and not (merge and os.path.isdir(path)):
+        raise InputError("is not a folder" if merge else "exists; expected a new path", path)
+    base = os.path.dirname(os.path.abspath(path))
+    while not os.path.lexists(base):
+        base = os.path.dirname(base)
+    if not os.path.isdir(base):
+        raise InputError(f"{base} is not a folder", path)
     with _write_errors(path), _signals_held():
-        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=parent)
+        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=base)
         hold(tmp)
     try:
         yield tmp
@@ -242,6 +245,7 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                     os.replace(os.path.join(tmp, name), os.path.join(path, name))
                 os.rmdir(tmp)
             else:
+                os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
                 os.replace(tmp, path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -158,11 +158,12 @@ FOLDER_COMMANDS = {
 
 
 @pytest.mark.parametrize("command", sorted(FOLDER_COMMANDS))
-@pytest.mark.parametrize("existing", [False, True])
+@pytest.mark.parametrize("existing", [False, True, "nested"])
 def test_a_signal_while_filling_a_folder_leaves_it_as_it_was(tmp_path, command, existing):
     out = tmp_path / "out"
     out.mkdir()
-    target = out / "folder"
+    target = out / "new" / "folder" if existing == "nested" else out / "folder"
+    existing = existing is True
     if existing:
         target.mkdir()
         (target / "mine.txt").write_text("keep")
@@ -174,7 +175,7 @@ def test_a_signal_while_filling_a_folder_leaves_it_as_it_was(tmp_path, command, 
         assert os.listdir(target) == ["mine.txt"]
 
 
-def test_simplify_levels_fills_an_existing_folder_and_refuses_a_missing_parent(tmp_path):
+def test_simplify_levels_fills_an_existing_folder_or_makes_a_new_one(tmp_path):
     target = tmp_path / "lv"
     target.mkdir()
     (target / "mine.txt").write_text("keep")
@@ -182,8 +183,12 @@ def test_simplify_levels_fills_an_existing_folder_and_refuses_a_missing_parent(t
     names = sorted(os.listdir(target))
     assert "mine.txt" in names and "level1.lsys" in names
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
-    one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "no" / "lv"), exit_code=None),
-             2, "output directory does not exist")
+    run_cli("simplify", STALK, "--levels", str(tmp_path / "new" / "lv"), "--duration", "1")
+    assert "level1.lsys" in os.listdir(tmp_path / "new" / "lv")
+    assert sorted(os.listdir(tmp_path)) == ["lv", "new"]
+    (tmp_path / "afile").write_text("x")
+    one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "afile" / "lv"),
+                     exit_code=None), 2, "afile is not a folder")
 
 
 # --- random scene files: exit 0, 1 or 2 with one line, never an internal error -----------
