@@ -179,7 +179,8 @@ def test_signal_mid_run_removes_the_temporary_file(tmp_path, signum):
     out = tmp_path / "big.csv"
     proc = subprocess.Popen([PLANTLOD, "simulate", str(ROOT / STALK8), "--dt", "0.01",
                              "--steps", "100000000", "--wind-speed", "5", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
         assert proc.poll() is None and time.monotonic() < deadline

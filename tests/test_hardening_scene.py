@@ -102,13 +102,21 @@ main()
 """
 
 
+def default_signals() -> None:
+    """In the child: SIGINT at its default, even when this test runs in the background of a
+    shell (which starts it ignored, and plantlod keeps an ignored signal ignored)."""
+    import signal as _signal
+
+    _signal.signal(_signal.SIGINT, _signal.SIG_DFL)
+
+
 def _signal_when_a_temporary_appears(tmp_path, script: str, args: list[str], signum: int):
-    import signal as _signal  # noqa: F401
     import subprocess
     import sys
 
     proc = subprocess.Popen([sys.executable, "-c", script, *args], cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_signals)
     deadline = time.monotonic() + 120
     while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
         assert proc.poll() is None, proc.communicate()[1]
@@ -294,7 +302,10 @@ def test_random_edits_of_a_scene_file_raise_only_input_error(tmp_path, data):
                                  "--scheduler", "tcp://"]), max_size=5))
 def test_random_scene_options_follow_the_discipline(tmp_path, options):
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration="0.05")
-    result = run_cli("scene", path, "--cache", str(tmp_path / "c"), *options, exit_code=None)
+    work = tmp_path / "work"            # an option taken as a file name lands here
+    work.mkdir(exist_ok=True)
+    result = run_cli("scene", path, "--cache", str(tmp_path / "c"), *options, exit_code=None,
+                     cwd=work)
     assert result.exit_code in (0, 1, 2), (options, result.exit_code, result.stderr)
     assert "Traceback" not in result.stderr and "internal error" not in result.stderr, options
     if result.exit_code:

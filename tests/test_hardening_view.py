@@ -168,12 +168,25 @@ def _tokens(folder) -> st.SearchStrategy:
     ])
 
 
+@pytest.fixture(scope="module")
+def fuzz_files(files, tmp_path_factory):
+    """Copies of the inputs that random commands may also overwrite (and their folder,
+    where an option taken as an output name lands)."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("fuzz")
+    for name in ("s.csv", "s.glb", "s.gltf"):
+        shutil.copy(files / name, folder / name)
+    return folder
+
+
 @settings(max_examples=120, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(st.data())
-def test_random_export_and_view_arguments_follow_the_discipline(files, data):
+def test_random_export_and_view_arguments_follow_the_discipline(fuzz_files, data):
+    files = fuzz_files
     args = data.draw(st.lists(_tokens(files), min_size=1, max_size=8))
-    result = run_cli(*args, exit_code=None)
+    result = run_cli(*args, exit_code=None, cwd=files)
     assert result.exit_code in (0, 1, 2), (args, result.exit_code, result.stderr)
     assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
     if result.exit_code:
