@@ -23,7 +23,7 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import atomic_path, hold, release, remove_pending
+from plantlod.formats.atomic import atomic_path, hold, release, remove_pending, usual_file_mode
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -246,6 +246,7 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                 os.rmdir(tmp)
             else:
                 os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+                os.chmod(tmp, usual_file_mode(folder=True))
                 os.replace(tmp, path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

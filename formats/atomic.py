@@ -17,11 +17,12 @@ from typing import Iterator
 _pending: set[str] = set()        # temporary files and folders held right now
 
 
-def usual_file_mode() -> int:
-    """0o666 minus the umask: the mode `open()` would give a new file (mkstemp gives 0o600)."""
+def usual_file_mode(folder: bool = False) -> int:
+    """0o666 minus the umask: the mode `open()` would give a new file (mkstemp gives 0o600);
+    with ``folder``, 0o777 minus the umask, what `os.mkdir` gives (mkdtemp gives 0o700)."""
     umask = os.umask(0)
     os.umask(umask)
-    return 0o666 & ~umask
+    return (0o777 if folder else 0o666) & ~umask
 
 
 def hold(path: str) -> None:

@@ -190,9 +190,12 @@ def test_simplify_levels_fills_an_existing_folder_or_makes_a_new_one(tmp_path):
     run_cli("simplify", STALK, "--levels", str(target), "--duration", "1")
     names = sorted(os.listdir(target))
     assert "mine.txt" in names and "level1.lsys" in names
+    umask = os.umask(0)
+    os.umask(umask)
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
     run_cli("simplify", STALK, "--levels", str(tmp_path / "new" / "lv"), "--duration", "1")
     assert "level1.lsys" in os.listdir(tmp_path / "new" / "lv")
+    assert (tmp_path / "new" / "lv").stat().st_mode & 0o777 == 0o777 & ~umask   # as mkdir
     assert sorted(os.listdir(tmp_path)) == ["lv", "new"]
     (tmp_path / "afile").write_text("x")
     one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "afile" / "lv"),
