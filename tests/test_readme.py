@@ -42,7 +42,8 @@ def run_block(language: str, code: str, line: int, cwd, timeout: int, root=ROOT)
     done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=timeout)
     assert done.returncode == 0, (f"README.md:{line}: the {language} block ended "
-                                  f"{done.returncode}:\n{done.stderr[-3000:]}")
+                                  f"{done.returncode}:\n{done.stdout[-2000:]}\n"
+                                  f"{done.stderr[-3000:]}")
     assert "Traceback" not in done.stderr and "error:" not in done.stderr, done.stderr[-3000:]
 
 
