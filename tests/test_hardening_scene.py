@@ -345,3 +345,16 @@ def test_a_scene_file_is_read_as_every_text_input(tmp_path):
              f"{path}:2:12: error: not UTF-8 text")
     one_line(run_cli("scene", str(tmp_path), exit_code=None), 2, "is a directory, not a file")
     one_line(run_cli("scene", str(tmp_path / "none.toml"), exit_code=None), 2, "no such file")
+
+
+def test_a_scene_of_trees_without_branches_warns_and_writes_valid_json(tmp_path):
+    import json
+
+    lsys = tmp_path / "nb.lsys"
+    lsys.write_text("derivation_length: 1\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+                    "force_propagated: 0.7\naxiom: A\n")
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{lsys}"\n', duration="0.5")
+    result = run_cli("scene", path, "--no-cache")
+    assert "warning: " in result.stderr and "no branch symbol declared" in result.stderr
+    assert "(no branches)" in result.stderr
+    assert json.loads(result.stdout, parse_constant=lambda c: pytest.fail(c))["speedup"] is None
