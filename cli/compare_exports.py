@@ -9,7 +9,7 @@ import os
 from plantlod.lsys.errors import InputError
 from plantlod.compare.constants import DEFAULT_PLOT_TIME
 
-from .io import open_output, say
+from .io import open_output, output_folder, say
 
 
 def _sample_index(times, t: float, option: str) -> int:
@@ -67,17 +67,18 @@ def write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
 
     written = 0
     if obj_dir is not None:
-        os.makedirs(obj_dir, exist_ok=True)    # created only once every run succeeded
-    for t, k in at_frames:
-        with open_output(os.path.join(obj_dir, f"frame_t{t:g}.obj")) as out:
-            out.write(frame(k))
-        written += 1
-    if every is not None:
-        for number, k in enumerate(range(0, len(times), every)):
-            with open_output(os.path.join(obj_dir, f"frame_{number:05d}.obj")) as out:
-                out.write(frame(k))
-            written += 1
-    if obj_dir is not None:
+        # every frame into a temporary folder beside DIR, moved into DIR when all are
+        # written: a failure or a signal leaves neither part of them nor a new empty DIR
+        with output_folder(obj_dir, merge=True) as folder:
+            for t, k in at_frames:
+                with open_output(os.path.join(folder, f"frame_t{t:g}.obj")) as out:
+                    out.write(frame(k))
+                written += 1
+            if every is not None:
+                for number, k in enumerate(range(0, len(times), every)):
+                    with open_output(os.path.join(folder, f"frame_{number:05d}.obj")) as out:
+                        out.write(frame(k))
+                    written += 1
         say(f"compare: wrote {written} OBJ file(s) to {obj_dir}")
     if png is not None:
         with open_output(plot_path, binary=True) as out:

@@ -36,14 +36,17 @@ def derive(file, output, fmt, steps, max_modules):
       plantlod derive examples/abop_1_24a.lsys --format string -n 2
       plantlod derive examples/stalk8.lsys | plantlod simulate - --dt 0.01 --steps 400
     """
+    from plantlod.formats.npz import is_npz, tree_bytes
     from plantlod.lsys.build import build
 
+    if is_npz(output) and fmt == "string":
+        raise click.UsageError("--format string writes text; an .npz archive holds a tree "
+                               "(give -o FILE.txt, or drop --format string)")
     start = time.perf_counter()
     system = load_system(file)
     built = build(system, steps, max_modules=max_modules)
     for message in built.warnings:
         warn_once_running(f"{display_name(file)}: {message}")
-    from plantlod.formats.npz import is_npz, tree_bytes
 
     if is_npz(output) and fmt == "tree":
         with open_output(output, binary=True) as out:

@@ -23,7 +23,7 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import atomic_path
+from plantlod.formats.atomic import atomic_path, hold, release, remove_pending, usual_file_mode
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -175,25 +175,23 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             yield out
         return
     with _write_errors(path), atomic_path(path) as tmp:
-        _temporary.add(tmp)
-        try:
-            with _open_stream(tmp, binary) as out:
-                yield out
-        finally:
-            _temporary.discard(tmp)
+        with _open_stream(tmp, binary) as out:
+            yield out
 
 
 class WholeWrites:
     """A binary stream's writer that writes every byte or raises: a buffered stream may
     accept part of a large write and report it by a short count (a disk that fills up
     mid-write), which a text layer drops without a word. ``text``: write() takes str
-    (UTF-8, no newline translation)."""
+    (UTF-8, no newline translation; a character UTF-8 cannot hold, such as the lone
+    surrogate that stands for an undecodable byte of a file name, is written as its
+    escape ``\\udcff``, which a JSON reader turns back into it)."""
 
     def __init__(self, stream: IO[bytes], text: bool):
         self.stream, self.text = stream, text
 
     def write(self, data) -> int:
-        raw = data.encode("utf-8") if self.text else data
+        raw = data.encode("utf-8", "backslashreplace") if self.text else data
         view = memoryview(raw).cast("B")
         while len(view):
             n = self.stream.write(view)
@@ -222,40 +220,35 @@ class WholeWrites:
         self.close()
 
 
-_temporary: set[str] = set()     # temporary files open_output holds right now
-_temporary_folders: set[str] = set()     # temporary folders output_folder holds right now
-
-
 def remove_temporary_files() -> None:
-    """Remove every temporary file of `open_output` and every temporary folder of
-    `output_folder` (the signal handler calls this)."""
-    for tmp in list(_temporary):
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-    for folder in list(_temporary_folders):
-        shutil.rmtree(folder, ignore_errors=True)
+    """Remove every temporary file and folder being written (`open_output`, `output_folder`,
+    the exporters: all register with formats.atomic); the signal handler calls this."""
+    remove_pending()
 
 
 @contextlib.contextmanager
 def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[str]:
-    """A new, empty temporary folder ``.plantlod-*SUFFIX`` beside ``path`` to fill.
+    """A new, empty temporary folder ``.plantlod-*SUFFIX`` to fill, beside ``path`` (or
+    beside its nearest existing ancestor, when folders on the way are still missing).
 
-    When the block ends normally it becomes ``path`` (renamed), or with ``merge`` and an
-    existing folder ``path``, its files are moved into that folder; on any exception, and on
-    a signal (`remove_temporary_files`), it is removed with everything in it, so a failed
-    run leaves no folder behind. A missing parent folder is an `InputError`.
+    When the block ends normally the missing folders on the way are made and the temporary
+    one becomes ``path`` (renamed), or with ``merge`` and an existing folder ``path``, its
+    files are moved into that folder; on any exception, and on a signal
+    (`remove_temporary_files`), it is removed with everything in it, so a failed run leaves
+    no folder behind, not even the ones on the way.
     """
     if not path:
         raise InputError("the output folder name is empty")
-    parent = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(parent):
-        raise InputError("output directory does not exist", path)
-    if os.path.exists(path) and not (merge and os.path.isdir(path)):
-        raise InputError("exists; expected a new path" if not os.path.isdir(path) or not merge
-                         else "is not a folder", path)
+    if os.path.lexists(path) and not (merge and os.path.isdir(path)):
+        raise InputError("is not a folder" if merge else "exists; expected a new path", path)
+    base = os.path.dirname(os.path.abspath(path))
+    while not os.path.lexists(base):
+        base = os.path.dirname(base)
+    if not os.path.isdir(base):
+        raise InputError(f"{base} is not a folder", path)
     with _write_errors(path), _signals_held():
-        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=parent)
-        _temporary_folders.add(tmp)
+        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=base)
+        hold(tmp)
     try:
         yield tmp
         with _write_errors(path):
@@ -264,10 +257,12 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                     os.replace(os.path.join(tmp, name), os.path.join(path, name))
                 os.rmdir(tmp)
             else:
+                os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+                os.chmod(tmp, usual_file_mode(folder=True))
                 os.replace(tmp, path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        _temporary_folders.discard(tmp)
+        release(tmp)
 
 
 @contextlib.contextmanager

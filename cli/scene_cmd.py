@@ -99,7 +99,8 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
                 bar.stop()
         _write_outputs(spec, report, plot_path, report_path, frame_rate)
     say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
-        f"{report['branch_steps_full']:,} branch-steps ({report['speedup']:.1f}x fewer)"
+        f"{report['branch_steps_full']:,} branch-steps ("
+        + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
         + f", {report['wall_s']:.1f} s")
 

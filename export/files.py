@@ -26,15 +26,14 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     if ext not in FORMATS:
         raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "
                          f"{', '.join(FORMATS)}", path)
-    from plantlod.formats.atomic import atomic_path
+    from plantlod.formats.atomic import atomic_path, write_whole
 
     with atomic_path(path, suffix=ext) as tmp:
         if ext in (".glb", ".gltf"):
             from .gltf import gltf_bytes, gltf_document
 
             data = gltf_bytes(gltf_document(tree, times, bend, rot, fps, frames), ext == ".glb")
-            with open(tmp, "wb") as out:
-                out.write(data)
+            write_whole(tmp, data)
         else:
             os.unlink(tmp)                        # USD creates its own file
             from .usd import write_usd

@@ -1,30 +1,60 @@
-"""Files that appear whole or not at all: a temporary file beside the target, renamed over it."""
+"""Files that appear whole or not at all: a temporary file beside the target, renamed over it.
+
+Every temporary made here is registered until it is renamed or removed, so that a signal
+handler (`cli.discipline`) can remove whatever is half written (`remove_pending`), whoever
+made it: the CLI's outputs, the exporters, the API's writers.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import shutil
 import tempfile
 from typing import Iterator
 
+_pending: set[str] = set()        # temporary files and folders held right now
 
-def usual_file_mode() -> int:
-    """0o666 minus the umask: the mode `open()` would give a new file (mkstemp gives 0o600)."""
+
+def usual_file_mode(folder: bool = False) -> int:
+    """0o666 minus the umask: the mode `open()` would give a new file (mkstemp gives 0o600);
+    with ``folder``, 0o777 minus the umask, what `os.mkdir` gives (mkdtemp gives 0o700)."""
     umask = os.umask(0)
     os.umask(umask)
-    return 0o666 & ~umask
+    return (0o777 if folder else 0o666) & ~umask
+
+
+def hold(path: str) -> None:
+    """Register a temporary file or folder for `remove_pending`."""
+    _pending.add(path)
+
+
+def release(path: str) -> None:
+    _pending.discard(path)
+
+
+def remove_pending() -> None:
+    """Remove every registered temporary file and folder (a signal handler calls this)."""
+    for path in list(_pending):
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
 
 
 @contextlib.contextmanager
 def atomic_path(path: str, suffix: str = ".tmp") -> Iterator[str]:
     """A temporary path beside ``path`` to write to; renamed to ``path`` (with the usual
-    permissions) when the block ends normally, removed on any exception, signals included
-    once `cli.discipline` has turned them into exceptions. ``suffix`` keeps an extension
-    for writers that choose the format by it (OpenUSD)."""
+    permissions) when the block ends normally, removed on any exception, and by
+    `remove_pending` on a signal. ``suffix`` keeps an extension for writers that choose
+    the format by it (OpenUSD)."""
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=suffix, dir=folder)
-    os.close(fd)
+    hold(tmp)
     try:
+        os.close(fd)
         yield tmp
         os.chmod(tmp, usual_file_mode())
         os.replace(tmp, path)
@@ -32,3 +62,17 @@ def atomic_path(path: str, suffix: str = ".tmp") -> Iterator[str]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+    finally:
+        release(tmp)
+
+
+def write_whole(path: str, data: bytes) -> None:
+    """Write ``data`` to ``path``, every byte or an OSError: a write that the disk takes only
+    in part (a short count) is continued, and a write that takes nothing is ENOSPC."""
+    with open(path, "wb", buffering=0) as out:
+        view = memoryview(data).cast("B")
+        while len(view):
+            n = out.write(view)
+            if not n:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
+            view = view[n:]

@@ -16,6 +16,13 @@ from plantlod.lsys.errors import InputError
 from .constants import MAX_LINE_BYTES, READ_CHUNK_BYTES
 
 _BOM = b"\xef\xbb\xbf"
+# Binary files a user may hand to a text reader, and what to say of them.
+BINARY_KINDS = (
+    (b"PK\x03\x04", "a zip archive (an .npz?): archives are read by their .npz extension, so "
+                    "give the file a name ending in .npz"),
+    (b"glTF", "a binary glTF (.glb): `plantlod view` reads those; a tree comes from an .lsys "
+              "file, a tree file or a tree .npz"),
+)
 
 
 def source_name(path: str) -> str:
@@ -39,6 +46,9 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES) -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
+        for magic, what in BINARY_KINDS:
+            if data.startswith(magic):
+                raise InputError(f"not text but {what}", name) from None
         bom = len(_BOM) if data.startswith(_BOM) else 0
         offset = exc.start + bom
         line = data.count(b"\n", 0, offset) + 1

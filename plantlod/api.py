@@ -444,11 +444,10 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
     if hasattr(path_or_file, "write"):
         path_or_file.write(text)          # type: ignore[union-attr]
         return
-    from plantlod.formats.atomic import atomic_path
+    from plantlod.formats.atomic import atomic_path, write_whole
 
     with atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
-        with open(tmp, "w", encoding="utf-8", newline="") as out:
-            out.write(text)
+        write_whole(tmp, text.encode("utf-8", "backslashreplace"))
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",
            "simulate", "read_angles", "write_angles", "simplify", "compare",

@@ -168,11 +168,10 @@ class _Reader:
 
 def read_scene(path: str) -> Scene:
     """Read and check a scene file (see the module doc); trees resolved relative to it."""
+    from plantlod.formats.text_input import read_text
+
     file = pathlib.Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the scene: {exc}", path) from None
+    text = read_text(path)          # missing, unreadable, not UTF-8, a line too long: exit 2
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

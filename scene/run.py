@@ -334,10 +334,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "branches_spent": float(round(in_use.mean(), 3)) if in_use.size else 0.0,
         "branch_steps_full": int(full),
         "branch_steps_spent": int(spent),
-        "speedup": full / spent if spent else math.inf,
+        "speedup": full / spent if spent else None,        # None: nothing to simulate
         # the speed-up if every frame used the coarsest level its current distance allows,
         # switching free: what the switching rule costs is speedup_bound / speedup
-        "speedup_bound": full / bound if bound else math.inf,
+        "speedup_bound": full / bound if bound else None,
         "level_share": {str(k): float(np.mean(levels == k)) for k in range(top + 1)},
         "switches": int(switches),
         "simulated_seconds_per_wall_second": scene.duration / simulate_s if simulate_s > 0 else None,
@@ -464,9 +464,16 @@ def check_scene(scene: Scene) -> None:
         raise InputError(f"{len(scene.trees):,} trees x {steps:,} steps is {tree_steps:,} "
                          f"tree-steps of wind, more than the limit of {MAX_SCENE_TREE_STEPS:,}; "
                          "expected fewer trees or a shorter scene", scene.source)
+    import warnings
+
+    from plantlod.lsys.errors import PlantlodWarning
+
     branches = {}
     for path in sorted({t.file for t in scene.trees}):
-        tree = build(read_lsys(str(path))).tree
+        built = build(read_lsys(str(path)))
+        for message in built.warnings:          # a tree with no branches, say
+            warnings.warn(f"{path}: {message}", PlantlodWarning, stacklevel=2)
+        tree = built.tree
         check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
         branches[path] = max(1, tree.n_branches)
     work = sum(branches[t.file] for t in scene.trees) * steps

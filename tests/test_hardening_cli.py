@@ -179,7 +179,8 @@ def test_signal_mid_run_removes_the_temporary_file(tmp_path, signum):
     out = tmp_path / "big.csv"
     proc = subprocess.Popen([PLANTLOD, "simulate", str(ROOT / STALK8), "--dt", "0.01",
                              "--steps", "100000000", "--wind-speed", "5", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
         assert proc.poll() is None and time.monotonic() < deadline
@@ -344,3 +345,16 @@ def test_whole_writes_refuse_a_short_write():
     with pytest.raises(OSError, match="No space"):
         WholeWrites(stream, text=True).write("x" * 20)
     assert stream.data == b"x" * 10
+
+
+def test_a_file_name_that_is_not_utf8_is_no_internal_error(tmp_path):
+    name = os.fsdecode(b"\xff.lsys")                  # '\udcff.lsys': a surrogate escape
+    path = tmp_path / name
+    path.write_bytes((ROOT / STALK8).read_bytes())
+    tree = tmp_path / "t.jsonl"
+    run_cli("derive", str(path), "-o", str(tree))
+    assert '"source": "' in tree.read_text(encoding="utf-8")
+    run_cli("simulate", str(tree), *SIM, "-o", os.devnull)
+    result = run_cli("compare", str(path), str(path), *SIM, "--json")
+    assert "\\udcff.lsys" in result.stdout
+    run_cli("simplify", str(path), "--level", "1", "--duration", "1", "-o", os.devnull)

@@ -209,3 +209,22 @@ def test_random_member_sets(members, tree):
             reader(archive(raw), "r.npz")
         except InputError:
             pass
+
+
+def test_binary_files_given_to_a_text_reader_are_named(tmp_path):
+    run_cli("derive", STALK, "-o", str(tmp_path / "t.npz"))
+    data = (tmp_path / "t.npz").read_bytes()
+    one_line(run_cli("simulate", "-", *SIM, input=data, exit_code=None), 2,
+             "<stdin>: error: not text but a zip archive (an .npz?)")
+    (tmp_path / "t.bin").write_bytes(data)
+    one_line(run_cli("simplify", str(tmp_path / "t.bin"), "--level", "1", exit_code=None), 2,
+             "t.bin: error: not text but a zip archive")
+    (tmp_path / "x.glb").write_bytes(b"glTF\x02\x00\x00\x00\xff\xff")
+    one_line(run_cli("derive", str(tmp_path / "x.glb"), exit_code=None), 2,
+             "not text but a binary glTF (.glb)")
+
+
+def test_derive_refuses_text_into_an_archive(tmp_path):
+    one_line(run_cli("derive", STALK, "--format", "string", "-o", str(tmp_path / "d.npz"),
+                     exit_code=None), 2, "--format string writes text; an .npz archive holds a tree")
+    assert list(tmp_path.iterdir()) == []

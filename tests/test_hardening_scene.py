@@ -102,13 +102,21 @@ main()
 """
 
 
+def default_signals() -> None:
+    """In the child: SIGINT at its default, even when this test runs in the background of a
+    shell (which starts it ignored, and plantlod keeps an ignored signal ignored)."""
+    import signal as _signal
+
+    _signal.signal(_signal.SIGINT, _signal.SIG_DFL)
+
+
 def _signal_when_a_temporary_appears(tmp_path, script: str, args: list[str], signum: int):
-    import signal as _signal  # noqa: F401
     import subprocess
     import sys
 
     proc = subprocess.Popen([sys.executable, "-c", script, *args], cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_signals)
     deadline = time.monotonic() + 120
     while not any(p.startswith(".plantlod-") for p in os.listdir(tmp_path)):
         assert proc.poll() is None, proc.communicate()[1]
@@ -146,33 +154,52 @@ def test_a_failure_after_the_store_leaves_no_store(tmp_path):
     assert os.listdir(out) == []
 
 
-@pytest.mark.parametrize("existing", [False, True])
-def test_a_signal_during_simplify_levels_leaves_no_folder(tmp_path, existing):
+# command that fills a folder: (module, function slowed down, arguments for the folder)
+FOLDER_COMMANDS = {
+    "simplify --levels": ("plantlod.simplify.pipeline", "simplify_explicit",
+                          lambda t: ["simplify", STALK, "--levels", t, "--duration", "1"]),
+    "compare --obj": ("plantlod.export.obj", "obj_text",
+                      lambda t: ["compare", STALK, STALK, "--dt", "0.01", "--steps", "200",
+                                 "--wind-speed", "3", "--obj", t, "--every", "10",
+                                 "-o", os.devnull]),
+}
+
+
+@pytest.mark.parametrize("command", sorted(FOLDER_COMMANDS))
+@pytest.mark.parametrize("existing", [False, True, "nested"])
+def test_a_signal_while_filling_a_folder_leaves_it_as_it_was(tmp_path, command, existing):
     out = tmp_path / "out"
     out.mkdir()
-    target = out / "levels"
+    target = out / "new" / "folder" if existing == "nested" else out / "folder"
+    existing = existing is True
     if existing:
         target.mkdir()
         (target / "mine.txt").write_text("keep")
-    script = SLOWED.format(module="plantlod.simplify.pipeline", name="simplify_explicit",
-                           extra="")
-    _signal_when_a_temporary_appears(out, script, ["simplify", STALK, "--levels", str(target),
-                                                   "--duration", "1"], 2)
-    assert os.listdir(out) == (["levels"] if existing else [])
+    module, name, args = FOLDER_COMMANDS[command]
+    script = SLOWED.format(module=module, name=name, extra="")
+    _signal_when_a_temporary_appears(out, script, args(str(target)), 2)
+    assert os.listdir(out) == (["folder"] if existing else [])
     if existing:
         assert os.listdir(target) == ["mine.txt"]
 
 
-def test_simplify_levels_fills_an_existing_folder_and_refuses_a_missing_parent(tmp_path):
+def test_simplify_levels_fills_an_existing_folder_or_makes_a_new_one(tmp_path):
     target = tmp_path / "lv"
     target.mkdir()
     (target / "mine.txt").write_text("keep")
     run_cli("simplify", STALK, "--levels", str(target), "--duration", "1")
     names = sorted(os.listdir(target))
     assert "mine.txt" in names and "level1.lsys" in names
+    umask = os.umask(0)
+    os.umask(umask)
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
-    one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "no" / "lv"), exit_code=None),
-             2, "output directory does not exist")
+    run_cli("simplify", STALK, "--levels", str(tmp_path / "new" / "lv"), "--duration", "1")
+    assert "level1.lsys" in os.listdir(tmp_path / "new" / "lv")
+    assert (tmp_path / "new" / "lv").stat().st_mode & 0o777 == 0o777 & ~umask   # as mkdir
+    assert sorted(os.listdir(tmp_path)) == ["lv", "new"]
+    (tmp_path / "afile").write_text("x")
+    one_line(run_cli("simplify", STALK, "--levels", str(tmp_path / "afile" / "lv"),
+                     exit_code=None), 2, "afile is not a folder")
 
 
 # --- random scene files: exit 0, 1 or 2 with one line, never an internal error -----------
@@ -278,7 +305,10 @@ def test_random_edits_of_a_scene_file_raise_only_input_error(tmp_path, data):
                                  "--scheduler", "tcp://"]), max_size=5))
 def test_random_scene_options_follow_the_discipline(tmp_path, options):
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration="0.05")
-    result = run_cli("scene", path, "--cache", str(tmp_path / "c"), *options, exit_code=None)
+    work = tmp_path / "work"            # an option taken as a file name lands here
+    work.mkdir(exist_ok=True)
+    result = run_cli("scene", path, "--cache", str(tmp_path / "c"), *options, exit_code=None,
+                     cwd=work)
     assert result.exit_code in (0, 1, 2), (options, result.exit_code, result.stderr)
     assert "Traceback" not in result.stderr and "internal error" not in result.stderr, options
     if result.exit_code:
@@ -306,3 +336,25 @@ def test_an_impossible_spacing_is_refused_without_drawing(tmp_path):
     one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
              "cannot place 100,000 trees 5 m apart in the area: at most 10 fit")
     assert time.perf_counter() - start < 5
+
+
+def test_a_scene_file_is_read_as_every_text_input(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_bytes(b"dt = 0.01\nduration = \xff\n")
+    one_line(run_cli("scene", str(path), exit_code=None), 2,
+             f"{path}:2:12: error: not UTF-8 text")
+    one_line(run_cli("scene", str(tmp_path), exit_code=None), 2, "is a directory, not a file")
+    one_line(run_cli("scene", str(tmp_path / "none.toml"), exit_code=None), 2, "no such file")
+
+
+def test_a_scene_of_trees_without_branches_warns_and_writes_valid_json(tmp_path):
+    import json
+
+    lsys = tmp_path / "nb.lsys"
+    lsys.write_text("derivation_length: 1\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+                    "force_propagated: 0.7\naxiom: A\n")
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{lsys}"\n', duration="0.5")
+    result = run_cli("scene", path, "--no-cache")
+    assert "warning: " in result.stderr and "no branch symbol declared" in result.stderr
+    assert "(no branches)" in result.stderr
+    assert json.loads(result.stdout, parse_constant=lambda c: pytest.fail(c))["speedup"] is None

@@ -168,15 +168,52 @@ def _tokens(folder) -> st.SearchStrategy:
     ])
 
 
+@pytest.fixture(scope="module")
+def fuzz_files(files, tmp_path_factory):
+    """Copies of the inputs that random commands may also overwrite (and their folder,
+    where an option taken as an output name lands)."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("fuzz")
+    for name in ("s.csv", "s.glb", "s.gltf"):
+        shutil.copy(files / name, folder / name)
+    return folder
+
+
 @settings(max_examples=120, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(st.data())
-def test_random_export_and_view_arguments_follow_the_discipline(files, data):
+def test_random_export_and_view_arguments_follow_the_discipline(fuzz_files, data):
+    files = fuzz_files
     args = data.draw(st.lists(_tokens(files), min_size=1, max_size=8))
-    result = run_cli(*args, exit_code=None)
+    result = run_cli(*args, exit_code=None, cwd=files)
     assert result.exit_code in (0, 1, 2), (args, result.exit_code, result.stderr)
     assert "Traceback" not in result.stderr and "internal error" not in result.stderr, args
     if result.exit_code:
         assert "error:" in result.stderr.strip().splitlines()[-1], (args, result.stderr)
     for name in os.listdir(files):
         assert not name.startswith(".plantlod-"), name
+
+
+@pytest.mark.parametrize("signum", [2, 15])
+def test_a_signal_during_export_leaves_no_temporary_file(files, tmp_path, signum):
+    from test_hardening_scene import SLOWED, _signal_when_a_temporary_appears
+
+    out = tmp_path / "out"
+    out.mkdir()
+    script = SLOWED.format(module="plantlod.export.gltf", name="gltf_bytes", extra="")
+    _signal_when_a_temporary_appears(out, script, ["export", STALK, str(files / "s.csv"), "-o",
+                                                   str(out / "x.glb")], signum)
+    assert os.listdir(out) == []
+
+
+def test_a_disk_filling_up_during_export_is_exit_1(files, tmp_path):
+    import subprocess
+
+    from test_hardening_cli import PLANTLOD
+
+    done = subprocess.run(["bash", "-c", f"trap '' XFSZ; ulimit -f 4; {PLANTLOD} export {STALK} "
+                           f"{files / 's.csv'} -o {tmp_path / 'x.gltf'}"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1 and "File too large" in done.stderr, done.stderr
+    assert os.listdir(tmp_path) == []

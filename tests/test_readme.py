@@ -42,7 +42,8 @@ def run_block(language: str, code: str, line: int, cwd, timeout: int, root=ROOT)
     done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=timeout)
     assert done.returncode == 0, (f"README.md:{line}: the {language} block ended "
-                                  f"{done.returncode}:\n{done.stderr[-3000:]}")
+                                  f"{done.returncode}:\n{done.stdout[-2000:]}\n"
+                                  f"{done.stderr[-3000:]}")
     assert "Traceback" not in done.stderr and "error:" not in done.stderr, done.stderr[-3000:]
 
 
@@ -68,3 +69,16 @@ def test_every_long_block_runs_as_written_in_a_fresh_clone(tmp_path):
     # the first long block is the quick start: its `make demo` builds the clone's .venv
     for language, code, line in blocks(True):
         run_block(language, code, line, clone, timeout=3600, root=clone)
+
+
+def test_the_forest_figures_in_the_prose_are_the_tables():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    prose = re.search(r"forest\.toml --verify --report -` \(1,000 trees.*?\): ([\d.]+)× fewer "
+                      r"branch-steps than full detail at a\s+verified largest error of ([\d.]+) px"
+                      r".*?simulated ([\d.]+)× faster than real time", text, re.S)
+    assert prose, "the forest sentence of the scene section"
+    speedup = re.search(r"\| forest \(examples/forest\.toml.*?full / spent \| ([\d.]+) ×", text)
+    error = re.search(r"\| forest: verified max error \(`--verify`\) \| ([\d.]+) px", text)
+    rate = re.search(r"\| forest at its levels: simulated seconds per wall second \| ([\d.]+) \|",
+                     text)
+    assert (speedup.group(1), error.group(1), rate.group(1)) == prose.groups()
