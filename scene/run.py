@@ -33,7 +33,7 @@ from .constants import (
 )
 from .file import Scene
 from .levels import Chain, chain_from_texts, level_chain
-from .schedule import coarsest_levels, distances, frame_times, level_schedule
+from .schedule import coarsest_levels, distances, frame_times, level_schedule, two_way_schedule
 from .switch import Transfer
 
 
@@ -151,7 +151,10 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
         if fb < frames:                                   # switches at the cut
             for i in np.flatnonzero(sched[:, fb] != sched[:, fb - 1]).tolist():
                 a, b = int(sched[i, fb - 1]), int(sched[i, fb])
-                states[i] = transfer.carry(a, b, states[i], winds[i, min(fb * every, steps - 1)])
+                now = min(fb * every, steps)
+                ahead = transfer.predicted(b, winds[i, :now], dt) if b < a else None
+                states[i] = (ahead if ahead is not None else
+                             transfer.carry(a, b, states[i], winds[i, min(now, steps - 1)]))
                 result.switches += 1
     return result
 
@@ -193,7 +196,7 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float
     for fi, path in enumerate(sorted({t.file for t in scene.trees})):
         members = [k for k, t in enumerate(scene.trees) if t.file == path]
         chain: Chain = chains[path]
-        sched = level_schedule(scene, members, chain.tip_error_m, times, budget)
+        sched = two_way_schedule(scene, members, chain.tip_error_m, times, budget)
         levels[members] = sched
         files.append((str(path), members, chain.trees))
         for lo in range(0, len(members), STORE_BATCH_TREES):
@@ -283,7 +286,8 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
-    transfers = {path: Transfer(chain.trees, chain.groups) for path, chain in chains.items()}
+    transfers = {path: Transfer(chain.trees, chain.groups, chain.damping_ratio)
+                 for path, chain in chains.items()}
     for n, batch in enumerate(batches if scheduler is None else []):
         chain = chains[pathlib.Path(batch.file)]
         result = run_batch(chain, transfers[pathlib.Path(batch.file)], batch,
@@ -370,7 +374,8 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
         import zarr
 
         group = zarr.open_group(store, mode="r+")
-    result = run_batch(chain, Transfer(chain.trees, chain.groups), batch, winds, dt, steps,
+    result = run_batch(chain, Transfer(chain.trees, chain.groups, damping_ratio), batch, winds,
+                       dt, steps,
                        every, threads=1, store=group)
     return result.spent, result.switches
 

@@ -82,3 +82,35 @@ def coarsest_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     px = np.where(np.isnan(px), np.inf, px)
     levels = np.arange(len(tip_error_m))
     return np.where(px <= budget, levels, 0).max(axis=-1).astype(np.int16)
+
+
+def two_way_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
+                     times: np.ndarray, budget: float) -> np.ndarray:
+    """(n, F) int16: levels that follow the current distance both ways (model.md 7).
+
+    A tree starts at the coarsest level within ``budget`` at its first frame; at each frame
+    it goes finer as soon as its level passes the budget at the current distance, and
+    coarser only to a level within HYSTERESIS x budget (against flicker). Going finer is
+    affordable because the finer level's state is predicted from the tree's wind history
+    (`switch.Transfer.predicted`), so the coarser level's error is not carried into it.
+    """
+    d, ahead = distances(scene, members, times)
+    scale = np.array([scene.trees[k].scale for k in members])[:, None]
+    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
+    with np.errstate(invalid="ignore"):
+        px = tip_error_m[None, None, :] * (scale * seen)[..., None]          # (n, F, L)
+    px[..., 0] = 0.0
+    px = np.where(np.isnan(px), np.inf, px)
+    levels = np.arange(len(tip_error_m))
+    within = np.where(px <= budget, levels, 0).max(axis=-1)                  # (n, F)
+    well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)
+    out = np.empty(within.shape, dtype=np.int16)
+    if out.shape[1] == 0:
+        return out
+    current = within[:, 0].copy()
+    rows = np.arange(len(members))
+    for f in range(out.shape[1]):
+        over = px[rows, f, current] > budget
+        current = np.where(over, within[:, f], np.maximum(current, well[:, f]))
+        out[:, f] = current
+    return out

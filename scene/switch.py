@@ -31,7 +31,9 @@ from .constants import SHARE_FLOOR
 class Transfer:
     """State maps between the levels of one chain (`levels.Chain`)."""
 
-    def __init__(self, trees: list[Tree], groups: list[np.ndarray]):
+    def __init__(self, trees: list[Tree], groups: list[np.ndarray], damping_ratio: float = 0.0):
+        self.damping_ratio = damping_ratio
+        self._unit: dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray]] = {}
         self.original = trees[0]
         self.trees = trees
         self.groups = [np.asarray(g, dtype=np.int64) for g in groups]
@@ -116,6 +118,58 @@ class Transfer:
             for g in np.flatnonzero(flat).tolist():
                 s[paths[g]] = 1.0
         return sb, sr
+
+
+    def predicted(self, level: int, history: np.ndarray, dt: float) -> np.ndarray | None:
+        """Going finer: the state (4, B) level ``level`` would have now had it run from rest
+        under ``history`` (s, 3) m/s (the tree's wind at the start of each step so far), to
+        first order: each branch's components are oscillators driven toward their static
+        angles (model.md 4's step with k_FA F·S e = k θ_eq), θ_eq = g a + g|g| d for a wind
+        g(t) V̂ of one direction V̂ (a, d: the leaf and drag parts of the level's static
+        angles at unit speed, the gain matrix included). None where the direction changes.
+        No level's error is carried into the finer one, only the linear theory's."""
+        from plantlod.sim.damping import ratio_coefficient
+
+        tree = self.trees[level]
+        speeds = np.linalg.norm(history, axis=1)
+        top = float(speeds.max()) if len(speeds) else 0.0
+        if top == 0.0:
+            return np.zeros((4, tree.n_branches))
+        ref = history[int(np.argmax(speeds))] / top
+        g = history @ ref
+        if np.abs(history - g[:, None] * ref[None]).max() > 1e-9 * top:
+            return None
+        key = (level, ref.tobytes())
+        if key not in self._unit:
+            frames = rest_frames(tree)
+            parts = static_parts(tree, ref[None], frames)
+            self._unit[key] = (_static_with_gain(tree, parts.leaf[0], frames),
+                               _static_with_gain(tree, parts.drag[0], frames))
+        leaf, drag = self._unit[key]                                      # (2, B) each
+        out = np.empty((4, tree.n_branches))
+        drive = np.stack([g, g * np.abs(g)])                              # (2, s)
+        for c, strength in enumerate((tree.bend_strength, tree.rotation_strength)):
+            k = np.asarray(strength, dtype=np.float64) / 1000.0
+            distinct, inverse = np.unique(k, return_inverse=True)
+            damp = ratio_coefficient(distinct, dt, self.damping_ratio)
+            theta = np.zeros((2, len(distinct)))
+            rate = np.zeros((2, len(distinct)))
+            for n in range(drive.shape[1]):                               # step n + 1
+                rate = rate + distinct * (drive[:, n:n + 1] - theta) - damp * rate
+                theta = theta + rate * dt
+            out[2 * c] = leaf[c] * theta[0, inverse] + drag[c] * theta[1, inverse]
+            out[2 * c + 1] = leaf[c] * rate[0, inverse] + drag[c] * rate[1, inverse]
+        return out
+
+
+def _static_with_gain(tree: Tree, force: np.ndarray, frames) -> np.ndarray:
+    """(2, B) static (θb, θr) of every branch of ``tree`` under total forces (B, 3):
+    1000 k_FA (G · Sᵀ F) / (k_bs, k_rs), G = [[1,0,0],[0,1,0]] where the tree has none."""
+    f = np.einsum("bji,bj->bi", frames.swing, force)                      # Sᵀ F
+    gain = (np.asarray(tree.force_gain).reshape(-1, 2, 3) if tree.force_gain is not None
+            else np.broadcast_to(np.array([[1.0, 0, 0], [0, 1.0, 0]]), (tree.n_branches, 2, 3)))
+    pushed = np.einsum("bij,bj->bi", gain, f) * (1000.0 * np.asarray(tree.force_absorbed))[:, None]
+    return (pushed / np.stack([tree.bend_strength, tree.rotation_strength], axis=1)).T
 
 
 def _uncarry(back: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import pathlib
 
 from dataclasses import replace
 
@@ -125,6 +126,73 @@ def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_
     assert np.all(np.diff(levels.astype(int), axis=1) >= 0)            # only ever coarser
     assert report["max_error_px"] <= report["budget_px"] + 1e-9
     assert report["branch_steps_spent"] < report["branch_steps_full"]
+
+
+def test_a_camera_driving_in_switches_finer_and_stays_within_budget(tmp_path, chains):
+    """Coming nearer, trees go finer as their level passes the budget (two_way_schedule); the
+    finer level's state is predicted from the wind history, so the verified error stays
+    within the budget and the speed-up is the bound's (no hysteresis on the way in)."""
+    scene = _keyed_scene(tmp_path, [(0.0, -150.0), (3.0, -22.0)], duration=3.0)
+    report = run_scene(scene, cache=chains, verify=True)
+    levels = report["_levels"]
+    assert report["switches"] >= 5 and np.any(np.diff(levels.astype(int), axis=1) < 0)
+    assert report["max_error_px"] <= report["budget_px"] + 1e-9
+    assert report["speedup"] == pytest.approx(report["speedup_bound"])
+
+
+def test_two_way_schedule_by_hand(tmp_path):
+    """Approach from 100 m to 10 m and back out: the level each frame is the coarsest within
+    1 px at its current distance on the way in, and on the way out it coarsens only where
+    the next level is within 0.8 px (HYSTERESIS), worked out from model.md 7."""
+    from plantlod.scene.constants import HYSTERESIS
+    from plantlod.scene.schedule import two_way_schedule
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -100.0), (1.0, -10.0), (2.0, -150.0)], duration=2.0)
+    scene = replace(scene, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    times = np.arange(60) / 30.0
+    got = two_way_schedule(scene, [0], errors, times, 1.0)[0]
+    d = np.where(times <= 1.0, 100.0 - 90.0 * times, 10.0 + 140.0 * (times - 1.0))
+    ppm = 1080 / (2 * d * math.tan(math.radians(30)))
+    expect, level = [], max(k for k, e in enumerate(errors) if e * ppm[0] <= 1.0)
+    for p in ppm:
+        if errors[level] * p > 1.0:
+            level = max(k for k, e in enumerate(errors) if e * p <= 1.0)
+        else:
+            level = max(level, max(k for k, e in enumerate(errors) if e * p <= HYSTERESIS))
+        expect.append(level)
+    assert got.tolist() == expect
+    assert got[0] == 3 and got.min() == 2 and got[-1] == 3     # in, finer, and out again
+
+
+def test_the_predicted_state_is_the_level_run_from_rest(tmp_path, chains):
+    """switch.Transfer.predicted against the level itself simulated from rest in a gusty
+    wind of one direction: at small angles the linear theory puts every tip within 1 % of
+    the largest tip displacement of the run (what a camera sees), at any switch time."""
+    from plantlod.scene.levels import level_chain
+    from plantlod.scene.switch import Transfer
+    from plantlod.sim.kinematics import pose
+    from plantlod.sim.lanes import run_lanes
+    from plantlod.sim.wind import GustyWind, wind_from_speed
+
+    chain, _ = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 2.0, chains)
+    transfer = Transfer(chain.trees, chain.groups)
+    steps = 1000
+    history = GustyWind(wind_from_speed(3.0, 40.0), seed=2, strength=0.3).sample(
+        np.arange(steps) * 0.01)
+    for level in (0, 1, 3):
+        tree = chain.trees[level]
+        bend, rot = run_lanes(chain.lane_model(level), history[None], 0.01, steps)
+        tips = pose(tree, bend[0], rot[0]).tip                                # (T, B, 3)
+        rest = pose(tree, np.zeros((1, tree.n_branches)), np.zeros((1, tree.n_branches))).tip[0]
+        largest = np.linalg.norm(tips - rest, axis=-1).max()
+        for s_ in (100, 400, 1000):
+            got = transfer.predicted(level, history[:s_], 0.01)
+            guess = pose(tree, got[0][None], got[2][None]).tip[0]
+            assert np.linalg.norm(guess - tips[s_ - 1], axis=-1).max() <= 0.01 * largest
+    turned = history.copy()
+    turned[200:, 1] += 1.0                                 # the direction changes: no prediction
+    assert transfer.predicted(1, turned, 0.01) is None
 
 
 def test_a_tree_the_camera_will_pass_starts_at_the_level_its_nearest_point_allows(tmp_path):
