@@ -46,20 +46,29 @@ def distances(scene: Scene, members: list[int], times: np.ndarray) -> tuple[np.n
     return d, ahead
 
 
+def level_pixels(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: np.ndarray,
+                 look_ahead: bool = False) -> np.ndarray:
+    """(n, F, L) px: each level's tip error (max) on screen for each member at each frame
+    (model.md 7), 0 for level 0 and while the tree is behind the camera, infinite where the
+    camera stands on its base. ``look_ahead``: at the nearest the tree comes from then on."""
+    d, ahead = distances(scene, members, times)
+    scale = np.array([scene.trees[k].scale for k in members])[:, None]
+    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
+    if look_ahead:
+        seen = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]        # nearest from f on
+    with np.errstate(invalid="ignore"):
+        px = tip_error_m[None, None, :] * (scale * seen)[..., None]          # (n, F, L)
+    px[..., 0] = 0.0                                                        # level 0: exact
+    return np.where(np.isnan(px), np.inf, px)                               # 0 m x inf px
+
+
 def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
                    times: np.ndarray, budget: float) -> np.ndarray:
     """(n, F) int16: the level of each member (trees of one chain) at each frame.
 
     tip_error_m : (L,) the chain's tip error (max) per level, non-decreasing, metres
     """
-    d, ahead = distances(scene, members, times)
-    scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
-    ppm = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]             # nearest from f on
-    with np.errstate(invalid="ignore"):
-        px = tip_error_m[None, None, :] * (scale * ppm)[..., None]          # (n, F, L)
-    px[..., 0] = 0.0                                                        # level 0: exact
-    px = np.where(np.isnan(px), np.inf, px)                                 # 0 m x inf px
+    px = level_pixels(scene, members, tip_error_m, times, look_ahead=True)
     levels = np.arange(len(tip_error_m))
     first = np.where(px[:, 0] <= budget, levels, 0).max(axis=-1)                      # (n,)
     coarsest_well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)      # (n, F)
@@ -73,13 +82,7 @@ def coarsest_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     distance is within ``budget`` px (no look-ahead, no hysteresis): what each frame could
     use if switching cost nothing. The scene report's `speedup_bound` counts its branch-steps.
     """
-    d, ahead = distances(scene, members, times)
-    scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
-    with np.errstate(invalid="ignore"):
-        px = tip_error_m[None, None, :] * (scale * seen)[..., None]          # (n, F, L)
-    px[..., 0] = 0.0
-    px = np.where(np.isnan(px), np.inf, px)
+    px = level_pixels(scene, members, tip_error_m, times)
     levels = np.arange(len(tip_error_m))
     return np.where(px <= budget, levels, 0).max(axis=-1).astype(np.int16)
 
@@ -94,13 +97,7 @@ def two_way_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     affordable because the finer level's state is predicted from the tree's wind history
     (`switch.Transfer.predicted`), so the coarser level's error is not carried into it.
     """
-    d, ahead = distances(scene, members, times)
-    scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
-    with np.errstate(invalid="ignore"):
-        px = tip_error_m[None, None, :] * (scale * seen)[..., None]          # (n, F, L)
-    px[..., 0] = 0.0
-    px = np.where(np.isnan(px), np.inf, px)
+    px = level_pixels(scene, members, tip_error_m, times)
     levels = np.arange(len(tip_error_m))
     within = np.where(px <= budget, levels, 0).max(axis=-1)                  # (n, F)
     well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)
