@@ -186,12 +186,18 @@ class StaticModel:
         self.prior = prior
         if self.target.size == 0 or self.worst(x0) < REFINE_SKIP:
             return None
-        fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
-                            bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
-                            x_scale=self.column_scale(x0), max_nfev=evaluations, tr_solver="lsmr",
-                            tr_options={"maxiter": inner})
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):
+                fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
+                                    bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
+                                    x_scale=self.column_scale(x0), max_nfev=evaluations,
+                                    tr_solver="lsmr", tr_options={"maxiter": inner})
+        except ValueError:
+            # a trial step overflowed (values e^±8 from a start whose forces are already
+            # extreme): the refinement has nothing to offer, the sequential solution stands
+            return None
         x = fit.x
-        if self.worst(x) >= self.worst(x0):
+        if not np.all(np.isfinite(x)) or not self.worst(x) < self.worst(x0):
             return None
         return self._unpack(x)
 

@@ -188,3 +188,15 @@ def test_lod_family_quick_end_to_end(tmp_path, capsys):
     assert "| stalk | 1 |" in text and f"stalk-{seed}" in text
     assert "wall time" not in text                 # no clock in the table
     assert "wall time" in capsys.readouterr().out
+
+
+def test_a_generated_tree_whose_grammar_refinement_overflows_is_simplified(tmp_path):
+    """Held-out seed 1067 (a stochastic tree): the grammar form's refinement overflowed to
+    NaN inside scipy and simplify ended in an internal error. Now the refinement gives up
+    (the sequential solution stands) and `--form auto` goes on to the explicit form."""
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.simplify.pipeline import Options, simplify
+
+    system = parse_lsys(tree_family.generate("stochastic", 1067), "stochastic-1067.lsys")
+    result = simplify(system, Options(level=1, duration=4.0))
+    assert result.tree.n_branches < build(system).tree.n_branches
