@@ -128,6 +128,8 @@ class Transfer:
         g(t) V̂ of one direction V̂ (a, d: the leaf and drag parts of the level's static
         angles at unit speed, the gain matrix included). None where the direction changes.
         No level's error is carried into the finer one, only the linear theory's."""
+        from scipy.signal import lfilter
+
         from plantlod.sim.damping import ratio_coefficient
 
         tree = self.trees[level]
@@ -143,33 +145,28 @@ class Transfer:
         if key not in self._unit:
             frames = rest_frames(tree)
             parts = static_parts(tree, ref[None], frames)
-            self._unit[key] = (_static_with_gain(tree, parts.leaf[0], frames),
-                               _static_with_gain(tree, parts.drag[0], frames))
+            self._unit[key] = tuple(np.stack(static_angles(tree, part, frames))[:, 0]
+                                    for part in (parts.leaf, parts.drag))
         leaf, drag = self._unit[key]                                      # (2, B) each
         out = np.empty((4, tree.n_branches))
-        drive = np.stack([g, g * np.abs(g)])                              # (2, s)
+        # the drives, and a zero after them: filtered, sample s is θ after the s-th step
+        drive = np.stack([np.append(g, 0.0), np.append(g * np.abs(g), 0.0)])   # (2, s + 1)
         for c, strength in enumerate((tree.bend_strength, tree.rotation_strength)):
             k = np.asarray(strength, dtype=np.float64) / 1000.0
             distinct, inverse = np.unique(k, return_inverse=True)
             damp = ratio_coefficient(distinct, dt, self.damping_ratio)
-            theta = np.zeros((2, len(distinct)))
-            rate = np.zeros((2, len(distinct)))
-            for n in range(drive.shape[1]):                               # step n + 1
-                rate = rate + distinct * (drive[:, n:n + 1] - theta) - damp * rate
-                theta = theta + rate * dt
+            theta = np.empty((2, len(distinct)))
+            rate = np.empty((2, len(distinct)))
+            for j, (kj, cj) in enumerate(zip(distinct, damp)):
+                # model.md 4's step, v <- (1 - c) v + k (x - θ), θ <- θ + v dt, as a filter:
+                # Θ/X = k dt z⁻¹ / (1 - (2 - c - k dt) z⁻¹ + (1 - c) z⁻²)
+                y = lfilter([0.0, kj * dt], [1.0, -(2.0 - cj - kj * dt), 1.0 - cj], drive,
+                            axis=1)
+                theta[:, j] = y[:, -1]
+                rate[:, j] = (y[:, -1] - y[:, -2]) / dt
             out[2 * c] = leaf[c] * theta[0, inverse] + drag[c] * theta[1, inverse]
             out[2 * c + 1] = leaf[c] * rate[0, inverse] + drag[c] * rate[1, inverse]
         return out
-
-
-def _static_with_gain(tree: Tree, force: np.ndarray, frames) -> np.ndarray:
-    """(2, B) static (θb, θr) of every branch of ``tree`` under total forces (B, 3):
-    1000 k_FA (G · Sᵀ F) / (k_bs, k_rs), G = [[1,0,0],[0,1,0]] where the tree has none."""
-    f = np.einsum("bji,bj->bi", frames.swing, force)                      # Sᵀ F
-    gain = (np.asarray(tree.force_gain).reshape(-1, 2, 3) if tree.force_gain is not None
-            else np.broadcast_to(np.array([[1.0, 0, 0], [0, 1.0, 0]]), (tree.n_branches, 2, 3)))
-    pushed = np.einsum("bij,bj->bi", gain, f) * (1000.0 * np.asarray(tree.force_absorbed))[:, None]
-    return (pushed / np.stack([tree.bend_strength, tree.rotation_strength], axis=1)).T
 
 
 def _uncarry(back: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -67,13 +67,17 @@ def as_damping(damping: "float | Damping | None" = 0.0, ratio: float | None = No
     return base
 
 
-def ratio_coefficient(velocity_gain: np.ndarray, dt: float, ratio: float) -> np.ndarray:
-    """c = 2 ζ arccos(1 - s/2) with s = velocity_gain Δt (velocity_gain = k / 1000), any shape.
+def step_angle(half_s) -> np.ndarray:
+    """ω Δt = arccos(1 - s/2) (rad), the phase an undamped branch swings by in one step of
+    model.md 4 (s = k Δt / 1000, given as s/2), any shape; its period is P = 2π Δt / ω Δt.
+    Where s >= 4 (an unstable step, refused elsewhere) the arccos argument is clipped."""
+    return np.arccos(np.clip(1.0 - np.asarray(half_s, dtype=np.float64), -1.0, 1.0))
 
-    Where s >= 4 (an unstable step, refused elsewhere) the arccos argument is clipped.
-    """
+
+def ratio_coefficient(velocity_gain: np.ndarray, dt: float, ratio: float) -> np.ndarray:
+    """c = 2 ζ arccos(1 - s/2) with s = velocity_gain Δt (velocity_gain = k / 1000), any shape."""
     s = np.asarray(velocity_gain, dtype=np.float64) * float(dt)
-    return 2.0 * float(ratio) * np.arccos(np.clip(1.0 - s / 2.0, -1.0, 1.0))
+    return 2.0 * float(ratio) * step_angle(s / 2.0)
 
 
 def coefficients(damping: Damping, bend_k: np.ndarray, rot_k: np.ndarray, dt: float

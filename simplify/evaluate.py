@@ -85,8 +85,8 @@ class Runs:
     def __init__(self, original: Tree, gmap: GroupMap, winds: list[WindCase],
                  dt: float, steps: int, every: int = 1, damping=0.0,
                  simulated: list | None = None):
-        """simulated: the original's runs as `simulate_original` gives them, when one set of
-        runs serves several levels (a chain): the original is then not simulated again."""
+        """simulated: the original's runs as `simulate_runs` gives them (a list), when one set
+        of runs serves several levels (a chain): the original is then not simulated again."""
         self.original = original
         self.damping = damping
         self.gmap = gmap

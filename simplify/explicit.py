@@ -411,12 +411,14 @@ def strength_of_period(period: np.ndarray, dt: float) -> np.ndarray:
 
 
 def period_of_strength(strength: np.ndarray, dt: float) -> np.ndarray:
-    """Model.md 4's P = 2π dt / arccos(1 - k dt / 2000), s."""
-    return 2.0 * math.pi * dt / np.arccos(1.0 - np.asarray(strength) * dt / 2000.0)
+    """Model.md 4's P = 2π dt / arccos(1 - k dt / 2000), s (`sim.damping.step_angle`)."""
+    from plantlod.sim.damping import step_angle
+
+    return 2.0 * math.pi * dt / step_angle(np.asarray(strength) * dt / 2000.0)
 
 
 def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: float,
-                  swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                  swing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A chord's own k_bs', k_rs' (G,) from its group's strengths in the group root's frame W_0.
 
     compare reads the chord's angles carried into W_0 (model.md 6): y = C θ' with C the 2×2
@@ -426,7 +428,7 @@ def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: f
     MIXED_CARRY), a bend and a rotation of different periods would beat in every W_0
     component, so both get one strength: that of the two W_0 periods' mean weighted by the
     squares of the components' swings (``swing`` (G, 2), `dominant_strengths`; the period
-    error counts only the components that swing most), or their geometric mean without it.
+    error counts only the components that swing most; equal weights where neither swings).
     """
     c = np.abs(carry)
     w0 = np.stack([kb_w0, kr_w0], axis=1)                                  # (G, 2)
@@ -436,12 +438,9 @@ def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: f
     mixed = np.minimum(diagonal, off) > MIXED_CARRY
     same = c[:, :, 0].argmax(axis=1) == c[:, :, 1].argmax(axis=1)          # both onto one
     periods = np.stack([period_of_strength(kb_w0, dt), period_of_strength(kr_w0, dt)], axis=1)
-    if swing is None:
-        mid = strength_of_period(np.sqrt(periods[:, 0] * periods[:, 1]), dt)
-    else:
-        weight = np.asarray(swing, dtype=np.float64) ** 2
-        weight = np.where(weight.sum(axis=1, keepdims=True) > 0, weight, 1.0)
-        mid = strength_of_period((weight * periods).sum(axis=1) / weight.sum(axis=1), dt)
+    weight = np.asarray(swing, dtype=np.float64) ** 2
+    weight = np.where(weight.sum(axis=1, keepdims=True) > 0, weight, 1.0)
+    mid = strength_of_period((weight * periods).sum(axis=1) / weight.sum(axis=1), dt)
     own = np.where((mixed | same)[:, None], mid[:, None], own)
     return own[:, 0].copy(), own[:, 1].copy()
 
@@ -462,10 +461,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
-    from plantlod.compare.groups import assign_stated_groups, swing_turns
+    from plantlod.compare.groups import assign_stated_groups, carry_matrix, swing_turns
     from .gain_matrix import fit_gain_matrices
-    from plantlod.compare.groups import carry_matrix
-    from .static import fit_directions, static_angles, static_parts
     from plantlod.lsys.system import GAIN_KEYS
 
     root_address = [original.address[r] for r in grouping.root]

@@ -148,12 +148,20 @@ def static_parts(tree: Tree, directions: np.ndarray, frames: RestFrames | None =
 def angle_gains(tree: Tree, frames: RestFrames) -> np.ndarray:
     """Rows mapping a force to the static (θb, θr) of each branch: (B, 2, 3) rad per N.
 
-    Row 0: 1000 k_FA / k_bs W_i e_x; row 1: 1000 k_FA / k_rs W_i e_y.
+    Row 0: 1000 k_FA / k_bs W_i e_x; row 1: 1000 k_FA / k_rs W_i e_y; for a level whose
+    branches carry the gain matrix G of model.md 5 (`Tree.force_gain`), row 0 is
+    1000 k_FA / k_bs W_i (G_bx, G_by, G_bz)ᵀ and row 1 likewise with G_r.
     """
     scale = 1000.0 * tree.force_absorbed
     out = np.empty((tree.n_branches, 2, 3))
-    out[:, 0] = (scale / tree.bend_strength)[:, None] * frames.swing[:, :, 0]
-    out[:, 1] = (scale / tree.rotation_strength)[:, None] * frames.swing[:, :, 1]
+    if tree.force_gain is None:
+        out[:, 0] = (scale / tree.bend_strength)[:, None] * frames.swing[:, :, 0]
+        out[:, 1] = (scale / tree.rotation_strength)[:, None] * frames.swing[:, :, 1]
+        return out
+    gain = np.asarray(tree.force_gain, dtype=np.float64).reshape(-1, 2, 3)
+    rows = np.einsum("bij,bkj->bik", gain, frames.swing)                 # G Wᵀ: (B, 2, 3)
+    out[:, 0] = (scale / tree.bend_strength)[:, None] * rows[:, 0]
+    out[:, 1] = (scale / tree.rotation_strength)[:, None] * rows[:, 1]
     return out
 
 

@@ -117,6 +117,11 @@ overrides:
     expect = 1000.0 * (g @ f) / np.array([200.0, 100.0])
     run = simulate_arrays(tree, 0.01, 20000, ConstantWind(v), damping=Damping(ratio=0.3))
     np.testing.assert_allclose([run.bend[-1, 0], run.rot[-1, 0]], expect, rtol=2e-3)
+    # the linear statics read G too (simplify.static.angle_gains), exactly
+    from plantlod.simplify.static import static_angles
+
+    bend, rot = static_angles(tree, f[None, None, :])
+    np.testing.assert_allclose([bend[0, 0], rot[0, 0]], expect, rtol=1e-12)
 
 
 def test_damping_ratio_decays_like_the_continuous_oscillator():
