@@ -73,6 +73,15 @@ GAIN_FIT_SPEEDS = (0.5, 2.0, 5.0, 10.0, 20.0)   # m/s: the static match's wind s
 GAIN_TARGET_FLOOR = 0.01     # a wind's errors count against at least this x the largest target
 GAIN_RIDGE = 1e-6            # pull toward k_FA [[1,0,0],[0,1,0]], relative to the problem's scale
 MIXED_CARRY = 0.1            # a chord whose carry map has diagonal and off-diagonal entries above
-                             # this mixes bend and rotation in W_0: one strength for both
+                             # this mixes bend and rotation in W_0: its strengths are searched
+STRENGTH_SEARCH_POINTS = 8   # period grid of that search, coarse and then around the best
+STRENGTH_SEARCH_EVERY = 4    # samples of the search's swings kept (as simplify measures)
 GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
 STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x |ln k ratio|)
+
+# --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
+MOTION_FIT_SPEEDS = (0.5, 3.0, 10.0, 20.0)   # m/s: the winds a level's swing is fitted in ...
+MOTION_FIT_DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)   # ... toward (deg)
+MOTION_FIT_ROUNDS = 4         # rounds of corrections (each one run of the level per fit wind)
+MOTION_FIT_STEP = 0.3         # largest log-correction of a period or gain row per round
+MOTION_FIT_GOOD = 0.5         # stop once every fit wind is within this x the level's bounds

@@ -39,7 +39,8 @@ from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
 from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, GROUP_SWING_DIRECTIONS, KAPPA_RANGE,
-                        LEVEL_RATIO, MIXED_CARRY, STRENGTH_MISMATCH_WEIGHT)
+                        LEVEL_BOUNDS, LEVEL_RATIO, MIXED_CARRY, SIMPLIFY_EVERY, STRENGTH_MISMATCH_WEIGHT,
+                        STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
 from plantlod.compare.groups import main_paths
 from .static import rest_frames
 
@@ -80,15 +81,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         return i
 
     roots_left = set(range(b))
-    # a merge joins a group root to the branch it hangs from: the further apart their swing
-    # periods, the later it comes (STRENGTH_MISMATCH_WEIGHT), since one level branch has one
-    # period per component and the group's combined swing mixes its members' periods
-    strength = np.sqrt(np.asarray(tree.bend_strength, dtype=np.float64)
-                       * np.asarray(tree.rotation_strength, dtype=np.float64))
-    safe_parent = np.maximum(parent, 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        apart = np.abs(np.log(strength / strength[safe_parent]))
-    factor = 1.0 + STRENGTH_MISMATCH_WEIGHT * np.where(np.isfinite(apart), apart, 0.0)
+    apart = _period_mismatch(tree)
     while True:
         count = len(roots_left)
         target = math.floor(ratio * count)
@@ -97,8 +90,9 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             break
         heap = []
         for r in mergeable:
-            total = int(size[r] + size[find(int(parent[r]))])
-            heap.append((total * float(factor[r]), total, r))
+            up = find(int(parent[r]))
+            total = int(size[r] + size[up])
+            heap.append((total * apart(r, up), total, r))
         heapq.heapify(heap)
         while heap and len(roots_left) > max(target, 1):
             _key, total, r = heapq.heappop(heap)
@@ -107,7 +101,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             up = find(int(parent[r]))
             now = int(size[r] + size[up])
             if now != total:                      # sizes changed since it was pushed
-                heapq.heappush(heap, (now * float(factor[r]), now, r))
+                heapq.heappush(heap, (now * apart(r, up), now, r))
                 continue
             owner[r] = up
             size[up] += size[r]
@@ -120,6 +114,34 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         if len(roots_left) == count:
             break
     return levels
+
+
+def _period_mismatch(tree: Tree):
+    """The cost factor of merging the group rooted at branch r into the group rooted at u:
+    1 + STRENGTH_MISMATCH_WEIGHT · max_c Σ_m |C[c, m]| |ln(k_m,r / k_c,u)| / Σ_m |C[c, m]|,
+    with C the carry map of r's rest swing frame into u's (`compare.groups.carry_matrix`) and
+    k_m the bend and rotation strengths of the two roots. One level branch has one period per
+    W_0 component (model.md 6), so members whose components land on a W_0 component of another
+    period beat against it: a chord whose bending plane turns against W_0 mixes its bend and
+    rotation there, which matters only where its two strengths differ."""
+    from plantlod.compare.groups import carry_matrix
+    from plantlod.sim.kinematics import rest_pose
+
+    swing = rest_pose(tree).swing
+    strength = np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
+                         np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)
+    with np.errstate(divide="ignore"):
+        log_k = np.log(strength)
+
+    def factor(r: int, u: int) -> float:
+        c = np.abs(carry_matrix((swing[u].T @ swing[r])[None])[0])              # (c, m)
+        gap = np.abs(log_k[r][None, :] - log_k[u][:, None])                     # (c, m)
+        gap = np.where(np.isfinite(gap), gap, 0.0)
+        weight = c.sum(axis=1)
+        mismatch = np.where(weight > 0, (c * gap).sum(axis=1) / np.where(weight > 0, weight, 1), 0.0)
+        return 1.0 + STRENGTH_MISMATCH_WEIGHT * float(mismatch.max())
+
+    return factor
 
 
 def is_stalk(tree: Tree) -> bool:
@@ -331,11 +353,36 @@ def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: fl
     return out
 
 
+@dataclass
+class GroupSwing:
+    """How each group swings from rest in its root's frame W_0 (`dominant_strengths`).
+
+    kb, kr     : (G,) the strengths whose periods are each component's amplitude-weighted mean
+    gain       : (G, 2) amplitude factors, Σ_d A_c(d) / Σ_d |X_c(d, ∞)|
+    swing      : (G, 2) Σ_d A_c(d), rad
+    periods    : (G, 2, D) P_c(d), s (NaN: fewer than two crossings)
+    amplitudes : (G, 2, D) A_c(d), rad
+    statics    : (G, 2, D) X_c(d, ∞), rad: the component's static angle
+    """
+
+    kb: np.ndarray
+    kr: np.ndarray
+    gain: np.ndarray
+    swing: np.ndarray
+    periods: np.ndarray
+    amplitudes: np.ndarray
+    statics: np.ndarray
+
+    def take(self, order: np.ndarray) -> "GroupSwing":
+        """The same figures for groups ``order`` (e.g. in a level tree's branch order)."""
+        return GroupSwing(*(np.asarray(getattr(self, f))[order] for f in (
+            "kb", "kr", "gain", "swing", "periods", "amplitudes", "statics")))
+
+
 def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, duration: float,
                        damping_ratio: float = 0.0, directions: np.ndarray | None = None
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """k_bs', k_rs' (G,), amplitude factors (G, 2) and swings Σ_d A_c(d) (G, 2) (rad) of each
-    group in its root's frame W_0.
+                       ) -> GroupSwing:
+    """Each group's swing in its root's frame W_0 (`GroupSwing`).
 
     At small angles each main-path member j swings on its own from rest toward its static
     angles (θb_j, θr_j), each component with its own strength (model.md 4), and compare
@@ -358,6 +405,7 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
 
     if directions is None:
         directions = horizontal_directions(GROUP_SWING_DIRECTIONS)
+    d_count = len(directions)
     parts = static_parts(original, directions)
     bend, rot = static_angles(original, parts.leaf + parts.drag)            # (D, B)
     steps = int(round(duration / dt))
@@ -370,11 +418,15 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
     distinct, code = np.unique(strength, return_inverse=True)
     code = code.reshape(strength.shape)
     responses = unit_response(distinct, dt, steps, damping_ratio)           # (T, S)
+    own_period = period_of_strength(distinct, dt)
     static = np.stack([bend[:, members], rot[:, members]], axis=2)          # (D, M, 2)
     g_count = len(paths)
     out = np.empty((g_count, 2))
     gain = np.ones((g_count, 2))
     swing = np.zeros((g_count, 2))              # Σ_d A_c(d): how much each component swings
+    periods = np.full((g_count, 2, d_count), np.nan)
+    amplitudes = np.zeros((g_count, 2, d_count))
+    statics = np.zeros((g_count, 2, d_count))
     at = 0
     for g, p in enumerate(paths):
         m = len(p)
@@ -384,15 +436,20 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
             # weights (D, M, 2): each member component's part in W_0 component c
             w = carry[rows, c, :][None] * static[:, rows, :]
             mine = code[rows]                                               # (m, 2)
-            settled = np.abs(w.sum(axis=(1, 2)))                            # |X_c(d, ∞)|
+            statics[g, c] = w.sum(axis=(1, 2))
+            settled = np.abs(statics[g, c])                                 # |X_c(d, ∞)|
             if np.all(mine == mine[0, c]) and np.all(np.abs(carry[rows, c, 1 - c]) < 1e-12):
                 out[g, c] = distinct[mine[0, c]]                            # one strength
-                swing[g, c] = float(settled.sum() * amplitude(responses[:, mine[0, c]]))
+                amplitudes[g, c] = settled * amplitude(responses[:, mine[0, c]])
+                periods[g, c] = own_period[mine[0, c]]
+                swing[g, c] = float(amplitudes[g, c].sum())
                 continue
-            signal = responses[:, mine.reshape(-1)] @ w.reshape(len(directions), -1).T
+            signal = responses[:, mine.reshape(-1)] @ w.reshape(d_count, -1).T
             amp = np.atleast_1d(amplitude(signal))
+            amplitudes[g, c] = amp
             swing[g, c] = float(amp.sum())
             per = np.atleast_1d(period(t, signal))
+            periods[g, c] = per
             ok = np.isfinite(per) & (amp > 0)
             if ok.any():
                 p_mean = float((amp[ok] * per[ok]).sum() / amp[ok].sum())
@@ -401,7 +458,8 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
                 out[g, c] = float(np.exp(np.log(distinct[mine.reshape(-1)]).mean()))
             if settled.sum() > 0:
                 gain[g, c] = float(amp.sum() / settled.sum())
-    return out[:, 0].copy(), out[:, 1].copy(), gain, swing
+    return GroupSwing(out[:, 0].copy(), out[:, 1].copy(), gain, swing, periods, amplitudes,
+                      statics)
 
 
 def strength_of_period(period: np.ndarray, dt: float) -> np.ndarray:
@@ -417,44 +475,113 @@ def period_of_strength(strength: np.ndarray, dt: float) -> np.ndarray:
     return 2.0 * math.pi * dt / step_angle(np.asarray(strength) * dt / 2000.0)
 
 
-def own_strengths(kb_w0: np.ndarray, kr_w0: np.ndarray, carry: np.ndarray, dt: float,
-                  swing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A chord's own k_bs', k_rs' (G,) from its group's strengths in the group root's frame W_0.
+def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: float,
+                  damping_ratio: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A chord's own k_bs', k_rs' (S,) from its group's swing in the group root's frame W_0
+    (``swing``, `GroupSwing` in chord order).
 
     compare reads the chord's angles carried into W_0 (model.md 6): y = C θ' with C the 2×2
-    carry map (G, 2, 2). Where C maps each own component mostly onto one W_0 component,
+    carry map (S, 2, 2). Where C maps each own component mostly onto one W_0 component,
     that component's strength goes with it (a chord turned by 90° about its axis swaps
     them). Where C mixes them (both a diagonal and an off-diagonal entry above
-    MIXED_CARRY), a bend and a rotation of different periods would beat in every W_0
-    component, so both get one strength: that of the two W_0 periods' mean weighted by the
-    squares of the components' swings (``swing`` (G, 2), `dominant_strengths`; the period
-    error counts only the components that swing most; equal weights where neither swings).
+    MIXED_CARRY), a bend and a rotation of different periods beat in every W_0 component,
+    so the pair is searched (`_searched_strengths`) whose beat reads closest to the group's
+    periods in every direction.
     """
     c = np.abs(carry)
-    w0 = np.stack([kb_w0, kr_w0], axis=1)                                  # (G, 2)
+    w0 = np.stack([swing.kb, swing.kr], axis=1)                            # (S, 2)
     own = np.take_along_axis(w0, c.argmax(axis=1), axis=1)                 # W_0 comp. per own
     diagonal = np.maximum(c[:, 0, 0], c[:, 1, 1])
     off = np.maximum(c[:, 0, 1], c[:, 1, 0])
     mixed = np.minimum(diagonal, off) > MIXED_CARRY
     same = c[:, :, 0].argmax(axis=1) == c[:, :, 1].argmax(axis=1)          # both onto one
-    periods = np.stack([period_of_strength(kb_w0, dt), period_of_strength(kr_w0, dt)], axis=1)
-    weight = np.asarray(swing, dtype=np.float64) ** 2
-    weight = np.where(weight.sum(axis=1, keepdims=True) > 0, weight, 1.0)
-    mid = strength_of_period((weight * periods).sum(axis=1) / weight.sum(axis=1), dt)
-    own = np.where((mixed | same)[:, None], mid[:, None], own)
+    search = np.flatnonzero(mixed | same)
+    if search.size:
+        own[search] = _searched_strengths(swing.take(search), carry[search], dt, duration,
+                                          damping_ratio)
     return own[:, 0].copy(), own[:, 1].copy()
+
+
+def _searched_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: float,
+                        damping_ratio: float) -> np.ndarray:
+    """(n, 2) own strengths of n chords whose carry maps mix bend and rotation.
+
+    A chord's own static angles s(d) = C⁻¹ g X(d, ∞) (the statics it is fitted to, g the group's
+    amplitude factors) swing with
+    its own strengths (k_b, k_r), so in W_0 it reads y_c(d, t) = Σ_m C[c, m] s_m(d) u_(k_m)(t).
+    Over a grid of period pairs (STRENGTH_SEARCH_POINTS log-spaced over the group's periods,
+    then again around the best), the pair minimising
+
+        Σ_(c,d) a_c(d)² ln²(P_y,c(d) / P_c(d)) / p² + Σ_(c,d) (a_y,c(d) - a_c(d))² / m²
+
+    is kept: the group's periods P_c(d) and amplitudes A_c(d) (`GroupSwing`), a = A / max A,
+    each term against level 1's bound (p period, m motion; LEVEL_BOUNDS), so the pair whose
+    beat keeps both the periods and the swing of every direction wins.
+    """
+    from plantlod.compare.measures import amplitude, period
+
+    motion_bound, period_bound = LEVEL_BOUNDS[1][:2]
+    steps = int(round(duration / dt))
+    t = (np.arange(steps + 1) * dt)[::STRENGTH_SEARCH_EVERY]
+    own = period_of_strength(np.stack([swing.kb, swing.kr], axis=1), dt)    # (n, 2) s
+    target = swing.periods                                                 # (n, 2, D)
+    scale = swing.amplitudes.max(axis=(1, 2), initial=0.0)                 # (n,) rad
+    swing = swing.take(np.arange(len(own)))
+    swing.amplitudes[:] /= np.where(scale > 0, scale, 1.0)[:, None, None]
+    swing.statics[:] /= np.where(scale > 0, scale, 1.0)[:, None, None]
+    weight = np.where(np.isfinite(target), swing.amplitudes ** 2, 0.0)
+    # the statics the gain matrix is fitted to: the group's, times its amplitude factors
+    own_static = np.einsum("nij,njd->nid", np.linalg.pinv(carry),
+                           swing.gain[:, :, None] * swing.statics)          # (n, 2, D)
+    lo = np.fmin(own.min(axis=1), np.nanmin(np.where(weight > 0, target, np.inf), axis=(1, 2)))
+    hi = np.fmax(own.max(axis=1), np.nanmax(np.where(weight > 0, target, -np.inf), axis=(1, 2)))
+    q = STRENGTH_SEARCH_POINTS
+    best = own.copy()
+    for span in (1.0, 2.0 / (q - 1)):
+        if span == 1.0:
+            grid = np.exp(np.linspace(np.log(lo * 0.99), np.log(hi * 1.01), q, axis=1))   # (n, Q)
+        else:
+            step = np.log(hi * 1.01 / (lo * 0.99)) / (q - 1)
+            grid = np.exp(np.log(best)[:, :, None]
+                          + np.linspace(-1.0, 1.0, q)[None, None, :] * step[:, None, None])
+        grids = np.broadcast_to(grid[:, None, :], (len(own), 2, q)) if grid.ndim == 2 else grid
+        response = unit_response(strength_of_period(grids, dt).reshape(-1), dt, steps,
+                                 damping_ratio)[::STRENGTH_SEARCH_EVERY]
+        response = response.reshape(len(t), len(own), 2, q)                # (T, n, m, Q)
+        for i in range(len(own)):
+            if weight[i].sum() <= 0:
+                continue
+            part = carry[i][:, :, None] * own_static[i][None]                # (c, m, D)
+            ub = response[:, i, 0, :]                                       # (T, Q)
+            ur = response[:, i, 1, :]
+            signal = (ub[:, :, None, None, None] * part[None, None, None, :, 0, :]
+                      + ur[:, None, :, None, None] * part[None, None, None, :, 1, :])  # (T,Q,Q,c,D)
+            flat = signal.reshape(len(t), -1)
+            p = period(t, flat).reshape(q, q, 2, -1)
+            a_y = amplitude(flat).reshape(q, q, 2, -1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                miss = np.where(np.isfinite(p), np.log(p / target[i]) ** 2, 1.0)
+            cost = (np.where(weight[i] > 0, miss, 0.0) * weight[i]).sum(axis=(2, 3)) / period_bound ** 2 \
+                + ((a_y - swing.amplitudes[i]) ** 2).sum(axis=(2, 3)) / motion_bound ** 2
+            a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
+            best[i] = grids[i, 0, a], grids[i, 1, b]
+    return strength_of_period(best, dt)
 
 
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
                          refine: bool = True, gains: bool = True,
-                         damping_ratio: float = 0.0) -> tuple[str, Tree]:
+                         damping_ratio: float = 0.0, motion: bool = True,
+                         fit_runs: list | None = None) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
              force_absorbed, force_propagated, drag_coefficient, leaf_force_scale)
     gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
     damping_ratio : ζ of model.md 4 the groups' swings are measured under
+    motion : fit the level to motion (`motion_fit`) after its statics
+    fit_runs : the original's runs in `motion_fit.fit_winds()` (`evaluate.simulate_runs`, a
+               list), when one set serves a whole chain; simulated here when None
     """
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
@@ -475,8 +602,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     # the groups' own strengths and amplitude factors, in group order (any leaf set)
     paths = main_paths(original, grouping.group, grouping.count)
-    kb_group, kr_group, gain_group, swing_group = dominant_strengths(original, paths, dt,
-                                                                     duration, damping_ratio)
+    group_swing = dominant_strengths(original, paths, dt, duration, damping_ratio)
+    gain_group = group_swing.gain
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
 
@@ -508,8 +635,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         to_group = np.array([position[a] for a in order])
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
         turn = swing_turns(original, skeleton, gmap.paths)
-        kb, kr = own_strengths(kb_group[to_group], kr_group[to_group], carry_matrix(turn), dt,
-                               swing_group[to_group])
+        kb, kr = own_strengths(group_swing.take(to_group), carry_matrix(turn), dt, duration,
+                               damping_ratio)
         params = closed_form(original, skeleton, gmap, refine=refine, turn=turn,
                              kappa_range=KAPPA_RANGE, strengths=(kb, kr),
                              target_gain=gain_group[to_group], settings=settings)
@@ -530,13 +657,36 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                                          target_gain=gain_group[to_group])[back]
             del values["force_absorbed"]
             values.update({key: matrices[:, k] for k, key in enumerate(GAIN_KEYS)})
-        return text(values, leaf_area), params.static_error
+        return values, leaf_area, text, params.static_error, to_group, carry_matrix(turn)
 
     # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;
     # without the refinement there is no static error to compare)
     best = fit("eigen")
     if refine:
         basis = fit("basis")
-        if basis[1] < BASIS_LEAF_GAIN * best[1]:
+        if basis[3] < BASIS_LEAF_GAIN * best[3]:
             best = basis
-    return best[0], build(parse_lsys(best[0], name)).tree
+    values, leaf_area, text, _error, to_group, carry = best
+
+    def rebuild(v: dict[str, np.ndarray]) -> tuple[str, Tree]:
+        out = text(v, leaf_area)
+        return out, build(parse_lsys(out, name)).tree
+
+    if not motion:
+        return rebuild(values)
+    from plantlod.sim.damping import Damping
+    from .evaluate import Runs, simulate_runs
+    from .motion_fit import fit_winds, motion_fit
+    from .targets import group_map
+
+    winds = fit_winds()
+    steps = int(round(duration / dt))
+    damping = Damping(ratio=damping_ratio)
+    if fit_runs is None:
+        fit_runs = list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping))
+
+    def runs_for(tree: Tree) -> Runs:
+        return Runs(original, group_map(original, tree), winds, dt, steps, SIMPLIFY_EVERY,
+                    damping, simulated=fit_runs)
+
+    return motion_fit(original, values, rebuild, to_group, carry, runs_for, level, dt)

@@ -23,13 +23,14 @@ from .constants import SIMPLIFY_DT
 from .constants import SIMPLIFY_DURATION
 from .constants import SIMPLIFY_EVERY
 from .constants import SIMPLIFY_WIND_RANGE
-from .constants import LEVEL_BOUNDS, SMALL_ANGLE_LIMIT
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 from plantlod.sim.stability import check_stability
 
+from .bounds import bounds_score, form_rank  # noqa: F401  (tests and callers import them here too)
+from .constants import SMALL_ANGLE_LIMIT
 from .calibrate import calibrate
 from .targets import GroupMap, group_map
 from .closed_form import closed_form
@@ -217,41 +218,6 @@ def chain_plan(system: LSystem, level: int) -> ChainPlan:
     while grouping < len(groupings) - 1 and explicit_counts[grouping] > budget:
         grouping += 1
     return ChainPlan(budget, None if own is None else own <= budget, grouping)
-
-
-def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
-                 largest_angles: list[float] | None = None) -> float:
-    """The worst ratio of a visible-motion figure to its bound (LEVEL_BOUNDS) over the winds:
-    <= 1 when the level meets its bounds. Winds where the original's combined angles pass
-    SMALL_ANGLE_LIMIT (``largest_angles``, per wind) are left out, as the bounds hold only
-    below it (issue 12), unless every wind passes it."""
-    motion, period, tip = LEVEL_BOUNDS[min(level, max(LEVEL_BOUNDS))]
-    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
-    if len(small) != len(reports) or not any(small):
-        small = [True] * len(reports)
-    worst = 0.0
-    for (_wind, r), counts in zip(reports, small):
-        if not counts:
-            continue
-        for value, limit in ((r.motion_error, motion), (r.period_error_major, period),
-                             (r.tip_error, tip)):
-            if math.isfinite(value):
-                worst = max(worst, value / limit)
-    return worst
-
-
-def form_rank(reports: list[tuple[WindCase, Report]], level: int,
-              largest_angles: list[float] | None = None) -> tuple[int, float]:
-    """How `--form auto` ranks two forms that both miss their bounds: first by the winds in
-    which a form misses them (a viewer sees the level in every wind, so the form that holds
-    in more of them wins), then by `bounds_score`. The winds counted as `bounds_score`
-    counts them."""
-    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
-    if len(small) != len(reports) or not any(small):
-        small = [True] * len(reports)
-    misses = sum(1 for item, counts in zip(reports, small)
-                 if counts and bounds_score([item], level) > 1.0)
-    return misses, bounds_score(reports, level, largest_angles)
 
 
 def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
