@@ -41,6 +41,7 @@ from plantlod.lsys.tree import Tree
 from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, GROUP_SWING_DIRECTIONS, KAPPA_RANGE,
                         LEVEL_BOUNDS, LEVEL_RATIO, MIXED_CARRY, SIMPLIFY_EVERY, STRENGTH_MISMATCH_WEIGHT,
                         STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
+from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
 from plantlod.compare.groups import main_paths
 from .static import rest_frames
 
@@ -497,13 +498,14 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
     same = c[:, :, 0].argmax(axis=1) == c[:, :, 1].argmax(axis=1)          # both onto one
     search = np.flatnonzero(mixed | same)
     if search.size:
-        own[search] = _searched_strengths(swing.take(search), carry[search], dt, duration,
-                                          damping_ratio)
+        a_max = swing.amplitudes.max(axis=(0, 1))                           # (D,) A_max per wind
+        own[search] = _searched_strengths(swing.take(search), carry[search], a_max, dt,
+                                          duration, damping_ratio)
     return own[:, 0].copy(), own[:, 1].copy()
 
 
-def _searched_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: float,
-                        damping_ratio: float) -> np.ndarray:
+def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, dt: float,
+                        duration: float, damping_ratio: float) -> np.ndarray:
     """(n, 2) own strengths of n chords whose carry maps mix bend and rotation.
 
     A chord's own static angles s(d) = C⁻¹ g X(d, ∞) (the statics it is fitted to, g the group's
@@ -512,11 +514,13 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duratio
     Over a grid of period pairs (STRENGTH_SEARCH_POINTS log-spaced over the group's periods,
     then again around the best), the pair minimising
 
-        Σ_(c,d) a_c(d)² ln²(P_y,c(d) / P_c(d)) / p² + Σ_(c,d) (a_y,c(d) - a_c(d))² / m²
+        Σ_(c,d major) (ln(P_y,c(d) / P_c(d)) / p)⁴ + Σ_(c,d counted) ((a_y,c(d) - a_c(d)) / m)⁴
 
-    is kept: the group's periods P_c(d) and amplitudes A_c(d) (`GroupSwing`), a = A / max A,
-    each term against level 1's bound (p period, m motion; LEVEL_BOUNDS), so the pair whose
-    beat keeps both the periods and the swing of every direction wins.
+    is kept: the group's periods P_c(d) and amplitudes A_c(d) (`GroupSwing`), a = A / A_max(d)
+    (``a_max`` (D,): the largest of any group, as model.md 6 counts), the components that
+    count and the major ones as compare counts them, each error against level 1's bound (p
+    period, m motion; LEVEL_BOUNDS) to the 4th power (a soft maximum), so the pair whose beat
+    keeps both the periods and the swing of every direction within bounds wins.
     """
     from plantlod.compare.measures import amplitude, period
 
@@ -525,10 +529,12 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duratio
     t = (np.arange(steps + 1) * dt)[::STRENGTH_SEARCH_EVERY]
     own = period_of_strength(np.stack([swing.kb, swing.kr], axis=1), dt)    # (n, 2) s
     target = swing.periods                                                 # (n, 2, D)
-    scale = swing.amplitudes.max(axis=(1, 2), initial=0.0)                 # (n,) rad
+    scale = np.where(a_max > 0, a_max, 1.0)[None, None, :]                # (1, 1, D) rad
     swing = swing.take(np.arange(len(own)))
-    swing.amplitudes[:] /= np.where(scale > 0, scale, 1.0)[:, None, None]
-    swing.statics[:] /= np.where(scale > 0, scale, 1.0)[:, None, None]
+    swing.amplitudes[:] /= scale
+    swing.statics[:] /= scale
+    major = np.isfinite(target) & (swing.amplitudes >= MAJOR_AMPLITUDE_FRACTION)
+    counted = swing.amplitudes >= COUNTED_AMPLITUDE_FRACTION
     weight = np.where(np.isfinite(target), swing.amplitudes ** 2, 0.0)
     # the statics the gain matrix is fitted to: the group's, times its amplitude factors
     own_static = np.einsum("nij,njd->nid", np.linalg.pinv(carry),
@@ -560,9 +566,10 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duratio
             p = period(t, flat).reshape(q, q, 2, -1)
             a_y = amplitude(flat).reshape(q, q, 2, -1)
             with np.errstate(divide="ignore", invalid="ignore"):
-                miss = np.where(np.isfinite(p), np.log(p / target[i]) ** 2, 1.0)
-            cost = (np.where(weight[i] > 0, miss, 0.0) * weight[i]).sum(axis=(2, 3)) / period_bound ** 2 \
-                + ((a_y - swing.amplitudes[i]) ** 2).sum(axis=(2, 3)) / motion_bound ** 2
+                miss = np.where(np.isfinite(p), np.abs(np.log(p / target[i])), 1.0)
+            cost = (np.where(major[i], miss / period_bound, 0.0) ** 4).sum(axis=(2, 3)) \
+                + (np.where(counted[i], (a_y - swing.amplitudes[i]) / motion_bound, 0.0) ** 4
+                   ).sum(axis=(2, 3))
             a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
             best[i] = grids[i, 0, a], grids[i, 1, b]
     return strength_of_period(best, dt)
