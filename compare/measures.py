@@ -112,16 +112,21 @@ def relative_error(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.where(reference != 0, err, np.nan)
 
 
+def _squared_distances(tips_orig: np.ndarray, tips_simp: np.ndarray) -> np.ndarray:
+    """|tip_y - tip_x|² (K, G) from (K, G, 3) tips (m)."""
+    d = np.asarray(tips_simp, dtype=np.float64) - np.asarray(tips_orig, dtype=np.float64)
+    return np.einsum("kgi,kgi->kg", d, d)
+
+
 def tip_error(tips_orig: np.ndarray, tips_simp: np.ndarray, rest_height: float) -> np.ndarray:
     """RMS over time of |tip_y - tip_x|, divided by rest_height: (G,) from (K, G, 3) tips (m)."""
-    d2 = np.sum((np.asarray(tips_simp, np.float64) - np.asarray(tips_orig, np.float64)) ** 2, axis=-1)
-    return np.sqrt(np.mean(d2, axis=0)) / rest_height
+    return np.sqrt(np.mean(_squared_distances(tips_orig, tips_simp), axis=0)) / rest_height
 
 
 def tip_distance_max(tips_orig: np.ndarray, tips_simp: np.ndarray) -> np.ndarray:
     """Largest distance over time between group tips and simplified tips: (K, G, 3) -> (G,) m."""
-    d = np.asarray(tips_simp, dtype=np.float64) - np.asarray(tips_orig, dtype=np.float64)
-    return np.sqrt(np.einsum("kgi,kgi->kg", d, d)).max(axis=0) if d.shape[0] else np.zeros(d.shape[1])
+    d2 = _squared_distances(tips_orig, tips_simp)
+    return np.sqrt(d2.max(axis=0)) if d2.shape[0] else np.zeros(d2.shape[1])
 
 
 # --- the report -------------------------------------------------------------------
@@ -310,7 +315,8 @@ def compare_groups(t: np.ndarray,
     per_err = relative_error(per_y, per_x)
     largest = float(amp_x.max()) if g else 0.0
     counted = (amp_x >= COUNTED_AMPLITUDE_FRACTION * largest) if largest > 0 else np.zeros_like(amp_x, bool)
-    tips = tip_error(tips_orig, tips_simp, rest_height)          # (G,)
+    d2 = _squared_distances(tips_orig, tips_simp)                # (K, G) m²
+    tips = np.sqrt(np.mean(d2, axis=0)) / rest_height            # tip_error, (G,)
 
     groups = []
     for j in range(g):
@@ -331,7 +337,7 @@ def compare_groups(t: np.ndarray,
     major = (amp_x >= MAJOR_AMPLITUDE_FRACTION * largest) & np.isfinite(per_err) if largest > 0 \
         else np.zeros_like(amp_x, bool)
     major_worst, major_at = _worst(np.where(major, per_err, np.nan), addresses)
-    tip_max = tip_distance_max(tips_orig, tips_simp)                   # (G,) metres
+    tip_max = np.sqrt(d2.max(axis=0)) if k else np.zeros(g)            # tip_distance_max, (G,) m
     tip_max_worst, tip_max_at = _worst(tip_max[None, :], addresses, components=(None,))
     return Report(amp_worst, per_worst, tip_worst, amp_at, per_at, tip_at, undefined,
                   largest, float(rest_height), float(t[0]), float(t[-1]), groups,

@@ -19,5 +19,6 @@ STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
 # Part of every cached chain's key: raise it whenever the explicit fit changes what it writes
-# (2: gain matrices, group swings from the carried superposition, merges by similar periods).
-CHAIN_FIT_VERSION = 2
+# (2: gain matrices, group swings from the carried superposition, merges by similar periods;
+# 3: the motion fit, searched strengths of chords that mix bend and rotation).
+CHAIN_FIT_VERSION = 3

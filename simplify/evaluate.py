@@ -112,19 +112,27 @@ class Runs:
         turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
         reports = []
         every_branch = np.arange(simplified.n_branches)
+        simulated = self._simulated(simplified)     # a batch of winds at a time (memory)
         try:
-            simulated = list(self._simulated(simplified))
+            for run, (_wind, _times, bend, rot) in zip(self.runs, simulated):
+                tips = tip_series(simplified, bend, rot, every_branch)
+                if turn is not None:
+                    bend, rot = carry_angles(turn, bend, rot)
+                reports.append(compare_groups(run.times, run.combined_b, run.combined_r,
+                                              bend, rot, run.tips, tips, self.height,
+                                              simplified.address))
         except RunFailure as exc:
             raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
                              simplified.source or None) from None
-        for run, (_wind, _times, bend, rot) in zip(self.runs, simulated):
-            tips = tip_series(simplified, bend, rot, every_branch)
-            if turn is not None:
-                bend, rot = carry_angles(turn, bend, rot)
-            reports.append(compare_groups(run.times, run.combined_b, run.combined_r,
-                                          bend, rot, run.tips, tips, self.height,
-                                          simplified.address))
         return reports
+
+    def subset(self, keep: list[int]) -> "Runs":
+        """The same runs for winds ``keep`` only (indices into ``winds``); shares the data."""
+        out = object.__new__(Runs)
+        out.__dict__.update(self.__dict__)
+        out.winds = [self.winds[k] for k in keep]
+        out.runs = [self.runs[k] for k in keep]
+        return out
 
     def largest_combined_angle(self) -> list[float]:
         """Per wind, the largest |Θb| or |Θr| of any group over the run (rad)."""

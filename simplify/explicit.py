@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -38,8 +38,8 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, GROUP_SWING_DIRECTIONS, KAPPA_RANGE,
-                        LEVEL_BOUNDS, LEVEL_RATIO, MIXED_CARRY, SIMPLIFY_EVERY, STRENGTH_MISMATCH_WEIGHT,
+from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, BASIS_LEAF_TRY, GROUP_SWING_DIRECTIONS, KAPPA_RANGE,
+                        LEVEL_BOUNDS, LEVEL_RATIO, MIXED_CARRY, SIMPLIFY_EVERY, SIMPLIFY_WIND_RANGE, STRENGTH_MISMATCH_WEIGHT,
                         STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
 from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
 from plantlod.compare.groups import main_paths
@@ -125,22 +125,38 @@ def _period_mismatch(tree: Tree):
     W_0 component (model.md 6), so members whose components land on a W_0 component of another
     period beat against it: a chord whose bending plane turns against W_0 mixes its bend and
     rotation there, which matters only where its two strengths differ."""
-    from plantlod.compare.groups import carry_matrix
     from plantlod.sim.kinematics import rest_pose
 
+    # columns x and y of every rest swing frame, and log strengths, as plain floats: the
+    # heap asks for hundreds of thousands of pairs, where numpy's per-call cost would dominate
     swing = rest_pose(tree).swing
-    strength = np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
-                         np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)
+    x_axis = swing[:, :, 0].tolist()
+    y_axis = swing[:, :, 1].tolist()
     with np.errstate(divide="ignore"):
-        log_k = np.log(strength)
+        log_k = np.log(np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
+                                 np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1))
+    log_k = np.where(np.isfinite(log_k), log_k, np.nan).tolist()
+    cache: dict[tuple[int, int], float] = {}
+
+    def dot(a, b) -> float:
+        return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
     def factor(r: int, u: int) -> float:
-        c = np.abs(carry_matrix((swing[u].T @ swing[r])[None])[0])              # (c, m)
-        gap = np.abs(log_k[r][None, :] - log_k[u][:, None])                     # (c, m)
-        gap = np.where(np.isfinite(gap), gap, 0.0)
-        weight = c.sum(axis=1)
-        mismatch = np.where(weight > 0, (c * gap).sum(axis=1) / np.where(weight > 0, weight, 1), 0.0)
-        return 1.0 + STRENGTH_MISMATCH_WEIGHT * float(mismatch.max())
+        if (r, u) in cache:
+            return cache[r, u]
+        # M = W_u^T W_r; the carry map is [[M11, -M10], [-M01, M00]] (`carry_matrix`)
+        xu, yu, xr, yr = x_axis[u], y_axis[u], x_axis[r], y_axis[r]
+        c = ((abs(dot(yu, yr)), abs(dot(yu, xr))), (abs(dot(xu, yr)), abs(dot(xu, xr))))
+        worst = 0.0
+        for row in range(2):
+            weight = c[row][0] + c[row][1]
+            if weight <= 0:
+                continue
+            gap = [abs(log_k[r][m] - log_k[u][row]) for m in range(2)]
+            gap = [g if math.isfinite(g) else 0.0 for g in gap]
+            worst = max(worst, (c[row][0] * gap[0] + c[row][1] * gap[1]) / weight)
+        cache[r, u] = out = 1.0 + STRENGTH_MISMATCH_WEIGHT * worst
+        return out
 
     return factor
 
@@ -579,7 +595,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                          level: int, dt: float, duration: float = 20.0,
                          refine: bool = True, gains: bool = True,
                          damping_ratio: float = 0.0, motion: bool = True,
-                         fit_runs: list | None = None) -> tuple[str, Tree]:
+                         runs_for=None) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
@@ -587,8 +603,9 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
     damping_ratio : ζ of model.md 4 the groups' swings are measured under
     motion : fit the level to motion (`motion_fit`) after its statics
-    fit_runs : the original's runs in `motion_fit.fit_winds()` (`evaluate.simulate_runs`, a
-               list), when one set serves a whole chain; simulated here when None
+    runs_for : runs_for(tree), the original's `evaluate.Runs` read with a level tree's groups
+               (`motion_fit.shared_runs`), in the winds the level is fitted to motion in; by
+               default simplify's measurement winds over SIMPLIFY_WIND_RANGE, simulated here
     """
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
@@ -659,7 +676,11 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                      for g in range(grouping.count)]
         if gains:
             # k_FA becomes each branch's gain matrix, fitted to its group's static response
-            level = build(parse_lsys(text(values, leaf_area), name)).tree
+            # (the skeleton with the fitted values: what the text would read back as)
+            level = replace(skeleton, **{k: np.asarray(fitted[k], dtype=np.float64) for k in (
+                "bend_strength", "rotation_strength", "force_absorbed", "force_propagated",
+                "drag_coefficient")}, leaf_area=np.array([by_address[a] for a in skeleton.leaf_address],
+                                                         dtype=np.float64))
             matrices = fit_gain_matrices(level, original, gmap, turn=turn,
                                          target_gain=gain_group[to_group])[back]
             del values["force_absorbed"]
@@ -667,9 +688,10 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         return values, leaf_area, text, params.static_error, to_group, carry_matrix(turn)
 
     # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;
-    # without the refinement there is no static error to compare)
+    # without the refinement there is no static error to compare); they are only tried where
+    # the eigen-leaves miss the statics by more than BASIS_LEAF_TRY (a second fit costs as much)
     best = fit("eigen")
-    if refine:
+    if refine and best[3] > BASIS_LEAF_TRY:
         basis = fit("basis")
         if basis[3] < BASIS_LEAF_GAIN * best[3]:
             best = basis
@@ -681,19 +703,17 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     if not motion:
         return rebuild(values)
-    from plantlod.sim.damping import Damping
-    from .evaluate import Runs, simulate_runs
-    from .motion_fit import fit_winds, motion_fit
-    from .targets import group_map
+    from .motion_fit import motion_fit
 
-    winds = fit_winds()
-    steps = int(round(duration / dt))
-    damping = Damping(ratio=damping_ratio)
-    if fit_runs is None:
-        fit_runs = list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping))
+    if runs_for is None:
+        from plantlod.sim.damping import Damping
+        from .evaluate import simulate_runs, wind_cases
+        from .motion_fit import shared_runs
 
-    def runs_for(tree: Tree) -> Runs:
-        return Runs(original, group_map(original, tree), winds, dt, steps, SIMPLIFY_EVERY,
-                    damping, simulated=fit_runs)
-
+        winds = wind_cases(*SIMPLIFY_WIND_RANGE)
+        steps = int(round(duration / dt))
+        damping = Damping(ratio=damping_ratio)
+        runs_for = shared_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping,
+                               list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY,
+                                                  damping)))
     return motion_fit(original, values, rebuild, to_group, carry, runs_for, level, dt)

@@ -5,8 +5,8 @@ The statics (`closed_form`, `gain_matrix`) and the swing model (`explicit.domina
 members started from rest, each on its own) fix a level branch's parameters before anything
 moves. What they cannot see — a parent's lean turning the force a group feels, members whose
 periods beat, a chord whose bending plane turns against W_0 (model.md 6) — shows in the level's
-own runs. So, over the fit winds (`fit_winds`: speeds × directions round the compass, the
-original run once for the whole chain), each round simulates the level and reads, per group g
+own runs. So, over the winds the level is measured in (`simplify`'s winds: the original run
+once for the whole chain, `shared_runs`), each round simulates the level and reads, per group g
 and W_0 component c (model.md 6's measures, in `compare_groups`), over the winds where the
 component counts:
 
@@ -19,12 +19,14 @@ and carries them back to the branch's own components through its carry map C (y 
 `strength_of_period` of it) and its gain row by exp(ρ_A), each clipped to exp(±MOTION_FIT_STEP).
 A branch whose two strengths are one (`explicit.own_strengths` tied them) keeps them tied.
 
-The round scoring best on the fit winds (`bounds.form_rank`: winds missing the level's bounds,
+Only the fit winds where the original stays within SMALL_ANGLE_LIMIT are run (the bounds
+hold only there; all of them where none does). The round scoring best on those winds (`bounds.form_rank`: winds missing the level's bounds,
 then the worst ratio) is kept, so a round can only help on the winds it is scored in.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -34,15 +36,29 @@ from plantlod.lsys.system import GAIN_KEYS
 from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
-from .constants import (COUNTED_AMPLITUDE_FRACTION, MOTION_FIT_DIRECTIONS, MOTION_FIT_GOOD,
-                        MOTION_FIT_ROUNDS, MOTION_FIT_SPEEDS, MOTION_FIT_STEP,
-                        SMALL_ANGLE_LIMIT)
+from .constants import (COUNTED_AMPLITUDE_FRACTION, MOTION_FIT_GOOD, MOTION_FIT_ROUNDS,
+                        MOTION_FIT_STEP, SMALL_ANGLE_LIMIT)
 from .evaluate import Runs, WindCase
 
 
-def fit_winds() -> list[WindCase]:
-    """The motion fit's winds: MOTION_FIT_SPEEDS (m/s) × MOTION_FIT_DIRECTIONS (deg)."""
-    return [WindCase(s, d) for s in MOTION_FIT_SPEEDS for d in MOTION_FIT_DIRECTIONS]
+def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, every: int,
+                damping, simulated: list) -> Callable[[Tree], Runs]:
+    """runs_for(tree): the original's `Runs` in ``winds`` (its runs ``simulated``, an
+    `evaluate.simulate_runs` list) read with ``tree``'s groups, made once per set of level
+    branch addresses, so that a level's fit and its measurement share it."""
+    from .targets import group_map
+
+    made: dict[tuple[str, ...], Runs] = {}
+
+    def runs_for(tree: Tree) -> Runs:
+        key = tuple(tree.address)
+        if key not in made:
+            made.clear()
+            made[key] = Runs(original, group_map(original, tree), winds, dt, steps, every, damping,
+                             simulated=simulated)
+        return made[key]
+
+    return runs_for
 
 
 def swing_figures(reports, largest: list[float]) -> tuple[np.ndarray, ...]:
@@ -96,41 +112,61 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
 
     to_group (S,): the group of each level-tree branch (tree order); carry (S, 2, 2) their carry
     maps; runs_for(tree): the original's `Runs` in the fit winds, read with ``tree``'s groups.
+    The rounds change the level tree's arrays in place of its text (parsing a level of
+    thousands of branches takes longer than simulating it); a round that scores no better
+    than the best twice in a row ends the fit.
     """
     from .explicit import period_of_strength, strength_of_period
 
     values = {k: np.array(v, dtype=np.float64) for k, v in values.items()}
-    text, tree = first = rebuild(values)
-    runs = runs_for(tree)
-    winds, largest = runs.winds, runs.largest_combined_angle()
-    best = None
-    gain_keys = [k for k in GAIN_KEYS if k in values] or ["force_absorbed"]
-    rows = {"bend": gain_keys[:3] if len(gain_keys) == 6 else gain_keys,
-            "rotation": gain_keys[3:] if len(gain_keys) == 6 else gain_keys}
+    first = rebuild(values)
+    level_tree = first[1]
+    runs = runs_for(level_tree)
+    largest = runs.largest_combined_angle()
+    small = [k for k, a in enumerate(largest) if a <= SMALL_ANGLE_LIMIT]
+    if small:                                 # only winds where the bounds hold are fitted
+        runs = runs.subset(small)
+        largest = [largest[k] for k in small]
+    winds = runs.winds
+    gains = all(k in values for k in GAIN_KEYS)
+    rows = (GAIN_KEYS[:3], GAIN_KEYS[3:]) if gains else (("force_absorbed",), ("force_absorbed",))
+
+    def tree_of(v: dict[str, np.ndarray]) -> Tree:
+        changed = {"bend_strength": v["bend_strength"][to_group],
+                   "rotation_strength": v["rotation_strength"][to_group]}
+        if gains:
+            changed["force_gain"] = np.stack([v[k][to_group] for k in GAIN_KEYS], axis=1)
+        else:
+            changed["force_absorbed"] = v["force_absorbed"][to_group]
+        return replace(level_tree, **changed)
+
+    best, worse = None, 0
     for round_ in range(MOTION_FIT_ROUNDS + 1):
         try:
-            reports = runs.compare(tree)
+            reports = runs.compare(tree_of(values))
         except InputError:                        # the corrected level diverges: keep the best
             break
         rank = form_rank(list(zip(winds, reports)), level, largest)
         if best is None or rank < best[0]:
-            best = (rank, text, tree)
-        if round_ == MOTION_FIT_ROUNDS or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
+            best, worse = (rank, {k: v.copy() for k, v in values.items()}, round_), 0
+        else:
+            worse += 1
+        if round_ == MOTION_FIT_ROUNDS or worse >= 2 or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
             break
         ax, ay, px, py, a_max = swing_figures(reports, largest)
         kb = values["bend_strength"][to_group]
         kr = values["rotation_strength"][to_group]
-        tied = kb == kr
-        d_period, d_gain = own_corrections(ax, ay, px, py, a_max, carry, tied)
+        d_period, d_gain = own_corrections(ax, ay, px, py, a_max, carry, kb == kr)
         values["bend_strength"][to_group] = strength_of_period(
             period_of_strength(kb, dt) * np.exp(d_period[:, 0]), dt)
         values["rotation_strength"][to_group] = strength_of_period(
             period_of_strength(kr, dt) * np.exp(d_period[:, 1]), dt)
-        if len(gain_keys) == 6:
-            for m, name in enumerate(("bend", "rotation")):
-                for key in rows[name]:
+        if gains:
+            for m in range(2):
+                for key in rows[m]:
                     values[key][to_group] *= np.exp(d_gain[:, m])
         else:                                     # one k_FA: the mean of the two rows' corrections
             values["force_absorbed"][to_group] *= np.exp(d_gain.mean(axis=1))
-        text, tree = rebuild(values)
-    return first if best is None else (best[1], best[2])
+    if best is None or best[2] == 0:
+        return first
+    return rebuild(best[1])

@@ -227,15 +227,37 @@ def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
             f"tip {_percent(worst('tip_error'))} of the height")
 
 
+@dataclass
+class OriginalRuns:
+    """The original's runs in the measurement winds (`Options.winds`, an
+    `evaluate.simulate_runs` list) that every explicit level of one tree is fitted to motion
+    and measured against: one set serves a whole chain (``--levels``). Kept as float32
+    angles (rounding 6e-8 relative; 4,096 branches' 16 runs take 0.26 GB so)."""
+
+    measure: list
+
+
+def original_runs(original: Tree, options: Options) -> OriginalRuns:
+    """Simulate ``original`` once in the measurement winds."""
+    from .evaluate import simulate_runs
+
+    return OriginalRuns([(wind, times, bend.astype(np.float32), rot.astype(np.float32))
+                         for wind, times, bend, rot in simulate_runs(
+                             original, options.winds(), options.dt, options.steps, options.every,
+                             options.damping)])
+
+
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
-                      grouping: int | None = None) -> Result:
+                      grouping: int | None = None, shared: OriginalRuns | None = None) -> Result:
     """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form.
 
     grouping: the explicit grouping to use (an index into `explicit.merge_levels`), default
     the level's own; `chain_plan` gives a coarser one where a finer level has fewer branches.
+    shared: the original's runs (`original_runs`) for these options, when a chain shares them.
     """
     from .explicit import explicit_system_text, merge_levels
+    from .motion_fit import shared_runs
 
     source = system.source or None
     if options.method != "derived" or options.calibrate:
@@ -245,6 +267,10 @@ def simplify_explicit(system: LSystem, options: Options,
     if original.n_branches == 0:
         raise InputError("the original tree has no branches; expected a tree to simplify", source)
     check_stability(original, options.dt)
+    if shared is None:
+        shared = original_runs(original, options)
+    runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
+                           options.damping, shared.measure)
     levels = merge_levels(original)
     last = len(levels) - 1
     if grouping is None and not 1 <= options.level <= last:
@@ -260,12 +286,12 @@ def simplify_explicit(system: LSystem, options: Options,
                                       name=system.name or "tree",
                                       header=header, level=options.level, dt=options.dt,
                                       duration=options.duration,
-                                      damping_ratio=options.damping_ratio)
+                                      damping_ratio=options.damping_ratio,
+                                      runs_for=runs_for)
     check_stability(tree, options.dt)
     if progress:
         progress("measuring", 0.5)
-    runs = Runs(original, group_map(original, tree), options.winds(), options.dt, options.steps,
-                options.every, options.damping)
+    runs = runs_for(tree)          # the motion fit's, when the level's branches are the same
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
