@@ -79,7 +79,9 @@ MIXED_CARRY = 0.1            # a chord whose carry map has diagonal and off-diag
 STRENGTH_SEARCH_POINTS = 8   # period grid of that search, coarse and then around the best
 STRENGTH_SEARCH_EVERY = 4    # samples of the search's swings kept (as simplify measures)
 GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
-STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x |ln k ratio|)
+STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x (period gap + turn))
+FRAME_TURN_WEIGHT = 4.0      # ... and x (1 + this x the turn it gives level branches; simplify/grouping.py)
+MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
 # (in simplify's measurement winds: on family seeds 0-35 they did as well as 32 winds round
