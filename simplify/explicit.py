@@ -174,7 +174,10 @@ def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen")
     frame = np.empty((g_count, 3, 3))
     for g in range(g_count):
         direction = chord[g] / length[g] if length[g] > 0 else frames.axis[root[g]]
-        frame[g] = _chord_frame(frames.frame[root[g]], direction)
+        # the frame of the group's tip member, turned onto the chord: a group that continues
+        # straight on from this one's tip then gets its root's own swing frame (model.md 3,
+        # α = 0: the parent's branch frame), as the original has it
+        frame[g] = _chord_frame(frames.frame[paths[g][-1]], direction)
     children: list[list[int]] = [[] for _ in range(g_count)]
     for g in range(g_count):
         if parent_group[g] >= 0:
