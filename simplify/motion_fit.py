@@ -11,7 +11,8 @@ and W_0 component c (model.md 6's measures, in `compare_groups`), over the winds
 component counts:
 
     ρ_P[g, c] = Σ_w q ln(P_x / P_y) / Σ_w q,     q = (A_x / A_max)²   (the major swings lead)
-    ρ_A[g, c] = Σ_w a ln(A_x / A_y) / Σ_w a,     a = A_x / A_max      (motion error's weight)
+    ρ_A[g, c] = ln(Σ_w A_x A_y / Σ_w A_y²)   (the least-squares scale of the level's swing;
+                                             the motion error |A_y - A_x| / A_max is linear in it)
 
 and carries them back to the branch's own components through its carry map C (y = C θ',
 `compare.groups.carry_matrix`): own component m takes Σ_c |C[c, m]| w_c ρ[g, c] / Σ_c |C[c, m]| w_c
@@ -80,18 +81,26 @@ def own_corrections(ax, ay, px, py, a_max, carry: np.ndarray, tied: np.ndarray
     rotation), from the figures of `swing_figures` and its carry map ``carry`` (S, 2, 2);
     ``tied`` (S,): branches whose two strengths are one get one period correction."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.where(a_max[:, None, None] > 0, ax / a_max[:, None, None], 0.0)
-        counted = rel >= COUNTED_AMPLITUDE_FRACTION
+        scale = np.where(a_max > 0, a_max, 1.0)[:, None, None]
+        rel, rel_y = ax / scale, ay / scale
+        counted = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION)
         p_ok = counted & np.isfinite(px) & np.isfinite(py) & (px > 0) & (py > 0)
         a_ok = counted & (ay > 0)
         lp = np.where(p_ok, np.log(np.where(p_ok, px / py, 1.0)), 0.0)
-        la = np.where(a_ok, np.log(np.where(a_ok, ax / ay, 1.0)), 0.0)
+    # periods: the log-ratios' mean weighted by the squared swing (the major ones lead)
     wp = np.where(p_ok, rel ** 2, 0.0)
-    wa = np.where(a_ok, rel, 0.0)
+    p_total = wp.sum(axis=0)                                                  # (2, S)
+    p_mean = np.where(p_total > 0, (wp * lp).sum(axis=0) / np.where(p_total > 0, p_total, 1), 0.0)
+    # gains: the least-squares scale s of the level's swing, min Σ_w (s A_y - A_x)² / A_max²
+    # (the motion error is linear in it), as ln s
+    xy = np.where(a_ok, rel * rel_y, 0.0).sum(axis=0)
+    a_total = np.where(a_ok, rel_y ** 2, 0.0).sum(axis=0)
+    a_mean = np.where((a_total > 0) & (xy > 0),
+                      np.log(np.where((a_total > 0) & (xy > 0), xy / np.where(a_total > 0, a_total, 1), 1.0)),
+                      0.0)
 
-    def to_own(weight: np.ndarray, value: np.ndarray, tie: np.ndarray) -> np.ndarray:
-        total = weight.sum(axis=0)                                            # (2, S): per W_0 comp.
-        mean = np.where(total > 0, (weight * value).sum(axis=0) / np.where(total > 0, total, 1), 0.0)
+    def to_own(total: np.ndarray, mean: np.ndarray, tie: np.ndarray) -> np.ndarray:
+        """Per W_0 component corrections ``mean`` (2, S) of weight ``total`` to own ones (S, 2)."""
         w = np.abs(carry) * total.T[:, :, None]                               # (S, c, m)
         num = (w * mean.T[:, :, None]).sum(axis=1)                            # (S, m)
         den = w.sum(axis=1)
@@ -101,7 +110,7 @@ def own_corrections(ax, ay, px, py, a_max, carry: np.ndarray, tied: np.ndarray
         own = np.where(tie[:, None], both[:, None], own)
         return np.clip(own, -MOTION_FIT_STEP, MOTION_FIT_STEP)
 
-    return to_own(wp, lp, tied), to_own(wa, la, np.zeros_like(tied))
+    return to_own(p_total, p_mean, tied), to_own(a_total, a_mean, np.zeros_like(tied))
 
 
 def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[[dict], tuple[str, Tree]],
