@@ -200,3 +200,24 @@ def test_basis_leaves_reproduce_a_response_they_span():
     assert np.all(areas > 0)
     assert np.allclose(np.einsum("k,ki,kj->ij", areas, got, got), response,
                        atol=1e-3 * values.sum() * 9)
+
+
+def test_a_chain_runs_the_original_once_per_wind(tmp_path, monkeypatch):
+    # issue 21 item 5: --levels simulates the original once for the whole chain; every other
+    # run is of a level (fewer branches)
+    import plantlod.simplify.evaluate as evaluate
+    from plantlod.cli.simplify_cmd import _write_levels
+
+    system, tree = _tree("stalk8.lsys")
+    calls = []
+    real = evaluate.simulate_runs
+
+    def counting(run_tree, winds, *args, **kwargs):
+        calls.append((run_tree.n_branches, len(winds)))
+        return real(run_tree, winds, *args, **kwargs)
+
+    monkeypatch.setattr(evaluate, "simulate_runs", counting)
+    _write_levels(system, str(tmp_path / "lv"), "stalk8.lsys", (0.5, 20.0), 0.01, 2.0)
+    assert len(list((tmp_path / "lv").glob("level*.lsys"))) == 3
+    assert [c for c in calls if c[0] == tree.n_branches] == [(tree.n_branches, 16)]
+    assert len(calls) > 3                                   # the levels' own runs

@@ -1,0 +1,149 @@
+"""Fitting explicit levels to motion (issue 21): the strength search for chords that mix bend
+and rotation, the motion fit's corrections, the frame-turn cost of merges and the chord frames
+that keep straight continuations unturned. Checked against hand computations and the model's
+own closed forms, not against the code's output."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from plantlod.compare.groups import carry_matrix, swing_turns
+from plantlod.lsys.build import build
+from plantlod.lsys.parse import parse_lsys
+from plantlod.simplify.explicit import (GroupSwing, _searched_strengths, explicit_system_text,
+                                        period_of_strength, strength_of_period)
+from plantlod.simplify.grouping import FrameTurns, _carry_mixing, merge_levels
+from plantlod.simplify.motion_fit import own_corrections
+from plantlod.simplify.targets import group_map
+
+DT = 0.01
+
+
+def _rotation(beta: float) -> np.ndarray:
+    """(1, 2, 2) carry map of a frame turned by beta about its axis (`carry_matrix` of Rz(beta))."""
+    c, s = math.cos(beta), math.sin(beta)
+    turn = np.array([[[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]])
+    return carry_matrix(turn)
+
+
+def _swing(periods_bc: tuple[float, float], statics: np.ndarray) -> GroupSwing:
+    """A one-group GroupSwing whose W_0 components swing at fixed periods (s) with the static
+    angles ``statics`` (2, D): each component a single oscillator, so A = |X(∞)|."""
+    d = statics.shape[1]
+    k = strength_of_period(np.array(periods_bc), DT)
+    periods = np.repeat(np.array(periods_bc)[:, None], d, axis=1)[None]
+    amplitudes = np.abs(statics)[None]
+    return GroupSwing(k[:1], k[1:], np.ones((1, 2)), amplitudes.sum(axis=2), periods, amplitudes,
+                      statics[None])
+
+
+def test_the_search_swaps_strengths_for_a_chord_turned_by_a_right_angle():
+    # turned by 90°, the chord's own bend lands on W_0's rotation and vice versa: the search must
+    # find the swapped pair (the beat-free choice), to the grid's resolution
+    d = np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
+    statics = np.stack([0.3 * np.cos(d), 0.5 * np.sin(d)])
+    swing = _swing((4.2, 3.6), statics)
+    best = _searched_strengths(swing, _rotation(math.pi / 2), np.abs(statics).max(axis=0), DT, 20.0, 0.0)
+    p = period_of_strength(best[0], DT)
+    assert p[0] == pytest.approx(3.6, rel=0.005) and p[1] == pytest.approx(4.2, rel=0.005)
+
+
+def test_the_searched_pair_scores_no_worse_than_the_tied_one():
+    # a chord turned by 30° cannot keep both periods; whatever it picks must score at most what
+    # one shared strength (the former rule) scores under the same cost (recomputed here)
+    from plantlod.compare.measures import amplitude, period
+    from plantlod.simplify.explicit import unit_response
+
+    d = np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
+    statics = np.stack([0.3 * np.cos(d), 0.5 * np.sin(d)])
+    swing = _swing((4.2, 3.6), statics)
+    carry = _rotation(math.radians(30))
+    a_max = np.abs(statics).max(axis=0)
+    best = _searched_strengths(swing, carry, a_max, DT, 20.0, 0.0)[0]
+    t = np.arange(2001)[::4] * DT
+    own = np.linalg.solve(carry[0], statics)                               # (m, D)
+
+    def cost(kb: float, kr: float) -> float:
+        u = unit_response(np.array([kb, kr]), DT, 2000)[::4]
+        y = carry[0][None, :, :, None] * own[None, None] * u[:, None, :, None]   # (T, c, m, D)
+        y = y.sum(axis=2).reshape(len(t), -1)
+        p, a = period(t, y).reshape(2, -1), amplitude(y).reshape(2, -1)
+        target = swing.periods[0]
+        rel = np.abs(statics) / a_max
+        per = np.where(rel >= 0.1, np.abs(np.log(p / target)) / 0.02, 0.0) ** 4
+        amp = np.where(rel >= 0.01, (a - np.abs(statics)) / a_max / 0.05, 0.0) ** 4
+        return float(per.sum() + amp.sum())
+
+    mid = float(strength_of_period(0.5 * (4.2 + 3.6), DT))
+    assert cost(*best) <= cost(mid, mid) * (1 + 1e-9)
+
+
+def test_corrections_shorten_a_slow_period_and_scale_a_large_swing():
+    # one branch, identity carry, 3 winds: the level's bend period is 5 % long everywhere and
+    # its rotation swings 1.25x too far: the period correction is ln(1/1.05) and the gain
+    # correction the least-squares scale Σ A_x A_y / Σ A_y² = 1/1.25
+    w = 3
+    ax = np.array([[[1.0], [0.5]]] * w)
+    ay = np.array([[[1.0], [0.625]]] * w)
+    px = np.full((w, 2, 1), 4.0)
+    py = np.array([[[4.2], [4.0]]] * w)
+    d_period, d_gain = own_corrections(ax, ay, px, py, np.ones(w), np.eye(2)[None], np.array([False]))
+    assert d_period[0, 0] == pytest.approx(math.log(4.0 / 4.2))
+    assert d_period[0, 1] == pytest.approx(0.0)
+    assert d_gain[0, 1] == pytest.approx(math.log(1 / 1.25))
+    assert d_gain[0, 0] == pytest.approx(0.0)
+
+
+def test_mixing_of_a_turned_frame():
+    x, y = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+    for beta, mix in ((0.0, 0.0), (math.pi / 2, 0.0), (math.pi / 4, math.sqrt(0.5)),
+                      (math.radians(30), 0.5)):
+        xs = (math.cos(beta), math.sin(beta), 0.0)
+        ys = (-math.sin(beta), math.cos(beta), 0.0)
+        assert _carry_mixing(x, y, xs, ys) == pytest.approx(mix, abs=1e-12)
+
+
+def test_frame_turn_cost_is_nil_in_the_branch_plane_and_grows_out_of_it():
+    # a root whose rest swing frame is the identity (x toward +x): a level branch leaning in the
+    # xz plane from a vertical parent keeps that frame (cost 0); leaning toward +y it is turned
+    # by 90° (a swap: cost 0 too); toward the diagonal by 45° (mixing 1/√2, times the gap)
+    gap = abs(math.log(20.0 / 30.0))
+    turns = FrameTurns([[0, 0, 0]], [[0, 0, 1]], [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], [gap])
+    up = (0.0, 0.0, 1.0)
+    lean = math.radians(30)
+    for azimuth, expect in ((0.0, 0.0), (90.0, 0.0), (45.0, gap * math.sqrt(0.5))):
+        a = math.radians(azimuth)
+        d = (math.sin(lean) * math.cos(a), math.sin(lean) * math.sin(a), math.cos(lean))
+        assert turns.cost(0, d, up) == pytest.approx(expect, abs=1e-12)
+
+
+ROLLED_STALK = """name: rolled
+derivation_length: 0
+branching_angle: 30
+rotation_angle: 66
+force_absorbed: 0.005
+force_propagated: 0.7
+drag_coefficient: 0.0015
+branch T: length=0.4 radius=0.02 bend_strength=22 rotation_strength=30
+leaf L: area=0.003
+axiom: T / T / T / T / T / T / T / T / T / T &(20) L
+"""
+
+
+def test_straight_groups_keep_their_roots_frames_whatever_the_rolls():
+    # a straight trunk rolled by 66° between segments (bend and rotation strengths differ):
+    # every level branch that continues straight on from its parent's group tip must read in
+    # its group root's frame unturned (carry map the identity), or its two periods would mix
+    system = parse_lsys(ROLLED_STALK, "rolled.lsys")
+    original = build(system).tree
+    header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
+                                              "force_absorbed", "force_propagated",
+                                              "drag_coefficient", "leaf_force_scale")}
+    for grouping in merge_levels(original)[1:3]:
+        _, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
+                                        dt=DT, refine=False, gains=False, motion=False)
+        carry = carry_matrix(swing_turns(original, level, group_map(original, level).paths))
+        np.testing.assert_allclose(carry, np.broadcast_to(np.eye(2), carry.shape), atol=1e-9)
