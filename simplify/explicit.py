@@ -265,7 +265,6 @@ class GroupSwing:
 
     kb, kr     : (G,) the strengths whose periods are each component's amplitude-weighted mean
     gain       : (G, 2) amplitude factors, Σ_d A_c(d) / Σ_d |X_c(d, ∞)|
-    swing      : (G, 2) Σ_d A_c(d), rad
     periods    : (G, 2, D) P_c(d), s (NaN: fewer than two crossings)
     amplitudes : (G, 2, D) A_c(d), rad
     statics    : (G, 2, D) X_c(d, ∞), rad: the component's static angle
@@ -274,7 +273,6 @@ class GroupSwing:
     kb: np.ndarray
     kr: np.ndarray
     gain: np.ndarray
-    swing: np.ndarray
     periods: np.ndarray
     amplitudes: np.ndarray
     statics: np.ndarray
@@ -282,7 +280,7 @@ class GroupSwing:
     def take(self, order: np.ndarray) -> "GroupSwing":
         """The same figures for groups ``order`` (e.g. in a level tree's branch order)."""
         return GroupSwing(*(np.asarray(getattr(self, f))[order] for f in (
-            "kb", "kr", "gain", "swing", "periods", "amplitudes", "statics")))
+            "kb", "kr", "gain", "periods", "amplitudes", "statics")))
 
 
 def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, duration: float,
@@ -329,7 +327,6 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
     g_count = len(paths)
     out = np.empty((g_count, 2))
     gain = np.ones((g_count, 2))
-    swing = np.zeros((g_count, 2))              # Σ_d A_c(d): how much each component swings
     periods = np.full((g_count, 2, d_count), np.nan)
     amplitudes = np.zeros((g_count, 2, d_count))
     statics = np.zeros((g_count, 2, d_count))
@@ -348,12 +345,10 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
                 out[g, c] = distinct[mine[0, c]]                            # one strength
                 amplitudes[g, c] = settled * amplitude(responses[:, mine[0, c]])
                 periods[g, c] = own_period[mine[0, c]]
-                swing[g, c] = float(amplitudes[g, c].sum())
                 continue
             signal = responses[:, mine.reshape(-1)] @ w.reshape(d_count, -1).T
             amp = np.atleast_1d(amplitude(signal))
             amplitudes[g, c] = amp
-            swing[g, c] = float(amp.sum())
             per = np.atleast_1d(period(t, signal))
             periods[g, c] = per
             ok = np.isfinite(per) & (amp > 0)
@@ -364,8 +359,7 @@ def dominant_strengths(original: Tree, paths: list[np.ndarray], dt: float, durat
                 out[g, c] = float(np.exp(np.log(distinct[mine.reshape(-1)]).mean()))
             if settled.sum() > 0:
                 gain[g, c] = float(amp.sum() / settled.sum())
-    return GroupSwing(out[:, 0].copy(), out[:, 1].copy(), gain, swing, periods, amplitudes,
-                      statics)
+    return GroupSwing(out[:, 0].copy(), out[:, 1].copy(), gain, periods, amplitudes, statics)
 
 
 def strength_of_period(period: np.ndarray, dt: float) -> np.ndarray:

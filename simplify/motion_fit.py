@@ -20,9 +20,12 @@ and carries them back to the branch's own components through its carry map C (y 
 `strength_of_period` of it) and its gain row by exp(ρ_A), each clipped to exp(±MOTION_FIT_STEP).
 A branch whose two strengths are one (`explicit.own_strengths` tied them) keeps them tied.
 
-Only the fit winds where the original stays within SMALL_ANGLE_LIMIT are run (the bounds
-hold only there; all of them where none does). The round scoring best on those winds (`bounds.form_rank`: winds missing the level's bounds,
-then the worst ratio) is kept, so a round can only help on the winds it is scored in.
+Only the winds where the original stays within SMALL_ANGLE_LIMIT are run (the bounds hold
+only there; all of them where none does). The round scoring best on those winds
+(`bounds.form_rank`: winds missing the level's bounds, then the worst ratio) is kept, so a
+round can only help on the winds it is scored in. At most MOTION_FIT_ROUNDS rounds; the fit
+stops after two rounds that do not improve on the best, or once every wind is within
+MOTION_FIT_GOOD of its bounds.
 """
 
 from __future__ import annotations

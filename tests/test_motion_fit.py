@@ -36,8 +36,7 @@ def _swing(periods_bc: tuple[float, float], statics: np.ndarray) -> GroupSwing:
     k = strength_of_period(np.array(periods_bc), DT)
     periods = np.repeat(np.array(periods_bc)[:, None], d, axis=1)[None]
     amplitudes = np.abs(statics)[None]
-    return GroupSwing(k[:1], k[1:], np.ones((1, 2)), amplitudes.sum(axis=2), periods, amplitudes,
-                      statics[None])
+    return GroupSwing(k[:1], k[1:], np.ones((1, 2)), periods, amplitudes, statics[None])
 
 
 def test_the_search_swaps_strengths_for_a_chord_turned_by_a_right_angle():
