@@ -49,6 +49,8 @@ RUNS_BATCH_BYTES = 400_000_000  # angles held at once by simplify's measurement 
 # error as a fraction of the height; `simplify --form auto` keeps the grammar form where it
 # meets them. Level 3 and beyond are held to level 2's.
 LEVEL_BOUNDS = {1: (0.05, 0.02, 0.01), 2: (0.10, 0.04, 0.02)}
+# A stalk's (a chain's) relative amplitude and period errors, in place of the first two (issue 21)
+STALK_BOUNDS = {1: (0.02, 0.01), 2: (0.05, 0.02)}
 SMALL_ANGLE_LIMIT = 0.1       # rad: the bounds apply while the original's combined angles stay below
 # The explicit form's refinement fits what its levels are held to, the motion error
 # (model.md 6: errors against the largest angle of the wind, so the floor is 1), with a

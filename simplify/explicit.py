@@ -432,6 +432,9 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
     swing = swing.take(np.arange(len(own)))
     swing.amplitudes[:] /= scale
     swing.statics[:] /= scale
+    # the group's own largest swing (in A_max units): its errors also count against it
+    group_max = swing.amplitudes.max(axis=(1, 2), initial=0.0)
+    group_max = np.where(group_max > 0, group_max, 1.0)
     major = np.isfinite(target) & (swing.amplitudes >= MAJOR_AMPLITUDE_FRACTION)
     counted = swing.amplitudes >= COUNTED_AMPLITUDE_FRACTION
     weight = np.where(np.isfinite(target), swing.amplitudes ** 2, 0.0)
@@ -466,9 +469,12 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
             a_y = amplitude(flat).reshape(q, q, 2, -1)
             with np.errstate(divide="ignore", invalid="ignore"):
                 miss = np.where(np.isfinite(p), np.abs(np.log(p / target[i])), 1.0)
+            own_weight = weight[i] / group_max[i] ** 2
             cost = (np.where(major[i], miss / period_bound, 0.0) ** 4).sum(axis=(2, 3)) \
                 + (np.where(counted[i], (a_y - swing.amplitudes[i]) / motion_bound, 0.0) ** 4
-                   ).sum(axis=(2, 3))
+                   ).sum(axis=(2, 3)) \
+                + (own_weight * (miss / period_bound) ** 2).sum(axis=(2, 3)) \
+                + (((a_y - swing.amplitudes[i]) / group_max[i] / motion_bound) ** 2).sum(axis=(2, 3))
             a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
             best[i] = grids[i, 0, a], grids[i, 1, b]
     return strength_of_period(best, dt)

@@ -128,7 +128,9 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
     thousands of branches takes longer than simulating it); a round that scores no better
     than the best twice in a row ends the fit.
     """
-    from .explicit import period_of_strength, strength_of_period
+    from .explicit import is_stalk, period_of_strength, strength_of_period
+
+    stalk = is_stalk(original)                # held to the relative bounds (STALK_BOUNDS)
 
     values = {k: np.array(v, dtype=np.float64) for k, v in values.items()}
     first = rebuild(values)
@@ -158,7 +160,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             reports = runs.compare(tree_of(values))
         except InputError:                        # the corrected level diverges: keep the best
             break
-        rank = form_rank(list(zip(winds, reports)), level, largest)
+        rank = form_rank(list(zip(winds, reports)), level, largest, stalk)
         if best is None or rank < best[0]:
             best, worse = (rank, {k: v.copy() for k, v in values.items()}, round_), 0
         else:

@@ -142,7 +142,10 @@ def simplify(system: LSystem, options: Options,
         result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
         result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
         return result
-    grammar_score = bounds_score(grammar.reports, options.level, grammar.largest_angles)
+    from .explicit import is_stalk
+
+    stalk = is_stalk(grammar.original)          # a chain is held to the relative bounds
+    grammar_score = bounds_score(grammar.reports, options.level, grammar.largest_angles, stalk)
     if grammar_score <= 1.0:
         grammar.notes.insert(0, "grammar form: it meets the level's bounds")
         return grammar
@@ -152,8 +155,8 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
         return grammar
-    if form_rank(explicit.reports, options.level, explicit.largest_angles) \
-            < form_rank(grammar.reports, options.level, grammar.largest_angles):
+    if form_rank(explicit.reports, options.level, explicit.largest_angles, stalk) \
+            < form_rank(grammar.reports, options.level, grammar.largest_angles, stalk):
         explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
                                  f"({_bounds_text(grammar.reports)})")
         return explicit

@@ -120,3 +120,17 @@ def test_bounds_score_leaves_out_winds_past_the_small_angle_limit():
     assert form_rank(reports, 1, [0.01, 0.02]) == (1, pytest.approx(4.0))
     two_small_misses = [report(1.5 * motion_bound), report(1.5 * motion_bound)]
     assert form_rank(reports, 1, [0.01, 0.02]) < form_rank(two_small_misses, 1, [0.01, 0.02])
+
+
+def test_a_stalk_is_scored_on_its_relative_bounds():
+    """A chain is held to issue 21's stalk targets (relative amplitude 2 %, period 1 % at
+    level 1) where a branching tree is held to the motion and major period errors."""
+    from types import SimpleNamespace
+
+    from plantlod.simplify.bounds import bounds_score, form_rank
+
+    r = SimpleNamespace(motion_error=0.01, period_error_major=0.01, tip_error=0.0,
+                        amplitude_error=0.03, period_error=0.005)
+    assert bounds_score([(None, r)], 1) == pytest.approx(0.5)                # 0.01/0.02 period
+    assert bounds_score([(None, r)], 1, stalk=True) == pytest.approx(1.5)    # 0.03/0.02 amplitude
+    assert form_rank([(None, r)], 1, stalk=True) == (1, pytest.approx(1.5))
