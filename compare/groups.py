@@ -180,7 +180,8 @@ def assign_stated_groups(original: Tree, simplified: Tree) -> np.ndarray:
     return groups
 
 
-def _pick(candidates: list[int], alpha: np.ndarray, keys: list[AddressKey]) -> int:
+def pick_main_member(candidates: list[int], alpha: np.ndarray,
+                     keys: list[AddressKey]) -> int:
     """The candidate with the smallest alpha; those within ALPHA_TIE_TOL of it tie; then lowest address."""
     smallest = min(alpha[c] for c in candidates)
     tied = [c for c in candidates if alpha[c] <= smallest + ALPHA_TIE_TOL]
@@ -223,10 +224,10 @@ def main_paths(original: Tree, groups: np.ndarray, n_groups: int | None = None) 
     for g in range(g_count):
         path: list[int] = []
         if roots[g]:
-            cur = _pick(roots[g], alpha, keys)
+            cur = pick_main_member(roots[g], alpha, keys)
             path.append(cur)
             while kids_in_group[cur]:
-                cur = _pick(kids_in_group[cur], alpha, keys)
+                cur = pick_main_member(kids_in_group[cur], alpha, keys)
                 path.append(cur)
         paths.append(np.asarray(path, dtype=np.int64))
     return paths

@@ -5,16 +5,16 @@ the level-k tree is written out as an L-system of derivation length 0 whose
 axiom draws one branch per group, each naming the original branch that roots
 its group (the file's ``groups:`` section):
 
-1. **Groups** (`merge_levels`): level 0 is every original branch on its own.
-   Level k+1 merges groups of level k into their parent groups, smallest merged
-   size first (a heap: n log n), until at most `LEVEL_RATIO` of level k's groups
-   are left; so groups are connected, nested level in level, and the chain ends
-   with one group. Merging the smallest first grows groups evenly from the tips
-   toward the trunk (Beaudoin & Keyser 2004 merge from the tips too).
+1. **Groups** (`grouping.merge_levels`): level 0 is every original branch on its own.
+   Level k+1 merges groups of level k into their parent groups, cheapest first, until at
+   most `LEVEL_RATIO` of level k's groups are left; so groups are connected, nested level in
+   level, and the chain ends with one group. A merge costs its size times how far it mixes
+   periods and turns level branches against their roots' frames (simplify/grouping.py).
 2. **Geometry**: a group's branch runs from its root's rest base to its group tip
-   (the end of its main path, model.md 5), the chord; so every group tip sits where
-   it sits in the original at rest. Where a group hangs from the middle of its
-   parent group, the turtle moves there with ``f`` first (an offset).
+   (the end of its main path, model.md 5), the chord; so every group tip sits where it
+   sits in the original at rest. Its frame is its tip member's, turned onto the chord.
+   Where a group hangs from the middle of its parent group, the turtle moves there with
+   ``f`` first (an offset).
 3. **Equivalent leaves**: the leaves of a group, A_j n_j, give the leaf-force
    response M = sum_j A_j n_j n_j^T (3x3, symmetric, at rest). Its eigenvectors
    e_i with eigenvalues l_i >= 0 give at most three leaves with M = sum_i l_i e_i e_i^T
@@ -22,13 +22,13 @@ its group (the file's ``groups:`` section):
 4. **Parameters**: k_FA, k_fp, C_d and leaf force gains per branch come from the
    statics of the groups (`closed_form`, the same least squares the grammar form
    uses: each group's combined angle in a set of wind directions, leaf part ~ v and
-   drag part ~ v^2); k_bs and k_rs from the group's dominant period
-   (`dominant_strengths`).
+   drag part ~ v^2), then a gain matrix per branch (`gain_matrix`); k_bs and k_rs from
+   the group's swing (`dominant_strengths`, `own_strengths`); then the level is fitted
+   to motion in its own runs (`motion_fit`).
 """
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass, replace
 
@@ -38,9 +38,10 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, BASIS_LEAF_TRY, GROUP_SWING_DIRECTIONS, KAPPA_RANGE,
-                        LEVEL_BOUNDS, LEVEL_RATIO, MIXED_CARRY, SIMPLIFY_EVERY, SIMPLIFY_WIND_RANGE, STRENGTH_MISMATCH_WEIGHT,
-                        STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
+from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, BASIS_LEAF_TRY,
+                        GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, MIXED_CARRY,
+                        SIMPLIFY_EVERY, SIMPLIFY_WIND_RANGE, STRENGTH_SEARCH_EVERY,
+                        STRENGTH_SEARCH_POINTS)
 from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
 from plantlod.compare.groups import main_paths
 from .grouping import Grouping, merge_levels  # noqa: F401  (callers import them from here too)

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantlod.compare.groups import _pick, parse_address
+from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
 from .constants import FRAME_TURN_WEIGHT, LEVEL_RATIO, MIN_MERGE_FACTOR, STRENGTH_MISMATCH_WEIGHT
@@ -170,7 +170,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             kids = [c for c in children[cur] if find(c) == u or (extra >= 0 and find(c) == extra)]
             if not kids:
                 return cur
-            cur = _pick(kids, alpha, keys)
+            cur = pick_main_member(kids, alpha, keys)
 
     def up_axis(u: int):
         p = parent[u]
