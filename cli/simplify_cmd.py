@@ -129,27 +129,22 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     import os
 
     from plantlod.lsys.build import build
-    from plantlod.simplify.explicit import merge_levels
-    from plantlod.simplify.pipeline import Options, original_runs, simplify_explicit
+    from plantlod.simplify.grouping import merge_levels
+    from plantlod.simplify.pipeline import Options, chain_share, simplify_explicit
 
     from plantlod.lsys.errors import InputError
 
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise InputError("--levels needs a directory; this is a file", folder)
-    original = build(system).tree
-    last = len(merge_levels(original)) - 1
+    last = len(merge_levels(build(system).tree)) - 1
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",
                        damping_ratio=damping_ratio) for k in range(1, last + 1)]
     # every level into a temporary folder beside DIR, moved into DIR only when all are
     # written: a failure or a signal leaves neither a partial set nor a new empty DIR
     with output_folder(folder, merge=True) as tmp:
-        shared = None
+        shared = None             # the original built, grouped and run once for the chain
         for k, level_options in enumerate(options, start=1):
-            if shared is None:        # the original is run once for the chain (after the checks)
-                from plantlod.sim.stability import check_stability
-
-                check_stability(original, dt)
-                shared = original_runs(original, level_options)
+            shared = shared or chain_share(system, level_options)
             result = simplify_explicit(system, level_options, shared=shared)
             with open_output(os.path.join(tmp, f"level{k}.lsys")) as out:
                 out.write(result.text)

@@ -12,6 +12,15 @@ from .constants import LEVEL_BOUNDS, SMALL_ANGLE_LIMIT, STALK_BOUNDS
 from .evaluate import WindCase
 
 
+def _counted_winds(reports: list, largest_angles: list[float] | None) -> list[bool]:
+    """Per wind, whether the bounds apply: the original's largest combined angle is within
+    SMALL_ANGLE_LIMIT; every wind where none is (or no angles are given)."""
+    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
+    if len(small) != len(reports) or not any(small):
+        small = [True] * len(reports)
+    return small
+
+
 def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
                  largest_angles: list[float] | None = None, stalk: bool = False) -> float:
     """The worst ratio of a visible-motion figure to its bound (LEVEL_BOUNDS) over the winds:
@@ -23,9 +32,7 @@ def bounds_score(reports: list[tuple[WindCase, Report]], level: int,
     motion, period, tip = LEVEL_BOUNDS[min(level, max(LEVEL_BOUNDS))]
     if stalk:
         motion, period = STALK_BOUNDS[min(level, max(STALK_BOUNDS))]
-    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
-    if len(small) != len(reports) or not any(small):
-        small = [True] * len(reports)
+    small = _counted_winds(reports, largest_angles)
     worst = 0.0
     for (_wind, r), counts in zip(reports, small):
         if not counts:
@@ -44,9 +51,7 @@ def form_rank(reports: list[tuple[WindCase, Report]], level: int,
     which a form misses them (a viewer sees the level in every wind, so the form that holds
     in more of them wins), then by `bounds_score`. The winds counted as `bounds_score`
     counts them."""
-    small = [a <= SMALL_ANGLE_LIMIT for a in largest_angles] if largest_angles else []
-    if len(small) != len(reports) or not any(small):
-        small = [True] * len(reports)
+    small = _counted_winds(reports, largest_angles)
     misses = sum(1 for item, counts in zip(reports, small)
                  if counts and bounds_score([item], level, stalk=stalk) > 1.0)
     return misses, bounds_score(reports, level, largest_angles, stalk)

@@ -448,15 +448,15 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
     hi = np.fmax(own.max(axis=1), np.nanmax(np.where(weight > 0, target, -np.inf), axis=(1, 2)))
     q = STRENGTH_SEARCH_POINTS
     best = own.copy()
-    for span in (1.0, 2.0 / (q - 1)):
-        if span == 1.0:
+    for around_best in (False, True):
+        if not around_best:
             grid = np.exp(np.linspace(np.log(lo * 0.99), np.log(hi * 1.01), q, axis=1))   # (n, Q)
+            grid = np.broadcast_to(grid[:, None, :], (len(own), 2, q))      # (n, m, Q)
         else:
             step = np.log(hi * 1.01 / (lo * 0.99)) / (q - 1)
             grid = np.exp(np.log(best)[:, :, None]
                           + np.linspace(-1.0, 1.0, q)[None, None, :] * step[:, None, None])
-        grids = np.broadcast_to(grid[:, None, :], (len(own), 2, q)) if grid.ndim == 2 else grid
-        response = unit_response(strength_of_period(grids, dt).reshape(-1), dt, steps,
+        response = unit_response(strength_of_period(grid, dt).reshape(-1), dt, steps,
                                  damping_ratio)[::STRENGTH_SEARCH_EVERY]
         response = response.reshape(len(t), len(own), 2, q)                # (T, n, m, Q)
         for i in range(len(own)):
@@ -479,7 +479,7 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
                 + (own_weight * (miss / period_bound) ** 2).sum(axis=(2, 3)) \
                 + (((a_y - swing.amplitudes[i]) / group_max[i] / motion_bound) ** 2).sum(axis=(2, 3))
             a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
-            best[i] = grids[i, 0, a], grids[i, 1, b]
+            best[i] = grid[i, 0, a], grid[i, 1, b]
     return strength_of_period(best, dt)
 
 

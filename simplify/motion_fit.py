@@ -143,7 +143,6 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         largest = [largest[k] for k in small]
     winds = runs.winds
     gains = all(k in values for k in GAIN_KEYS)
-    rows = (GAIN_KEYS[:3], GAIN_KEYS[3:]) if gains else (("force_absorbed",), ("force_absorbed",))
 
     def tree_of(v: dict[str, np.ndarray]) -> Tree:
         changed = {"bend_strength": v["bend_strength"][to_group],
@@ -175,10 +174,9 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             period_of_strength(kb, dt) * np.exp(d_period[:, 0]), dt)
         values["rotation_strength"][to_group] = strength_of_period(
             period_of_strength(kr, dt) * np.exp(d_period[:, 1]), dt)
-        if gains:
-            for m in range(2):
-                for key in rows[m]:
-                    values[key][to_group] *= np.exp(d_gain[:, m])
+        if gains:                                 # G's bend row, then its rotation row
+            for k, key in enumerate(GAIN_KEYS):
+                values[key][to_group] *= np.exp(d_gain[:, k // 3])
         else:                                     # one k_FA: the mean of the two rows' corrections
             values["force_absorbed"][to_group] *= np.exp(d_gain.mean(axis=1))
     if best is None or best[2] == 0:

@@ -231,54 +231,75 @@ def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
 
 
 @dataclass
-class OriginalRuns:
-    """The original's runs in the measurement winds (`Options.winds`, an
-    `evaluate.simulate_runs` list) that every explicit level of one tree is fitted to motion
-    and measured against: one set serves a whole chain (``--levels``). Kept as float32
-    angles (rounding 6e-8 relative; 4,096 branches' 16 runs of 501 samples take 0.13 GB so)."""
+class ChainShare:
+    """What every explicit level of one tree shares, so that a chain (``--levels``) builds,
+    groups and simulates the original once: the original tree, its groupings
+    (`grouping.merge_levels`) and its runs in the measurement winds (`Options.winds`, an
+    `evaluate.simulate_runs` list) that each level is fitted to motion and measured against.
+    The runs are kept as float32 angles (rounding 6e-8 relative; 4,096 branches' 16 runs of
+    501 samples take 0.13 GB so)."""
 
+    original: Tree
+    groupings: list
     measure: list
 
 
-def original_runs(original: Tree, options: Options) -> OriginalRuns:
-    """Simulate ``original`` once in the measurement winds."""
+def chain_share(system: LSystem, options: Options,
+                groupings_checked=None) -> ChainShare:
+    """Build, check, group and simulate the original of ``system`` once (`ChainShare`).
+    Raises InputError for a tree without branches or one unstable at ``options.dt``.
+    groupings_checked: called with the groupings before the simulation (a caller's own
+    checks, so that bad input is refused before the runs are paid for)."""
     from .evaluate import simulate_runs
+    from .grouping import merge_levels
 
-    return OriginalRuns([(wind, times, bend.astype(np.float32), rot.astype(np.float32))
-                         for wind, times, bend, rot in simulate_runs(
-                             original, options.winds(), options.dt, options.steps, options.every,
-                             options.damping)])
+    original = build(system).tree
+    if original.n_branches == 0:
+        raise InputError("the original tree has no branches; expected a tree to simplify",
+                         system.source or None)
+    check_stability(original, options.dt)
+    groupings = merge_levels(original)
+    if groupings_checked is not None:
+        groupings_checked(groupings)
+    return ChainShare(original, groupings,
+                      [(wind, times, bend.astype(np.float32), rot.astype(np.float32))
+                       for wind, times, bend, rot in simulate_runs(
+                           original, options.winds(), options.dt, options.steps, options.every,
+                           options.damping)])
 
 
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
-                      grouping: int | None = None, shared: OriginalRuns | None = None) -> Result:
+                      grouping: int | None = None, shared: ChainShare | None = None) -> Result:
     """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form.
 
     grouping: the explicit grouping to use (an index into `explicit.merge_levels`), default
     the level's own; `chain_plan` gives a coarser one where a finer level has fewer branches.
-    shared: the original's runs (`original_runs`) for these options, when a chain shares them.
+    shared: the original, its groupings and runs (`chain_share`) for these options, when a
+    chain shares them.
     """
-    from .explicit import explicit_system_text, merge_levels
+    from .explicit import explicit_system_text
     from .motion_fit import shared_runs
 
     source = system.source or None
     if options.method != "derived" or options.calibrate:
         raise InputError("the explicit form has derived parameters only; expected --method "
                          "derived without --calibrate (or --form grammar)", source)
-    original = build(system).tree
-    if original.n_branches == 0:
-        raise InputError("the original tree has no branches; expected a tree to simplify", source)
-    check_stability(original, options.dt)
+
+    def level_exists(levels) -> None:
+        last = len(levels) - 1
+        if grouping is None and not 1 <= options.level <= last:
+            raise InputError(f"level {options.level} is past the last: this tree has {last} "
+                             f"levels in the explicit form (1 to {last}, the last a single "
+                             f"branch)", source)
+
     if shared is None:
-        shared = original_runs(original, options)
+        shared = chain_share(system, options, level_exists)
+    level_exists(shared.groupings)
+    original, levels = shared.original, shared.groupings
+    last = len(levels) - 1
     runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
                            options.damping, shared.measure)
-    levels = merge_levels(original)
-    last = len(levels) - 1
-    if grouping is None and not 1 <= options.level <= last:
-        raise InputError(f"level {options.level} is past the last: this tree has {last} levels in "
-                         f"the explicit form (1 to {last}, the last a single branch)", source)
     if progress:
         progress("fitting the explicit form", 0.0)
     header = {key: getattr(system, key) for key in (
