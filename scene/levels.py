@@ -134,10 +134,9 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     is simulated once for the whole chain (its runs serve every level's measure)."""
     from plantlod.sim.damping import Damping
     from plantlod.simplify.targets import group_map
-    from plantlod.simplify.constants import SIMPLIFY_EVERY, SIMPLIFY_WIND_RANGE
-    from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs, wind_cases
+    from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
     from plantlod.simplify.explicit import explicit_system_text, merge_levels
-    from plantlod.simplify.motion_fit import shared_runs
+    from plantlod.simplify.motion_fit import measurement_runs_for
 
     system = parse_lsys(data.decode("utf-8"), str(path))
     original = build(system).tree
@@ -151,10 +150,7 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     damping = Damping(ratio=damping_ratio)
     simulated = list(simulate_runs(original, winds, dt, steps, 1, damping))
     # the motion fit's runs of the original (simplify's winds), also once for the chain
-    fit_winds = wind_cases(*SIMPLIFY_WIND_RANGE)
-    runs_for = shared_runs(original, fit_winds, dt, steps, SIMPLIFY_EVERY, damping,
-                           list(simulate_runs(original, fit_winds, dt, steps, SIMPLIFY_EVERY,
-                                              damping)))
+    runs_for = measurement_runs_for(original, dt, duration, damping_ratio)
     for k in range(1, len(levels)):
         if progress is not None:
             progress(k, len(levels) - 1)

@@ -33,7 +33,7 @@ from .constants import (
 )
 from .file import Scene
 from .levels import Chain, chain_from_texts, level_chain
-from .schedule import coarsest_levels, distances, frame_times, level_schedule, two_way_schedule
+from .schedule import coarsest_levels, distances, frame_times, two_way_schedule
 from .switch import Transfer
 
 

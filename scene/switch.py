@@ -40,12 +40,19 @@ class Transfer:
         self.frames0 = rest_frames(self.original)
         self._paths: dict[int, list[np.ndarray]] = {}
         self._turn: dict[int, np.ndarray] = {}
+        self._frames: dict[int, object] = {}
 
     def paths(self, level: int) -> list[np.ndarray]:
         if level not in self._paths:
             self._paths[level] = main_paths(self.original, self.groups[level],
                                             self.trees[level].n_branches)
         return self._paths[level]
+
+    def frames(self, level: int):
+        """The rest frames of level ``level`` (`simplify.static.rest_frames`), once per level."""
+        if level not in self._frames:
+            self._frames[level] = rest_frames(self.trees[level])
+        return self._frames[level]
 
     def turn(self, level: int) -> np.ndarray:
         """(G, 3, 3) W_0^T W'_g: from level branch g's swing frame to its group root's."""
@@ -143,7 +150,7 @@ class Transfer:
             return None
         key = (level, ref.tobytes())
         if key not in self._unit:
-            frames = rest_frames(tree)
+            frames = self.frames(level)       # the key is per tree (headings): frames per level
             parts = static_parts(tree, ref[None], frames)
             self._unit[key] = tuple(np.stack(static_angles(tree, part, frames))[:, 0]
                                     for part in (parts.leaf, parts.drag))

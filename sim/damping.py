@@ -31,10 +31,6 @@ class Damping:
     c: float = 0.0
     ratio: float = 0.0
 
-    @property
-    def is_zero(self) -> bool:
-        return self.c == 0.0 and self.ratio == 0.0
-
     def describe(self) -> str:
         """``damping ratio 0.05`` / ``damping c = 0.01`` / ``undamped``, for messages and headers."""
         if self.ratio:

@@ -202,7 +202,8 @@ def _advance(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k
             sw = swing(m, tb, tr, theta, c, s)
             swing_x[i, 0] = sw[0]; swing_x[i, 1] = sw[3]; swing_x[i, 2] = sw[6]
             swing_y[i, 0] = sw[1]; swing_y[i, 1] = sw[4]; swing_y[i, 2] = sw[7]
-            swing_z[i, 0] = sw[2]; swing_z[i, 1] = sw[5]; swing_z[i, 2] = sw[8]
+            if gained:                                  # the z axis is read only with G
+                swing_z[i, 0] = sw[2]; swing_z[i, 1] = sw[5]; swing_z[i, 2] = sw[8]
             f = twist(sw, cos_psi[i], sin_psi[i])
             for q_ in range(9):
                 frame[i, q_] = f[q_]
@@ -298,7 +299,7 @@ def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
     args = (model.parent, model.rest, model.cos_psi, model.sin_psi,
             model.absorbed, model.propagated, model.bend_k, model.rot_k,
             model.drag, model.leaf_start, model.leaf_scale, model.leaf_normal,
-            model.gain, np.ascontiguousarray(damp_b), np.ascontiguousarray(damp_r),
+            model.gain, damp_b, damp_r,
             state.bend, state.rot, state.bend_vel, state.rot_vel,
             state.frame, state.swing_x, state.swing_y, state.swing_z, state.acc, state.drag,
             wind)

@@ -175,7 +175,7 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     try:
         if steps and lanes:
             m = lane_model
-            damp_b, damp_r = (np.ascontiguousarray(a) for a in m.branch_damping(float(dt)))
+            damp_b, damp_r = m.branch_damping(float(dt))
             lanes_kernel.run_lanes_kernel(
                 m.parent, m.rest, m.cos_psi, m.sin_psi, m.absorbed, m.propagated, m.bend_k,
                 m.rot_k, m.drag, m.leaf_start, m.leaf_scale, m.leaf_normal, m.gain,

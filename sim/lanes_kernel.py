@@ -146,8 +146,9 @@ def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_
                 store(swing_axes, (i, 0, 0), sw[0]); store(swing_axes, (i, 1, 0), sw[3])
                 store(swing_axes, (i, 2, 0), sw[6]); store(swing_axes, (i, 3, 0), sw[1])
                 store(swing_axes, (i, 4, 0), sw[4]); store(swing_axes, (i, 5, 0), sw[7])
-                store(swing_axes, (i, 6, 0), sw[2]); store(swing_axes, (i, 7, 0), sw[5])
-                store(swing_axes, (i, 8, 0), sw[8])
+                if gained:                              # the z axis is read only with G
+                    store(swing_axes, (i, 6, 0), sw[2]); store(swing_axes, (i, 7, 0), sw[5])
+                    store(swing_axes, (i, 8, 0), sw[8])
                 f = twist(sw, cos_psi[i], sin_psi[i])
                 store(frame, (i, 0, 0), f[0]); store(frame, (i, 1, 0), f[1])
                 store(frame, (i, 2, 0), f[2]); store(frame, (i, 3, 0), f[3])

@@ -40,8 +40,7 @@ from plantlod.lsys.tree import Tree
 
 from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, BASIS_LEAF_TRY,
                         GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, MIXED_CARRY,
-                        SIMPLIFY_EVERY, SIMPLIFY_WIND_RANGE, STRENGTH_SEARCH_EVERY,
-                        STRENGTH_SEARCH_POINTS)
+                        STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
 from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
 from plantlod.compare.groups import main_paths
 from .grouping import Grouping, merge_levels  # noqa: F401  (callers import them from here too)
@@ -598,14 +597,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from .motion_fit import motion_fit
 
     if runs_for is None:
-        from plantlod.sim.damping import Damping
-        from .evaluate import simulate_runs, wind_cases
-        from .motion_fit import shared_runs
+        from .motion_fit import measurement_runs_for
 
-        winds = wind_cases(*SIMPLIFY_WIND_RANGE)
-        steps = int(round(duration / dt))
-        damping = Damping(ratio=damping_ratio)
-        runs_for = shared_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping,
-                               list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY,
-                                                  damping)))
+        runs_for = measurement_runs_for(original, dt, duration, damping_ratio)
     return motion_fit(original, values, rebuild, to_group, carry, runs_for, level, dt)

@@ -65,6 +65,24 @@ def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, ev
     return runs_for
 
 
+def measurement_runs_for(original: Tree, dt: float, duration: float,
+                         damping_ratio: float = 0.0) -> Callable[[Tree], Runs]:
+    """`shared_runs` in simplify's measurement winds over SIMPLIFY_WIND_RANGE (every
+    SIMPLIFY_EVERY-th step kept), the original simulated here, once: what a level is fitted to
+    motion in when no caller shares its own runs (`explicit.explicit_system_text`, a scene's
+    chain)."""
+    from plantlod.sim.damping import Damping
+
+    from .constants import SIMPLIFY_EVERY, SIMPLIFY_WIND_RANGE
+    from .evaluate import simulate_runs, wind_cases
+
+    winds = wind_cases(*SIMPLIFY_WIND_RANGE)
+    steps = int(round(duration / dt))
+    damping = Damping(ratio=damping_ratio)
+    return shared_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping,
+                       list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping)))
+
+
 def swing_figures(reports, largest: list[float]) -> tuple[np.ndarray, ...]:
     """(A_x, A_y, P_x, P_y) (W, 2, S) and A_max (W,) of the winds whose original stays within
     SMALL_ANGLE_LIMIT (all winds when none does): rows of ``reports`` (one `Report` per wind)."""
