@@ -33,7 +33,7 @@ from .constants import (
 )
 from .file import Scene
 from .levels import Chain, chain_from_texts, level_chain
-from .schedule import coarsest_levels, distances, frame_times, two_way_schedule
+from .schedule import distances, frame_times, schedules
 from .switch import Transfer
 
 
@@ -159,20 +159,6 @@ def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray,
     return result
 
 
-def _bound_branch_steps(scene: Scene, chains: dict, counts: dict, every: int,
-                        budget: float) -> float:
-    """Branch-steps of the whole run at `schedule.coarsest_levels` (frame f's level for the
-    every steps after it; the last frame's for what remains)."""
-    times = frame_times(scene, every)
-    per_frame = np.diff(np.r_[np.arange(len(times)) * every, scene.steps]).clip(min=0)
-    total = 0.0
-    for path in sorted({t.file for t in scene.trees}):
-        members = [k for k, t in enumerate(scene.trees) if t.file == path]
-        best = coarsest_levels(scene, members, chains[path].tip_error_m, times, budget)
-        total += float((counts[path][best] * per_frame[None, :]).sum())
-    return total
-
-
 def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.ndarray,
                  row0: int, row_seconds: float) -> tuple | None:
     """(scene tree index, LargeAngle) of the first member of this block beyond the model's
@@ -188,21 +174,23 @@ def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.
 
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
-                 ) -> tuple[list[Batch], np.ndarray, list]:
-    """The batches of every file, the levels (N, F) and per file (name, members, trees)."""
+                 ) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
+    """The batches of every file, the levels (N, F), per file (name, members, trees), and the
+    levels (N, F) of `schedule.coarsest_levels` (what the report's `speedup_bound` counts)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
+    bound = np.zeros_like(levels)
     batches, files = [], []
     for fi, path in enumerate(sorted({t.file for t in scene.trees})):
         members = [k for k, t in enumerate(scene.trees) if t.file == path]
         chain: Chain = chains[path]
-        sched = two_way_schedule(scene, members, chain.tip_error_m, times, budget)
+        sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget)
         levels[members] = sched
         files.append((str(path), members, chain.trees))
         for lo in range(0, len(members), STORE_BATCH_TREES):
             batches.append(Batch(str(path), fi, members[lo:lo + STORE_BATCH_TREES], lo,
                                  sched[lo:lo + STORE_BATCH_TREES]))
-    return batches, levels, files
+    return batches, levels, files, bound
 
 
 def verify_sample(scene: Scene, levels: np.ndarray, every: int, count: int) -> np.ndarray:
@@ -269,7 +257,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         chains[path] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)
-    batches, levels, files = make_batches(scene, chains, every, scene.budget_px)
+    batches, levels, files, bound_levels = make_batches(scene, chains, every, scene.budget_px)
     rows = steps // every
     store = None
     if store_path is not None:
@@ -319,7 +307,11 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     in_use = np.zeros(levels.shape[1])
     for k, t in enumerate(scene.trees):
         in_use += counts[t.file][levels[k]]
-    bound = _bound_branch_steps(scene, chains, counts, every, scene.budget_px)
+    # branch-steps at the coarsest levels: frame f's for the every steps after it, the last
+    # frame's for what remains
+    per_frame = np.diff(np.r_[np.arange(levels.shape[1]) * every, scene.steps]).clip(min=0)
+    bound = float(sum((counts[t.file][bound_levels[k]] * per_frame).sum()
+                      for k, t in enumerate(scene.trees)))
     top = int(levels.max()) if levels.size else 0
     report = {
         "scene": scene.source,

@@ -69,11 +69,15 @@ def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     tip_error_m : (L,) the chain's tip error (max) per level, non-decreasing, metres
     """
     px = level_pixels(scene, members, tip_error_m, times, look_ahead=True)
-    levels = np.arange(len(tip_error_m))
-    first = np.where(px[:, 0] <= budget, levels, 0).max(axis=-1)                      # (n,)
-    coarsest_well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)      # (n, F)
+    first = _coarsest(px[:, 0], budget)                                                # (n,)
+    coarsest_well = _coarsest(px, HYSTERESIS * budget)                                 # (n, F)
     # each frame: the level so far, or a coarser one within HYSTERESIS x budget
     return np.maximum(first[:, None], np.maximum.accumulate(coarsest_well, axis=1)).astype(np.int16)
+
+
+def _coarsest(px: np.ndarray, limit: float) -> np.ndarray:
+    """(n, F) the coarsest level whose error ``px`` (n, F, L) is within ``limit`` px."""
+    return np.where(px <= limit, np.arange(px.shape[-1]), 0).max(axis=-1)
 
 
 def coarsest_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
@@ -82,9 +86,7 @@ def coarsest_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     distance is within ``budget`` px (no look-ahead, no hysteresis): what each frame could
     use if switching cost nothing. The scene report's `speedup_bound` counts its branch-steps.
     """
-    px = level_pixels(scene, members, tip_error_m, times)
-    levels = np.arange(len(tip_error_m))
-    return np.where(px <= budget, levels, 0).max(axis=-1).astype(np.int16)
+    return schedules(scene, members, tip_error_m, times, budget)[1]
 
 
 def two_way_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
@@ -97,17 +99,23 @@ def two_way_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     affordable because the finer level's state is predicted from the tree's wind history
     (`switch.Transfer.predicted`), so the coarser level's error is not carried into it.
     """
+    return schedules(scene, members, tip_error_m, times, budget)[0]
+
+
+def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: np.ndarray,
+              budget: float) -> tuple[np.ndarray, np.ndarray]:
+    """(`two_way_schedule`, `coarsest_levels`), both (n, F) int16, from one `level_pixels`
+    array (n, F, L): a scene of many trees builds it once."""
     px = level_pixels(scene, members, tip_error_m, times)
-    levels = np.arange(len(tip_error_m))
-    within = np.where(px <= budget, levels, 0).max(axis=-1)                  # (n, F)
-    well = np.where(px <= HYSTERESIS * budget, levels, 0).max(axis=-1)
+    within = _coarsest(px, budget)                                          # (n, F)
+    well = _coarsest(px, HYSTERESIS * budget)
     out = np.empty(within.shape, dtype=np.int16)
     if out.shape[1] == 0:
-        return out
+        return out, within.astype(np.int16)
     current = within[:, 0].copy()
     rows = np.arange(len(members))
     for f in range(out.shape[1]):
         over = px[rows, f, current] > budget
         current = np.where(over, within[:, f], np.maximum(current, well[:, f]))
         out[:, f] = current
-    return out
+    return out, within.astype(np.int16)
