@@ -46,7 +46,7 @@ LEVELS = "1-3"
 TUNING_SEEDS = "0-199"
 HELD_OUT_SEEDS = "1000-1199"
 QUICK_PER_KIND = 2                          # --quick: the first trees of each kind in the range
-SMALL_ANGLE_LIMIT = 0.1                     # rad: the targets apply below (model.md 6, issue 12)
+from plantlod.simplify.constants import SMALL_ANGLE_LIMIT  # noqa: E402  (rad: the targets apply below)
 FORM = "auto"                               # simplify's --form, every level
 RANK_LEVEL = 2                              # levels without targets are ranked by this level's
 FIGURES = ("motion_error", "period_error_major", "tip_error", "tip_error_max_m",

@@ -25,8 +25,8 @@ DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 200.0, 37.0)      # 37: off any grid
 DT, DURATION, EVERY = 0.01, 20.0, 4
 DEFAULT_TREES = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "examples" / "eval").glob("*.lsys")) + [
     "examples/stalk8.lsys", "examples/abop_2_6.lsys", "examples/abop_1_24c.lsys"]
-LEVEL_TARGETS = {1: (0.05, 0.02, 0.01), 2: (0.10, 0.04, 0.02)}
-STALK_TARGETS = {1: (0.02, 0.01), 2: (0.05, 0.02)}
+from plantlod.simplify.constants import LEVEL_BOUNDS as LEVEL_TARGETS  # noqa: E402  (issue 21's targets)
+from plantlod.simplify.constants import STALK_BOUNDS as STALK_TARGETS  # noqa: E402
 
 
 def _pct(x: float) -> str:

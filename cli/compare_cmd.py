@@ -20,10 +20,7 @@ from .discipline import given, require_together
 from .io import check_output_path, display_name, open_output, say, warn, warn_once_running
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
-from .sim_options import settings_from_kwargs, simulation_options
-
-SIMULATION_PARAMS = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
-                     "wind_file", "gust_strength", "gust_seed", "damping", "damping_ratio")
+from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
 
 
 def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[float | None]:

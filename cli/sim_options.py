@@ -160,8 +160,11 @@ class SimulationSettings:
         return cls(dt=dt, steps=steps, wind=wind, damping=damped, description=description)
 
 
+# the keyword arguments `simulation_options` adds to a command
+SIMULATION_PARAMS = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
+                     "wind_file", "gust_strength", "gust_seed", "damping", "damping_ratio")
+
+
 def settings_from_kwargs(kwargs: dict) -> SimulationSettings:
     """Pop the simulation options out of a command's keyword arguments."""
-    names = ("dt", "duration", "steps", "wind_vector", "wind_speed", "wind_direction",
-             "wind_file", "gust_strength", "gust_seed", "damping", "damping_ratio")
-    return SimulationSettings.from_options(**{n: kwargs.pop(n) for n in names})
+    return SimulationSettings.from_options(**{n: kwargs.pop(n) for n in SIMULATION_PARAMS})

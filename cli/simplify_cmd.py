@@ -136,7 +136,9 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
 
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise InputError("--levels needs a directory; this is a file", folder)
-    last = len(merge_levels(build(system).tree)) - 1
+    original = build(system).tree
+    groupings = merge_levels(original)
+    last = len(groupings) - 1
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",
                        damping_ratio=damping_ratio) for k in range(1, last + 1)]
     # every level into a temporary folder beside DIR, moved into DIR only when all are
@@ -144,7 +146,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     with output_folder(folder, merge=True) as tmp:
         shared = None             # the original built, grouped and run once for the chain
         for k, level_options in enumerate(options, start=1):
-            shared = shared or chain_share(system, level_options)
+            shared = shared or chain_share(system, level_options, built=(original, groupings))
             result = simplify_explicit(system, level_options, shared=shared)
             with open_output(os.path.join(tmp, f"level{k}.lsys")) as out:
                 out.write(result.text)

@@ -123,12 +123,6 @@ def tip_error(tips_orig: np.ndarray, tips_simp: np.ndarray, rest_height: float) 
     return np.sqrt(np.mean(_squared_distances(tips_orig, tips_simp), axis=0)) / rest_height
 
 
-def tip_distance_max(tips_orig: np.ndarray, tips_simp: np.ndarray) -> np.ndarray:
-    """Largest distance over time between group tips and simplified tips: (K, G, 3) -> (G,) m."""
-    d2 = _squared_distances(tips_orig, tips_simp)
-    return np.sqrt(d2.max(axis=0)) if d2.shape[0] else np.zeros(d2.shape[1])
-
-
 # --- the report -------------------------------------------------------------------
 
 @dataclass
@@ -337,7 +331,7 @@ def compare_groups(t: np.ndarray,
     major = (amp_x >= MAJOR_AMPLITUDE_FRACTION * largest) & np.isfinite(per_err) if largest > 0 \
         else np.zeros_like(amp_x, bool)
     major_worst, major_at = _worst(np.where(major, per_err, np.nan), addresses)
-    tip_max = np.sqrt(d2.max(axis=0)) if k else np.zeros(g)            # tip_distance_max, (G,) m
+    tip_max = np.sqrt(d2.max(axis=0)) if k else np.zeros(g)            # largest |tip_y - tip_x| over time, (G,) m
     tip_max_worst, tip_max_at = _worst(tip_max[None, :], addresses, components=(None,))
     return Report(amp_worst, per_worst, tip_worst, amp_at, per_at, tip_at, undefined,
                   largest, float(rest_height), float(t[0]), float(t[-1]), groups,

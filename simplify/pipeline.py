@@ -244,21 +244,22 @@ class ChainShare:
     measure: list
 
 
-def chain_share(system: LSystem, options: Options,
-                groupings_checked=None) -> ChainShare:
+def chain_share(system: LSystem, options: Options, groupings_checked=None,
+                built: tuple[Tree, list] | None = None) -> ChainShare:
     """Build, check, group and simulate the original of ``system`` once (`ChainShare`).
     Raises InputError for a tree without branches or one unstable at ``options.dt``.
     groupings_checked: called with the groupings before the simulation (a caller's own
-    checks, so that bad input is refused before the runs are paid for)."""
+    checks, so that bad input is refused before the runs are paid for).
+    built: (original, groupings) where the caller has them already."""
     from .evaluate import simulate_runs
     from .grouping import merge_levels
 
-    original = build(system).tree
+    original = build(system).tree if built is None else built[0]
     if original.n_branches == 0:
         raise InputError("the original tree has no branches; expected a tree to simplify",
                          system.source or None)
     check_stability(original, options.dt)
-    groupings = merge_levels(original)
+    groupings = merge_levels(original) if built is None else built[1]
     if groupings_checked is not None:
         groupings_checked(groupings)
     return ChainShare(original, groupings,
