@@ -26,6 +26,7 @@ from .constants import (REFINE_EVALUATIONS, REFINE_FLOOR, REFINE_LOG_RANGE,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SCALE_PROBES, REFINE_SKIP,
                         REFINE_START_FLOOR)
 from .targets import StaticTargets
+from .refine_kernels import angle_adjoint, angle_product, force_adjoint, leaf_adjoint, leaf_totals
 from .tree_sums import LeafSums, TreeSums
 
 
@@ -56,8 +57,10 @@ class StaticModel:
         self.parent = np.asarray(tree.parent, dtype=np.int64)
         self.sums = TreeSums(self.parent)
         self.leaf_sums = LeafSums(leaf_branch, len(self.parent))
-        self.gains, self.per_leaf, self.leaf_branch = gains, per_leaf, leaf_branch
-        self.drag_shape, self.speeds = drag_shape, speeds
+        as_array = np.ascontiguousarray
+        self.gains, self.per_leaf = as_array(gains, np.float64), as_array(per_leaf, np.float64)
+        self.leaf_branch = as_array(leaf_branch, np.int64)
+        self.drag_shape, self.speeds = drag_shape, as_array(speeds, np.float64)
         self.g = len(self.parent)
         v = speeds[:, None, None, None]
         self.target = v * targets.leaf[None] + v * v * targets.drag[None]     # (S, D, G, 2)
@@ -114,16 +117,16 @@ class StaticModel:
         g = self.g
         dk, dp, dc, da = dx[:g], dx[g:2 * g], dx[2 * g:3 * g], dx[3 * g:]
         own_drag = c[None, :, None] * self.drag_shape
-        d_own = self.leaf_sums.sum((area * da)[None, :, None] * self.per_leaf)
+        d_own = leaf_totals(self.leaf_branch, area * da, self.per_leaf, g)
         # δL_g = p_g (own'_g + Σ_c δL_c) with own' = Σ_k A_k δA_k ℓ_k + δp_g L_g / p_g
         d_leaf = self.sums.up(p, d_own + (dp / p)[None, :, None] * leaf, True)
         d_drag = self.sums.up(p, (c * dc)[None, :, None] * self.drag_shape
                               + dp[None, :, None] * (drag - own_drag), False)
-        v = self.speeds[:, None, None, None]
-        d_force = v * d_leaf[None] + v * v * d_drag[None]                   # (S, D, G, 3)
-        d_theta = dk[None, None, :, None] * theta + kappa[None, None, :, None] \
-            * _gain_times(self.gains, d_force)
-        return np.concatenate([(d_theta * self.weight).reshape(-1), self.prior * dx])
+        out = np.empty(self.weight.size + len(x))
+        angle_product(np.ascontiguousarray(dk), kappa, theta, self.gains, self.speeds, d_leaf,
+                      d_drag, self.weight, out)
+        out[self.weight.size:] = self.prior * dx
+        return out
 
     def vjp(self, x, u, parts=None):
         """Jᵀ u (len(x),) for u (S·D·G·2 + len(x),), by one pass from the trunk up (the
@@ -132,19 +135,20 @@ class StaticModel:
         kappa, p, c, area, theta, leaf, drag = parts or self._parts(x)
         g = self.g
         n = self.weight.size
-        ub = u[:n].reshape(self.weight.shape) * self.weight                 # (S, D, G, 2)
-        v = self.speeds[:, None, None, None]
-        f_bar = kappa[None, None, :, None] * _gain_transposed_times(self.gains, ub)
-        l_bar = (v * f_bar).sum(axis=0)                                     # (D, G, 3)
-        d_bar = (v * v * f_bar).sum(axis=0)
+        d_count = self.weight.shape[1]
+        k_bar = np.zeros(g)
+        l_bar, d_bar = np.zeros((d_count, g, 3)), np.zeros((d_count, g, 3))
+        angle_adjoint(np.ascontiguousarray(u[:n]), kappa, theta, self.gains, self.speeds,
+                      self.weight, k_bar, l_bar, d_bar)
         l_bar, d_bar = self.sums.down(p, l_bar), self.sums.down(p, d_bar)   # trunk first
         own_drag = c[None, :, None] * self.drag_shape
-        out = np.empty(len(x))
-        # sums over leading axes first, then the last: numpy reduces these much faster
-        out[:g] = (ub * theta).sum(axis=0).sum(axis=0).sum(axis=-1)
-        out[g:2 * g] = ((l_bar * leaf).sum(axis=0) + (d_bar * (drag - own_drag)).sum(axis=0)).sum(axis=-1)
-        out[2 * g:3 * g] = (d_bar * own_drag).sum(axis=0).sum(axis=-1)
-        per_leaf_bar = (l_bar[:, self.leaf_branch] * self.per_leaf).sum(axis=0).sum(axis=-1)
+        out = np.zeros(len(x))
+        out[:g] = k_bar
+        p_bar, c_bar = np.zeros(g), np.zeros(g)
+        force_adjoint(l_bar, d_bar, leaf, drag, own_drag, p_bar, c_bar)
+        out[g:2 * g], out[2 * g:3 * g] = p_bar, c_bar
+        per_leaf_bar = np.zeros(len(self.leaf_branch))
+        leaf_adjoint(l_bar, self.leaf_branch, self.per_leaf, per_leaf_bar)
         out[3 * g:] = p[self.leaf_branch] * area * per_leaf_bar
         return out + self.prior * u[n:]
 
