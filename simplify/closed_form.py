@@ -87,7 +87,8 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                 kappa_range: float | None = None,
                 strengths: tuple[np.ndarray, np.ndarray] | None = None,
                 target_gain: np.ndarray | None = None,
-                settings: RefineSettings = GRAMMAR_REFINE) -> LevelParameters:
+                settings: RefineSettings = GRAMMAR_REFINE,
+                lengths: np.ndarray | None = None) -> LevelParameters:
     """Parameters of the level-n tree ``skeleton`` (its arrays are read for geometry only).
 
     ``skeleton`` is the level-n tree as the skeleton system builds it
@@ -102,7 +103,9 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     carried into their group roots' frames (`carried_gains`); ``strengths`` overrides
     k_bs', k_rs'; ``target_gain`` (G, 2) scales each group's bend and rotation targets
     (a group whose members swing with different periods: its amplitude over its static
-    angle, `explicit.dominant_strengths`); ``settings`` weighs the refinement's errors.
+    angle, `explicit.dominant_strengths`); ``settings`` weighs the refinement's errors;
+    ``lengths`` (G,) m are the level's rest lengths where the caller fixes them (the explicit
+    form's chords, exact by construction), fitted (`lengths.fit_lengths`) otherwise.
     """
     if directions is None:
         directions = fit_directions(MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS, FIT_ELEVATION)
@@ -110,7 +113,9 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
     frames = rest_frames(skeleton)
     g_count = skeleton.n_branches
     kb, kr = group_strengths(original, gmap) if strengths is None else strengths
-    lengths = fit_lengths(original, skeleton, frames, gmap)
+    if lengths is None:
+        lengths = fit_lengths(original, skeleton, frames, gmap)
+    lengths = np.asarray(lengths, dtype=np.float64)
     chain_kfa = np.array([original.force_absorbed[p].mean() for p in gmap.paths])
     chain_kfp = np.array([np.prod(original.force_propagated[p]) for p in gmap.paths])
 

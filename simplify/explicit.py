@@ -554,7 +554,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                                damping_ratio)
         params = closed_form(original, skeleton, gmap, refine=refine, turn=turn,
                              kappa_range=KAPPA_RANGE, strengths=(kb, kr),
-                             target_gain=gain_group[to_group], settings=settings)
+                             target_gain=gain_group[to_group], settings=settings,
+                             lengths=sk.length[to_group])
         fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
                   "rotation_strength": kr}
         for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
