@@ -60,6 +60,10 @@ _TOKEN = re.compile(r"""(\s*)(?:
     | (?P<punct>[(),])
     )?""", re.VERBOSE)
 _NUMBER_TAIL = re.compile(r"[A-Za-z0-9_.]+")       # glued to a number: a bad number
+# a whole expression that is one plain number: what follows it can end an expression but not
+# continue it (',' ')' the end of the line, or a name after white space, as in key=value lists)
+_PLAIN_NUMBER = re.compile(r"\s*((?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)"
+                           r"(?=\s*[,)]|\s*$|\s+[A-Za-z_])")
 _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
@@ -236,6 +240,12 @@ def _too_deep(cur: _Cursor, at: int) -> InputError:
 
 def _subexpression(cur: _Cursor, min_prec: int = 0) -> Expr:
     """Precedence climbing: an operand, then binary operators binding at least min_prec."""
+    plain = _PLAIN_NUMBER.match(cur.text, cur.i)
+    if plain:          # most arguments of a written level are plain numbers: the same Num, fast
+        value = float(plain.group(1))
+        if math.isfinite(value):
+            cur.i = plain.end(1)
+            return Num(value, cur.pos(plain.start(1)))
     cur.nest += 1
     if cur.nest > MAX_EXPRESSION_DEPTH:
         raise _too_deep(cur, cur.i)
