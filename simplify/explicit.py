@@ -577,7 +577,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                                          target_gain=gain_group[to_group])[back]
             del values["force_absorbed"]
             values.update({key: matrices[:, k] for k, key in enumerate(GAIN_KEYS)})
-        return values, leaf_area, text, params.static_error, to_group, carry_matrix(turn)
+        return values, leaf_area, text, params.static_error, to_group, carry_matrix(turn), skeleton, sk.leaf_address
 
     # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;
     # without the refinement there is no static error to compare); they are only tried where
@@ -587,11 +587,27 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         basis = fit("basis")
         if basis[3] < BASIS_LEAF_GAIN * best[3]:
             best = basis
-    values, leaf_area, text, _error, to_group, carry = best
+    values, leaf_area, text, _error, to_group, carry, skeleton, group_leaves = best
+    area_of = {a: area for g in range(grouping.count)
+               for a, area in zip(group_leaves[g], leaf_area[g])}
+    leaf_order = [area_of[a] for a in skeleton.leaf_address]
 
     def rebuild(v: dict[str, np.ndarray]) -> tuple[str, Tree]:
-        out = text(v, leaf_area)
-        return out, build(parse_lsys(out, name)).tree
+        """The level's text with values ``v`` and the tree it reads back as: the skeleton with
+        v's arrays (format_number writes each value so that it reads back exactly; a branch
+        with a gain matrix reads as k_FA = 1; tests/test_simplify_explicit.py checks this
+        against the parsed text), without parsing thousands of lines again."""
+        arrays = {k: np.asarray(v[k], dtype=np.float64)[to_group] for k in (
+            "length", "radius", "bend_strength", "rotation_strength", "force_propagated",
+            "drag_coefficient")}
+        if all(k in v for k in GAIN_KEYS):
+            arrays["force_gain"] = np.stack([np.asarray(v[k], dtype=np.float64)[to_group]
+                                             for k in GAIN_KEYS], axis=1)
+            arrays["force_absorbed"] = np.ones(len(to_group))
+        else:
+            arrays["force_absorbed"] = np.asarray(v["force_absorbed"], dtype=np.float64)[to_group]
+        return text(v, leaf_area), replace(skeleton, **arrays,
+                                           leaf_area=np.array(leaf_order, dtype=np.float64))
 
     if not motion:
         return rebuild(values)

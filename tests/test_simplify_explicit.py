@@ -221,3 +221,24 @@ def test_a_chain_runs_the_original_once_per_wind(tmp_path, monkeypatch):
     assert len(list((tmp_path / "lv").glob("level*.lsys"))) == 3
     assert [c for c in calls if c[0] == tree.n_branches] == [(tree.n_branches, 16)]
     assert len(calls) > 3                                   # the levels' own runs
+
+
+@pytest.mark.parametrize("name, gains", [("eval/bent_leafy.lsys", True), ("eval/sympodial.lsys", True),
+                                         ("eval/bush3d.lsys", False)])
+def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
+    """explicit_system_text builds its tree from the skeleton's arrays instead of parsing its
+    text again: every field must equal the tree built from the text (eigen or basis leaves,
+    with and without gain matrices; the motion fit's corrections included)."""
+    from dataclasses import fields
+
+    system, tree = _tree(name)
+    text, level = explicit_system_text(tree, merge_levels(tree)[1], name="t",
+                                       header=_header(system), level=1, dt=0.01, gains=gains)
+    parsed = build(parse_lsys(text, "t")).tree
+    assert (level.force_gain is not None) == gains
+    for f in fields(parsed):
+        a, b = getattr(level, f.name), getattr(parsed, f.name)
+        if isinstance(b, np.ndarray):
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+        else:
+            assert a == b, f.name
