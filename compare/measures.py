@@ -176,6 +176,38 @@ class GroupFigures:
         }
 
 
+@dataclass(frozen=True)
+class GroupTable:
+    """Every group's figures as arrays, rows 0 bend and 1 rotation (what `GroupFigures`
+    holds per group; a report builds those only when asked: at tens of thousands of groups
+    the objects cost more than the measures).
+
+    amplitude_original, amplitude_simplified, amplitude_error,
+    period_original, period_simplified, period_error : (2, G) float64 (rad, s, relative)
+    counted : (2, G) bool;  tip_error : (G,) relative;  addresses : (G,) str
+    """
+
+    addresses: list[str]
+    amplitude_original: np.ndarray
+    amplitude_simplified: np.ndarray
+    amplitude_error: np.ndarray
+    period_original: np.ndarray
+    period_simplified: np.ndarray
+    period_error: np.ndarray
+    counted: np.ndarray
+    tip_error: np.ndarray
+
+    def figures(self) -> list[GroupFigures]:
+        """One `GroupFigures` per group, in order."""
+        columns = [getattr(self, name).tolist() for name in (
+            "amplitude_original", "amplitude_simplified", "amplitude_error", "period_original",
+            "period_simplified", "period_error", "counted")]
+        tips = self.tip_error.tolist()
+        return [GroupFigures(address, *[ComponentFigures(*[col[c][j] for col in columns])
+                                        for c in range(2)], tips[j])
+                for j, address in enumerate(self.addresses)]
+
+
 @dataclass
 class Worst:
     """Where a worst-group figure was found: a group's address and, for angles, the component."""
@@ -224,13 +256,23 @@ class Report:
     rest_height: float
     t0: float
     t1: float
-    groups: list[GroupFigures] = field(default_factory=list)
+    table: GroupTable | None = field(default=None, compare=False, repr=False)
     motion_error: float = math.nan
     motion_error_at: Worst | None = None
     period_error_major: float = math.nan
     period_error_major_at: Worst | None = None
     tip_error_max_m: float = math.nan
     tip_error_max_m_at: Worst | None = None
+
+    @property
+    def groups(self) -> list[GroupFigures]:
+        """One entry per group, in simplified-branch order (built from `table` once)."""
+        if self.table is None:
+            return []
+        built = self.__dict__.get("_groups")
+        if built is None:
+            built = self.__dict__["_groups"] = self.table.figures()
+        return built
 
     def to_dict(self) -> dict:
         """JSON-ready values: plain floats, None for NaN, addresses as strings."""
@@ -312,12 +354,8 @@ def compare_groups(t: np.ndarray,
     d2 = _squared_distances(tips_orig, tips_simp)                # (K, G) m²
     tips = np.sqrt(np.mean(d2, axis=0)) / rest_height            # tip_error, (G,)
 
-    groups = []
-    for j in range(g):
-        comps = [ComponentFigures(float(amp_x[c, j]), float(amp_y[c, j]), float(amp_err[c, j]),
-                                  float(per_x[c, j]), float(per_y[c, j]), float(per_err[c, j]),
-                                  bool(counted[c, j])) for c in range(2)]
-        groups.append(GroupFigures(addresses[j], comps[0], comps[1], float(tips[j])))
+    table = GroupTable(list(addresses), amp_x, amp_y, amp_err, per_x, per_y, per_err, counted,
+                       tips)
 
     amp_worst, amp_at = _worst(np.where(counted, amp_err, np.nan), addresses)
     per_defined = counted & np.isfinite(per_err)
@@ -334,7 +372,7 @@ def compare_groups(t: np.ndarray,
     tip_max = np.sqrt(d2.max(axis=0)) if k else np.zeros(g)            # largest |tip_y - tip_x| over time, (G,) m
     tip_max_worst, tip_max_at = _worst(tip_max[None, :], addresses, components=(None,))
     return Report(amp_worst, per_worst, tip_worst, amp_at, per_at, tip_at, undefined,
-                  largest, float(rest_height), float(t[0]), float(t[-1]), groups,
+                  largest, float(rest_height), float(t[0]), float(t[-1]), table,
                   motion_worst, motion_at, major_worst, major_at, tip_max_worst, tip_max_at)
 
 

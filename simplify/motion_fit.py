@@ -87,11 +87,10 @@ def swing_figures(reports, largest: list[float]) -> tuple[np.ndarray, ...]:
     """(A_x, A_y, P_x, P_y) (W, 2, S) and A_max (W,) of the winds whose original stays within
     SMALL_ANGLE_LIMIT (all winds when none does): rows of ``reports`` (one `Report` per wind)."""
     keep = [k for k, a in enumerate(largest) if a <= SMALL_ANGLE_LIMIT] or list(range(len(reports)))
-    figures = np.array([[[(getattr(g.bend, name), getattr(g.rotation, name)) for g in reports[k].groups]
-                         for name in ("amplitude_original", "amplitude_simplified",
-                                      "period_original", "period_simplified")]
-                        for k in keep], dtype=np.float64)                     # (W, 4, S, 2)
-    figures = figures.transpose(1, 0, 3, 2)                                   # (4, W, 2, S)
+    figures = np.array([[getattr(reports[k].table, name)
+                         for k in keep] for name in ("amplitude_original", "amplitude_simplified",
+                                                     "period_original", "period_simplified")],
+                       dtype=np.float64)                                      # (4, W, 2, S)
     a_max = np.array([reports[k].largest_amplitude for k in keep], dtype=np.float64)
     return figures[0], figures[1], figures[2], figures[3], a_max
 
