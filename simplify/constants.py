@@ -91,3 +91,4 @@ MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists fr
 MOTION_FIT_ROUNDS = 4         # rounds of corrections (each one run of the level per fit wind)
 MOTION_FIT_STEP = 0.3         # largest log-correction of a period or gain row per round
 MOTION_FIT_GOOD = 0.5         # stop once every fit wind is within this x the level's bounds
+REPORTS_KEPT = 6              # a Runs keeps the reports of this many trees (the motion fit's rounds, then the measurement)

@@ -7,6 +7,7 @@ simulate many candidate simplified trees against the same original runs.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from .constants import HIGH_SPEED_FRACTION
 from .constants import MEASURE_WIND_DIRECTIONS
-from .constants import RUNS_BATCH_BYTES
+from .constants import REPORTS_KEPT, RUNS_BATCH_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import rest_height
@@ -93,6 +94,7 @@ class Runs:
         self.dt, self.steps, self.every = dt, steps, every
         self.height = rest_height(original)
         self.winds = list(winds)
+        self._reports: dict[bytes, dict[int, Report]] = {}    # tree digest -> run id -> report
         self.runs = []
         for wind, times, bend, rot in (self._simulated(original) if simulated is None
                                        else simulated):
@@ -101,30 +103,43 @@ class Runs:
             self.runs.append(OriginalRun(wind, times, cb, cr, tips[0].copy(),
                                          (tips - tips[0]).astype(np.float32)))
 
-    def _simulated(self, tree: Tree):
+    def _simulated(self, tree: Tree, winds: list[WindCase] | None = None):
         """(wind, times, bend, rot) of ``tree`` for every wind (`simulate_runs`)."""
-        return simulate_runs(tree, self.winds, self.dt, self.steps, self.every, self.damping)
+        return simulate_runs(tree, self.winds if winds is None else winds, self.dt, self.steps,
+                             self.every, self.damping)
 
     def compare(self, simplified: Tree) -> list[Report]:
-        """One section-6 report per wind. Raises InputError when the simplified run diverges."""
+        """One section-6 report per wind. Raises InputError when the simplified run diverges.
+
+        The reports of the last few trees compared are kept, per tree (a digest of every
+        array the runs read) and original run, and shared with `subset`s: a level that the
+        motion fit measured in some winds is simulated only in the others when measured in
+        all of them."""
         from plantlod.compare.groups import carry_angles, swing_turns
 
-        turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
-        reports = []
-        every_branch = np.arange(simplified.n_branches)
-        simulated = self._simulated(simplified)     # a batch of winds at a time (memory)
-        try:
-            for run, (_wind, _times, bend, rot) in zip(self.runs, simulated):
-                tips = tip_series(simplified, bend, rot, every_branch)
-                if turn is not None:
-                    bend, rot = carry_angles(turn, bend, rot)
-                reports.append(compare_groups(run.times, run.combined_b, run.combined_r,
-                                              bend, rot, run.tips, tips, self.height,
-                                              simplified.address))
-        except RunFailure as exc:
-            raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
-                             simplified.source or None) from None
-        return reports
+        key = tree_digest(simplified)
+        known = self._reports.pop(key, {})
+        self._reports[key] = known                   # the most recent last
+        for stale in list(self._reports)[:-REPORTS_KEPT]:
+            del self._reports[stale]
+        todo = [run for run in self.runs if id(run) not in known]
+        if todo:
+            turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
+            every_branch = np.arange(simplified.n_branches)
+            # a batch of winds at a time (memory)
+            simulated = self._simulated(simplified, [run.wind for run in todo])
+            try:
+                for run, (_wind, _times, bend, rot) in zip(todo, simulated):
+                    tips = tip_series(simplified, bend, rot, every_branch)
+                    if turn is not None:
+                        bend, rot = carry_angles(turn, bend, rot)
+                    known[id(run)] = compare_groups(run.times, run.combined_b, run.combined_r,
+                                                    bend, rot, run.tips, tips, self.height,
+                                                    simplified.address)
+            except RunFailure as exc:
+                raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
+                                 simplified.source or None) from None
+        return [known[id(run)] for run in self.runs]
 
     def subset(self, keep: list[int]) -> "Runs":
         """The same runs for winds ``keep`` only (indices into ``winds``); shares the data."""
@@ -138,6 +153,20 @@ class Runs:
         """Per wind, the largest |Θb| or |Θr| of any group over the run (rad)."""
         return [float(max(np.abs(r.combined_b).max(initial=0.0), np.abs(r.combined_r).max(initial=0.0)))
                 for r in self.runs]
+
+
+def tree_digest(tree: Tree) -> bytes:
+    """A SHA-256 digest of everything a run and its comparison read from ``tree`` (its
+    structure, rest geometry, parameters, leaves and addresses)."""
+    h = hashlib.sha256()
+    for name in ("parent", "length", "radius", "bend_strength", "rotation_strength",
+                 "force_absorbed", "force_propagated", "drag_coefficient", "euler", "offset",
+                 "leaf_branch", "leaf_area", "leaf_normal", "force_gain"):
+        value = getattr(tree, name)
+        data = b"" if value is None else np.ascontiguousarray(value).tobytes()
+        h.update(name.encode() + len(data).to_bytes(8, "little") + data)
+    h.update(repr((tree.leaf_force_scale, tree.address, tree.group_root)).encode())
+    return h.digest()
 
 
 def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, every: int = 1,

@@ -242,3 +242,36 @@ def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
             np.testing.assert_array_equal(a, b, err_msg=f.name)
         else:
             assert a == b, f.name
+
+
+def test_runs_reuse_reports_only_for_the_same_tree(monkeypatch):
+    """Runs.compare keeps recent reports per tree: a level compared in some winds, then in
+    all, is simulated only in the others, and its reports equal a fresh Runs' ones; a tree
+    differing in one value is simulated anew."""
+    from dataclasses import replace
+
+    import plantlod.simplify.evaluate as ev
+    from plantlod.simplify.targets import group_map
+
+    system, tree = _tree("eval/sympodial.lsys")
+    _, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=_header(system),
+                                    level=1, dt=0.01, motion=False)
+    winds = [ev.WindCase(0.5, 0.0), ev.WindCase(2.0, 90.0), ev.WindCase(5.0, 37.0)]
+    runs = ev.Runs(tree, group_map(tree, level), winds, 0.01, 300, 4)
+    simulated = []
+    real = ev.Runs._simulated
+
+    def spy(self, t, w=None):
+        simulated.append(len(self.winds if w is None else w))
+        return real(self, t, w)
+
+    monkeypatch.setattr(ev.Runs, "_simulated", spy)
+    runs.subset([1]).compare(level)
+    both = runs.compare(level)
+    assert simulated == [1, 2]
+    fresh = ev.Runs(tree, group_map(tree, level), winds, 0.01, 300, 4).compare(level)
+    assert [r.to_dict() for r in both] == [r.to_dict() for r in fresh]
+    stiffer = replace(level, bend_strength=level.bend_strength * 1.5)
+    changed = runs.compare(stiffer)
+    assert simulated[-1] == 3
+    assert [r.to_dict() for r in changed] != [r.to_dict() for r in both]
