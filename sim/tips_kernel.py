@@ -95,8 +95,32 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
     out = np.empty((bend.shape[0], len(which), 3))
     if b == 0 or bend.shape[0] == 0:
         return out
-    _tips(np.asarray(tree.parent, dtype=np.int64), np.ascontiguousarray(rest_swing_rotation(euler)),
-          np.ascontiguousarray(rot_z(euler[:, 2])),
-          np.ascontiguousarray(np.asarray(tree.offset, dtype=np.float64).reshape(-1, 3)),
-          np.asarray(tree.length, dtype=np.float64), bend, rot, which, out)
+    parent = np.asarray(tree.parent, dtype=np.int64)
+    offset = np.asarray(tree.offset, dtype=np.float64).reshape(-1, 3)
+    length = np.asarray(tree.length, dtype=np.float64)
+    keep = ancestors_of(parent, which)
+    if len(keep) < b:           # only the branches on the way to ``which``: the same tips
+        new_index = np.full(b, -1, dtype=np.int64)
+        new_index[keep] = np.arange(len(keep))
+        up = parent[keep]
+        parent = np.where(up >= 0, new_index[np.maximum(up, 0)], -1)
+        euler, offset, length = euler[keep], offset[keep], length[keep]
+        bend, rot = np.ascontiguousarray(bend[:, keep]), np.ascontiguousarray(rot[:, keep])
+        which = new_index[which]
+    _tips(parent, np.ascontiguousarray(rest_swing_rotation(euler)),
+          np.ascontiguousarray(rot_z(euler[:, 2])), np.ascontiguousarray(offset),
+          np.ascontiguousarray(length), bend, rot, which, out)
     return out
+
+
+def ancestors_of(parent: np.ndarray, which: np.ndarray) -> np.ndarray:
+    """The branches ``which`` and all their ancestors, ascending (parent (B,) before child)."""
+    need = np.zeros(len(parent), dtype=bool)
+    need[which] = True
+    frontier = np.unique(which)
+    while len(frontier):
+        up = parent[frontier]
+        up = up[up >= 0]
+        frontier = np.unique(up[~need[up]])
+        need[frontier] = True
+    return np.flatnonzero(need)

@@ -25,6 +25,27 @@ def test_tips_equal_the_numpy_pose(name):
     np.testing.assert_allclose(tips(tree, bend, rot, which), expected, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("count", [1, 5, 40])
+def test_tips_of_a_few_branches_walk_only_their_ancestors_and_agree_bit_for_bit(count):
+    from plantlod.sim.tips_kernel import ancestors_of
+
+    tree = build(parse_lsys((ROOT / "examples" / "abop_1_25.lsys").read_text(), "t")).tree
+    rng = np.random.default_rng(count)
+    bend = rng.uniform(-0.4, 0.4, size=(5, tree.n_branches))
+    rot = rng.uniform(-0.4, 0.4, size=(5, tree.n_branches))
+    which = rng.choice(tree.n_branches, size=count, replace=False)
+    keep = ancestors_of(np.asarray(tree.parent), which)
+    # the closure by a slow walk up from each branch
+    slow = set()
+    for b in which:
+        while b >= 0:
+            slow.add(int(b))
+            b = int(tree.parent[b])
+    assert keep.tolist() == sorted(slow) and len(keep) < tree.n_branches
+    everything = tips(tree, bend, rot, np.arange(tree.n_branches))
+    np.testing.assert_array_equal(tips(tree, bend, rot, which), everything[:, which])
+
+
 def test_tips_refuse_angles_of_the_wrong_shape():
     tree = build(parse_lsys((ROOT / "examples" / "stalk8.lsys").read_text(), "s")).tree
     with pytest.raises(ValueError):
