@@ -20,6 +20,8 @@ columns.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .constants import ALPHA_TIE_TOL
@@ -39,6 +41,7 @@ AddressKey = tuple[tuple[int, ...], int]
 
 # --- addresses --------------------------------------------------------------------
 
+@functools.lru_cache(maxsize=1 << 17)
 def parse_address(text: str) -> AddressKey:
     """``"a0.a1.….ak[:j]"`` -> ((a0, …, ak), j), with j = 0 when there is no suffix.
 
