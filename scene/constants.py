@@ -18,8 +18,3 @@ STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
-# Part of every cached chain's key: raise it whenever the explicit fit changes what it writes
-# (2: gain matrices, group swings from the carried superposition, merges by similar periods;
-# 3: the motion fit, searched strengths of chords that mix bend and rotation;
-# 4: the search also against the group's own swing, stalks fitted on their own bounds).
-CHAIN_FIT_VERSION = 4

@@ -11,6 +11,7 @@ version and the wind and time settings, so a second run of a scene simplifies no
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -23,7 +24,7 @@ from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
-from .constants import CACHE_ENV, CHAIN_FIT_VERSION, TIP_ERROR_DIRECTIONS
+from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS
 
 
 @dataclass
@@ -66,6 +67,26 @@ def default_cache() -> pathlib.Path:
     return pathlib.Path(base) / "plantlod"
 
 
+@functools.lru_cache(maxsize=1)
+def fit_code_digest() -> bytes:
+    """SHA-256 of the source of every package a chain's levels depend on (lsys, sim, compare,
+    simplify), so that a chain fitted by other code is never read from the cache (an
+    editable install keeps its version number while the code changes)."""
+    import plantlod.compare
+    import plantlod.lsys
+    import plantlod.sim
+    import plantlod.simplify
+
+    h = hashlib.sha256()
+    for package in (plantlod.lsys, plantlod.sim, plantlod.compare, plantlod.simplify):
+        root = pathlib.Path(package.__path__[0])
+        for path in sorted(root.rglob("*.py")):
+            name = f"{package.__name__}/{path.relative_to(root).as_posix()}".encode()
+            data = path.read_bytes()
+            h.update(len(name).to_bytes(8, "little") + name + len(data).to_bytes(8, "little") + data)
+    return h.digest()
+
+
 def cache_key(data: bytes, speed: float, dt: float, duration: float,
               damping_ratio: float = 0.0) -> str:
     from importlib.metadata import PackageNotFoundError, version
@@ -75,8 +96,8 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
     except PackageNotFoundError:
         program = "0+unknown"
     h = hashlib.sha256()
-    for part in (data, program.encode(), repr((speed, dt, duration, damping_ratio,
-                                               CHAIN_FIT_VERSION)).encode()):
+    for part in (data, program.encode(), fit_code_digest(),
+                 repr((speed, dt, duration, damping_ratio)).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest()[:32]

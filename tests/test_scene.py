@@ -413,3 +413,30 @@ def test_plot_is_a_png_and_refused_before_anything_runs_when_unwritable(tmp_path
     bad = run_cli("scene", path, "--cache", str(chains), "--plot",
                   str(tmp_path / "no" / "such" / "dir" / "s.png"), exit_code=None)
     assert bad.exit_code in (1, 2) and len(bad.stderr.strip().splitlines()) >= 1
+
+
+@pytest.mark.parametrize("module", ["simplify/explicit.py", "simplify/constants.py",
+                                    "compare/measures.py", "sim/lanes_kernel.py"])
+def test_a_chain_cache_key_changes_with_the_fitting_code(monkeypatch, module):
+    """The cache key covers the source of the fit: one changed byte in any module of lsys,
+    sim, compare or simplify gives another key (no version to bump by hand)."""
+    import pathlib
+
+    from plantlod.scene import levels
+
+    levels.fit_code_digest.cache_clear()
+    before = levels.cache_key(b"tree", 5.0, 0.01, 20.0)
+    real = pathlib.Path.read_bytes
+
+    def edited(path):
+        data = real(path)
+        return data + b"#" if path.as_posix().endswith(module) else data
+
+    monkeypatch.setattr(pathlib.Path, "read_bytes", edited)
+    levels.fit_code_digest.cache_clear()
+    try:
+        assert levels.cache_key(b"tree", 5.0, 0.01, 20.0) != before
+    finally:
+        monkeypatch.undo()
+        levels.fit_code_digest.cache_clear()
+    assert levels.cache_key(b"tree", 5.0, 0.01, 20.0) == before
