@@ -155,29 +155,57 @@ class Skeleton:
     paths: list[np.ndarray]
 
 
-def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen") -> Skeleton:
-    """The explicit-form axiom of one level; rest geometry: chords (module doc).
+@dataclass
+class Chords:
+    """The rest chords of one level's groups (world frame, m): base and tip (G, 3), length
+    (G,), each chord's branch frame (G, 3, 3) before any roll, and each group's parent group
+    (G,) (-1 for a root)."""
+
+    base: np.ndarray
+    tip: np.ndarray
+    length: np.ndarray
+    frame: np.ndarray
+    parent_group: np.ndarray
+
+
+def chords(original: Tree, grouping: Grouping, paths: list[np.ndarray], frames=None) -> Chords:
+    """Each group's chord from its root's base to its group tip, and its branch frame: the
+    frame of the group's tip member turned onto the chord, so that a group continuing straight
+    on from this one's tip gets its root's own swing frame (model.md 3, α = 0: the parent's
+    branch frame), as the original has it."""
+    frames = rest_frames(original) if frames is None else frames
+    parent = np.asarray(original.parent, dtype=np.int64)
+    root = grouping.root
+    parent_group = np.array([grouping.group[parent[r]] if parent[r] >= 0 else -1 for r in root],
+                            dtype=np.int64)
+    base = frames.base[root]
+    tip = frames.tip[np.array([p[-1] for p in paths], dtype=np.int64)]
+    chord = tip - base
+    length = np.linalg.norm(chord, axis=1)
+    frame = np.empty((grouping.count, 3, 3))
+    for g in range(grouping.count):
+        direction = chord[g] / length[g] if length[g] > 0 else frames.axis[root[g]]
+        frame[g] = _chord_frame(frames.frame[paths[g][-1]], direction)
+    return Chords(base, tip, length, frame, parent_group)
+
+
+def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen",
+                      rolls: np.ndarray | None = None) -> Skeleton:
+    """The explicit-form axiom of one level; rest geometry: chords (module doc, `chords`).
 
     leaves: "eigen", at most three equivalent leaves per group (`equivalent_leaves`), or
     "basis", nine whose normals are the chord frame's axes and diagonals (`basis_leaves`).
+    rolls: (G,) rad, each chord's branch frame turned about the chord by this much
+    (`chord_rolls`: it turns the swing frame of a group that continues straight on).
     """
+    from plantlod.lsys.rotation import rot_z
+
     frames = rest_frames(original)
     g_count = grouping.count
     paths = main_paths(original, grouping.group, g_count)
-    parent = np.asarray(original.parent, dtype=np.int64)
-    root = grouping.root
-    parent_group = np.array([grouping.group[parent[r]] if parent[r] >= 0 else -1 for r in root])
-    base = frames.base[root]
-    tip = frames.tip[np.array([p[-1] for p in paths])]
-    chord = tip - base
-    length = np.linalg.norm(chord, axis=1)
-    frame = np.empty((g_count, 3, 3))
-    for g in range(g_count):
-        direction = chord[g] / length[g] if length[g] > 0 else frames.axis[root[g]]
-        # the frame of the group's tip member, turned onto the chord: a group that continues
-        # straight on from this one's tip then gets its root's own swing frame (model.md 3,
-        # α = 0: the parent's branch frame), as the original has it
-        frame[g] = _chord_frame(frames.frame[paths[g][-1]], direction)
+    ch = chords(original, grouping, paths, frames)
+    base, tip, length, parent_group = ch.base, ch.tip, ch.length, ch.parent_group
+    frame = ch.frame if rolls is None else ch.frame @ rot_z(np.asarray(rolls, dtype=np.float64))
     children: list[list[int]] = [[] for _ in range(g_count)]
     for g in range(g_count):
         if parent_group[g] >= 0:
@@ -404,8 +432,9 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
 
 
 def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, dt: float,
-                        duration: float, damping_ratio: float) -> np.ndarray:
-    """(n, 2) own strengths of n chords whose carry maps mix bend and rotation.
+                        duration: float, damping_ratio: float, costs: bool = False):
+    """(n, 2) own strengths of n chords whose carry maps mix bend and rotation (and with
+    ``costs`` their (n,) costs below at those strengths, 0 where nothing swings).
 
     A chord's own static angles s(d) = C⁻¹ g X(d, ∞) (the statics it is fitted to, g the group's
     amplitude factors) swing with
@@ -447,6 +476,7 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
     hi = np.fmax(own.max(axis=1), np.nanmax(np.where(weight > 0, target, -np.inf), axis=(1, 2)))
     q = STRENGTH_SEARCH_POINTS
     best = own.copy()
+    least = np.zeros(len(own))
     for around_best in (False, True):
         if not around_best:
             grid = np.exp(np.linspace(np.log(lo * 0.99), np.log(hi * 1.01), q, axis=1))   # (n, Q)
@@ -479,14 +509,16 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
                 + (((a_y - swing.amplitudes[i]) / group_max[i] / motion_bound) ** 2).sum(axis=(2, 3))
             a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
             best[i] = grid[i, 0, a], grid[i, 1, b]
-    return strength_of_period(best, dt)
+            least[i] = cost[a, b]
+    strengths = strength_of_period(best, dt)
+    return (strengths, least) if costs else strengths
 
 
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
                          refine: bool = True, gains: bool = True,
                          damping_ratio: float = 0.0, motion: bool = True,
-                         runs_for=None) -> tuple[str, Tree]:
+                         runs_for=None, roll: bool = True) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
     header : the original's header values (branching_angle, rotation_angle, seed,
@@ -494,6 +526,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
     damping_ratio : ζ of model.md 4 the groups' swings are measured under
     motion : fit the level to motion (`motion_fit`) after its statics
+    roll   : turn the frames of straight-on groups where that suits their swing (`chord_rolls`)
     runs_for : runs_for(tree), the original's `evaluate.Runs` read with a level tree's groups
                (`motion_fit.shared_runs`), in the winds the level is fitted to motion in; by
                default simplify's measurement winds over SIMPLIFY_WIND_RANGE, simulated here
@@ -501,6 +534,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
 
+    from .chord_rolls import chord_rolls
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
     from plantlod.compare.groups import assign_stated_groups, carry_matrix, swing_turns
@@ -521,10 +555,13 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     gain_group = group_swing.gain
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
+    # the rolls of chord frames that turn straight-on groups' swing frames (chord_rolls)
+    rolls = chord_rolls(original, paths, chords(original, grouping, paths), group_swing, dt,
+                        duration, damping_ratio) if roll else None
 
     def fit(leaves: str) -> tuple[str, float]:
         """The level's text with one leaf set, and its static error (`closed_form`)."""
-        sk = explicit_skeleton(original, grouping, leaves)
+        sk = explicit_skeleton(original, grouping, leaves, rolls)
 
         def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
             lines = []

@@ -132,17 +132,66 @@ axiom: T / T / T / T / T / T / T / T / T / T &(20) L
 """
 
 
-def test_straight_groups_keep_their_roots_frames_whatever_the_rolls():
-    # a straight trunk rolled by 66° between segments (bend and rotation strengths differ):
-    # every level branch that continues straight on from its parent's group tip must read in
-    # its group root's frame unturned (carry map the identity), or its two periods would mix
+def _rolled_stalk():
     system = parse_lsys(ROLLED_STALK, "rolled.lsys")
-    original = build(system).tree
     header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
                                               "force_absorbed", "force_propagated",
                                               "drag_coefficient", "leaf_force_scale")}
+    return build(system).tree, header
+
+
+def test_straight_groups_keep_their_roots_frames_whatever_the_rolls():
+    # a straight trunk rolled by 66° between segments (bend and rotation strengths differ):
+    # unrolled, every level branch that continues straight on from its parent's group tip
+    # reads in its group root's frame unturned (carry map the identity)
+    original, header = _rolled_stalk()
     for grouping in merge_levels(original)[1:3]:
         _, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
-                                        dt=DT, refine=False, gains=False, motion=False)
+                                        dt=DT, refine=False, gains=False, motion=False,
+                                        roll=False)
         carry = carry_matrix(swing_turns(original, level, group_map(original, level).paths))
         np.testing.assert_allclose(carry, np.broadcast_to(np.eye(2), carry.shape), atol=1e-9)
+
+
+def test_a_rolled_chord_frame_turns_its_straight_child_by_the_roll():
+    # with chord_rolls, a straight-on child reads in W_0 turned by its parent's roll γ:
+    # carry [[cos γ, -sin γ], [sin γ, cos γ]] (model.md 3: the child's swing frame is its
+    # parent's branch frame); at least one roll is chosen on this trunk, and the roots keep
+    # the identity (nothing turns a root's swing frame)
+    from plantlod.simplify.chord_rolls import chord_rolls
+    from plantlod.simplify.explicit import chords, dominant_strengths
+    from plantlod.compare.groups import main_paths
+
+    original, header = _rolled_stalk()
+    grouping = merge_levels(original)[1]
+    paths = main_paths(original, grouping.group, grouping.count)
+    ch = chords(original, grouping, paths)
+    rolls = chord_rolls(original, paths, ch, dominant_strengths(original, paths, DT, 20.0), DT,
+                        20.0)
+    assert np.count_nonzero(rolls) >= 1
+    _, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
+                                    dt=DT, refine=False, gains=False, motion=False)
+    gmap = group_map(original, level)
+    carry = carry_matrix(swing_turns(original, level, gmap.paths))
+    for s in range(level.n_branches):
+        g = int(np.flatnonzero(grouping.root == gmap.paths[s][0])[0])
+        parent = ch.parent_group[g]
+        gamma = rolls[parent] if parent >= 0 else 0.0
+        expected = [[math.cos(gamma), -math.sin(gamma)], [math.sin(gamma), math.cos(gamma)]]
+        np.testing.assert_allclose(carry[s], expected, atol=1e-9)
+
+
+def test_rolls_lower_the_measured_errors_of_a_rolled_trunk():
+    # the point of a roll: the level's motion and period errors (model.md 6) in winds from
+    # four directions are lower with the chosen rolls than without
+    from plantlod.simplify.evaluate import Runs, WindCase
+
+    original, header = _rolled_stalk()
+    winds = [WindCase(1.0, d) for d in (0.0, 37.0, 90.0, 200.0)]
+    worst = {}
+    for roll in (False, True):
+        _, level = explicit_system_text(original, merge_levels(original)[1], name="t",
+                                        header=header, level=1, dt=DT, roll=roll)
+        reports = Runs(original, group_map(original, level), winds, DT, 2000, 4).compare(level)
+        worst[roll] = max(max(r.motion_error / 0.05, r.period_error_major / 0.02) for r in reports)
+    assert worst[True] < worst[False]

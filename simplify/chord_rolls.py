@@ -1,0 +1,80 @@
+"""Rolls of a level branch's frame about its chord: the one free turn of an explicit level's
+swing frames (model.md 3 and 5).
+
+A level branch's swing frame is fixed by its chord and its parent's chord wherever it leans
+off its parent (α > 0). Where a group continues straight on from its parent group's tip
+(α = 0), its swing frame is its parent's branch frame R_parent = S_parent Rz(ψ_parent), and
+ψ_parent turns nothing else: the parent's own swing frame does not depend on it, its leaning
+children's frames do not (φ takes the turn back), and its leaves are written in its frame.
+
+That turn matters where the group's members are rolled against each other (phyllotaxis,
+`/(137.5)` between trunk segments) and bend and rotate with different strengths: the group's
+combined angles in W_0 then mix periods in proportions that change with the wind's
+direction, which one branch with its own frame equal to W_0 cannot follow (its W_0
+components are its own bend and rotation, one period each). Turned by γ, its W_0 components
+mix its two periods too, y = C(γ) θ'. For each such group, the roll of its parent's frame is
+chosen from ROLL_CANDIDATES by the cost of `explicit._searched_strengths` (the group's swing
+model in every direction, model.md 6's measures against level 1's bounds): γ = 0 (the frame
+as before) is one of the candidates and is kept unless another costs less by ROLL_GAIN.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plantlod.compare.groups import carry_matrix
+from plantlod.lsys.rotation import rot_z
+from plantlod.lsys.tree import Tree
+
+from .constants import ROLL_CANDIDATES, ROLL_GAIN, ROLL_MIXED_PERIODS, STRAIGHT_ON
+
+
+def straight_children(ch) -> list[tuple[int, int]]:
+    """(parent group, child group) pairs where the child's chord continues its parent's
+    chord exactly (α = 0 after model.md 2's 1e-9 rule; tested here as |z_p × z_c| <
+    STRAIGHT_ON) and is its parent's only such child (a roll of the parent turns them all)."""
+    z = ch.frame[:, :, 2]
+    kids: dict[int, list[int]] = {}
+    for c, p in enumerate(ch.parent_group.tolist()):
+        if p >= 0 and z[p] @ z[c] > 0 and np.linalg.norm(np.cross(z[p], z[c])) < STRAIGHT_ON:
+            kids.setdefault(p, []).append(c)
+    return [(p, cs[0]) for p, cs in sorted(kids.items()) if len(cs) == 1]
+
+
+def chord_rolls(original: Tree, paths: list[np.ndarray], ch, swing, dt: float,
+                duration: float, damping_ratio: float = 0.0) -> np.ndarray:
+    """(G,) rad: the roll of each group's chord frame (`explicit.chords`), 0 unless one of its
+    straight-on children (`straight_children`) swings with mixed periods and a roll lowers
+    that child's search cost (module docstring). swing: the groups' `GroupSwing` (group
+    order)."""
+    from plantlod.sim.kinematics import rest_pose
+
+    from .explicit import _searched_strengths
+
+    g_count = len(paths)
+    rolls = np.zeros(g_count)
+    pairs = straight_children(ch)
+    if not pairs:
+        return rolls
+    periods = np.where(swing.amplitudes > 0, swing.periods, np.nan)         # (G, 2, D)
+    with np.errstate(invalid="ignore"):
+        spread = np.nanmax(periods, axis=(1, 2)) / np.nanmin(periods, axis=(1, 2))
+    pairs = [(p, c) for p, c in pairs if np.isfinite(spread[c]) and spread[c] > ROLL_MIXED_PERIODS]
+    if not pairs:
+        return rolls
+    w0 = rest_pose(original).swing[np.array([int(paths[c][0]) for _, c in pairs])]   # (n, 3, 3)
+    parent_frame = ch.frame[np.array([p for p, _ in pairs])]                           # (n, 3, 3)
+    gammas = np.radians(np.asarray(ROLL_CANDIDATES, dtype=np.float64))                 # (R,)
+    turns = np.einsum("nji,njk,rkl->nril", w0, parent_frame, rot_z(gammas))            # (n, R, 3, 3)
+    n, r = len(pairs), len(gammas)
+    children = np.repeat(np.array([c for _, c in pairs]), r)
+    a_max = swing.amplitudes.max(axis=(0, 1))
+    _, cost = _searched_strengths(swing.take(children), carry_matrix(turns.reshape(-1, 3, 3)),
+                                  a_max, dt, duration, damping_ratio, costs=True)
+    cost = cost.reshape(n, r)
+    zero = int(np.argmin(np.abs(gammas)))
+    for k, (p, _c) in enumerate(pairs):
+        best = int(np.argmin(cost[k]))
+        if cost[k, best] < (1.0 - ROLL_GAIN) * cost[k, zero]:
+            rolls[p] = gammas[best]
+    return rolls
