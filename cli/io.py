@@ -38,6 +38,16 @@ def console():
     return _console
 
 
+def progress_bar():
+    """A transient rich progress display on the stderr console (`console`), which leaves
+    stdout and stderr alone (a command's data and its one-line messages); use it only
+    where stderr is a terminal."""
+    from rich.progress import Progress
+
+    return Progress(console=console(), transient=True, redirect_stdout=False,
+                    redirect_stderr=False)
+
+
 def say(message: str) -> None:
     """One line for people, on stderr (never markup-interpreted). A stderr that cannot be
     written (closed, a full disk) loses the line but never fails the command: it is

@@ -126,12 +126,9 @@ class _ProgressBar:
     fitted ("levels: FILE, level k of n"), then one for the batches."""
 
     def __init__(self):
-        from rich.progress import Progress
+        from .io import progress_bar
 
-        from .io import console
-
-        self.bar = Progress(console=console(), transient=True, redirect_stdout=False,
-                            redirect_stderr=False)
+        self.bar = progress_bar()
         self.bar.start()
         self.tasks: dict[str, int] = {}
 

@@ -164,12 +164,9 @@ def _pct(x: float) -> str:
 
 
 def _with_progress(run, system, options):
-    from rich.progress import Progress
+    from .io import progress_bar
 
-    from .io import console
-
-    with Progress(console=console(), transient=True, redirect_stdout=False,
-                  redirect_stderr=False) as bar:
+    with progress_bar() as bar:
         task = bar.add_task("simplify", total=1.0)
 
         def update(stage: str, fraction: float) -> None:

@@ -100,12 +100,9 @@ def _watched(chunks, watch):
 
 
 def _write_with_progress(writer, chunks, steps: int, dt: float) -> None:
-    from rich.progress import Progress
+    from .io import progress_bar
 
-    from .io import console
-
-    with Progress(console=console(), transient=True, redirect_stdout=False,
-                  redirect_stderr=False) as bar:
+    with progress_bar() as bar:
         task = bar.add_task("simulating", total=max(steps * dt, 1e-12))
         for chunk in chunks:
             writer.write(*chunk)
