@@ -23,7 +23,8 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import atomic_path, hold, release, remove_pending, usual_file_mode
+from plantlod.formats.atomic import (atomic_path, hold, release, remove_pending, usual_file_mode,
+                                     write_all)
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -201,13 +202,7 @@ class WholeWrites:
         self.stream, self.text = stream, text
 
     def write(self, data) -> int:
-        raw = data.encode("utf-8", "backslashreplace") if self.text else data
-        view = memoryview(raw).cast("B")
-        while len(view):
-            n = self.stream.write(view)
-            if not n:
-                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-            view = view[n:]
+        write_all(self.stream, data.encode("utf-8", "backslashreplace") if self.text else data)
         return len(data)
 
     def writelines(self, lines) -> None:

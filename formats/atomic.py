@@ -66,13 +66,19 @@ def atomic_path(path: str, suffix: str = ".tmp") -> Iterator[str]:
         release(tmp)
 
 
+def write_all(stream, data, name: str | None = None) -> None:
+    """Write every byte of ``data`` (bytes-like) to the binary ``stream`` or raise OSError: a
+    write that takes only part (a short count, a disk filling up) is continued, and one that
+    takes nothing is ENOSPC (``name``: the file, for the message)."""
+    view = memoryview(data).cast("B")
+    while len(view):
+        n = stream.write(view)
+        if not n:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), *([name] if name else []))
+        view = view[n:]
+
+
 def write_whole(path: str, data: bytes) -> None:
-    """Write ``data`` to ``path``, every byte or an OSError: a write that the disk takes only
-    in part (a short count) is continued, and a write that takes nothing is ENOSPC."""
+    """Write ``data`` to ``path``, every byte or an OSError (`write_all`)."""
     with open(path, "wb", buffering=0) as out:
-        view = memoryview(data).cast("B")
-        while len(view):
-            n = out.write(view)
-            if not n:
-                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
-            view = view[n:]
+        write_all(out, data, path)
