@@ -56,10 +56,11 @@ def chord_rolls(original: Tree, paths: list[np.ndarray], ch, swing, dt: float,
     pairs = straight_children(ch)
     if not pairs:
         return rolls
-    periods = np.where(swing.amplitudes > 0, swing.periods, np.nan)         # (G, 2, D)
-    with np.errstate(invalid="ignore"):
-        spread = np.nanmax(periods, axis=(1, 2)) / np.nanmin(periods, axis=(1, 2))
-    pairs = [(p, c) for p, c in pairs if np.isfinite(spread[c]) and spread[c] > ROLL_MIXED_PERIODS]
+    swinging = (swing.amplitudes > 0) & np.isfinite(swing.periods)          # (G, 2, D)
+    longest = np.where(swinging, swing.periods, -np.inf).max(axis=(1, 2))
+    shortest = np.where(swinging, swing.periods, np.inf).min(axis=(1, 2))
+    pairs = [(p, c) for p, c in pairs
+             if swinging[c].any() and longest[c] > ROLL_MIXED_PERIODS * shortest[c]]
     if not pairs:
         return rolls
     w0 = rest_pose(original).swing[np.array([int(paths[c][0]) for _, c in pairs])]   # (n, 3, 3)
