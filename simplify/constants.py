@@ -82,7 +82,8 @@ STRENGTH_SEARCH_POINTS = 8   # period grid of that search, coarse and then aroun
 STRENGTH_SEARCH_EVERY = 4    # samples of the search's swings kept (as simplify measures)
 GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
 # rolls of a chord frame about its chord (simplify/chord_rolls.py)
-ROLL_CANDIDATES = tuple(range(-90, 90, 15))   # degrees tried (0 among them: the frame unrolled)
+ROLL_OFFSETS = (-15.0, 0.0, 15.0)   # degrees: rolls tried around the members' mean roll (and 0)
+ROLL_MIN = 5.0                # degrees: groups whose members' mean roll is smaller are left unrolled
 ROLL_GAIN = 0.1               # a roll is kept only where it lowers the search cost by this fraction
 ROLL_MIXED_PERIODS = 1.002    # only groups whose swing periods spread by more than this ratio
 STRAIGHT_ON = 1e-10           # |z_parent x z_child| below this: the chord continues straight on
