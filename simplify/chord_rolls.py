@@ -12,11 +12,12 @@ That turn matters where the group's members are rolled against each other (phyll
 combined angles in W_0 then mix periods in proportions that change with the wind's
 direction, which one branch with its own frame equal to W_0 cannot follow (its W_0
 components are its own bend and rotation, one period each). Turned by γ, its W_0 components
-mix its two periods too, y = C(γ) θ'. For each such group, the roll of its parent's frame is
-chosen from ROLL_CANDIDATES by the cost of `explicit._searched_strengths` (its coarse grid;
-the group's swing
-model in every direction, model.md 6's measures against level 1's bounds): γ = 0 (the frame
-as before) is one of the candidates and is kept unless another costs less by ROLL_GAIN.
+mix its two periods too, y = C(γ) θ'. For each such group whose members are rolled, the
+roll of its parent's frame is chosen from ROLL_CANDIDATES (a quarter turn: a quarter turn
+more swings the same with the two strengths swapped) by the cost of
+`explicit._searched_strengths` (the group's swing model in every direction, model.md 6's
+measures against level 1's bounds): γ = 0 (the frame as before) is kept unless another
+costs less by ROLL_GAIN.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from plantlod.compare.groups import carry_matrix
 from plantlod.lsys.rotation import rot_z
 from plantlod.lsys.tree import Tree
 
-from .constants import ROLL_GAIN, ROLL_MIN, ROLL_MIXED_PERIODS, ROLL_OFFSETS, STRAIGHT_ON
+from .constants import ROLL_CANDIDATES, ROLL_GAIN, ROLL_MIN, ROLL_MIXED_PERIODS, STRAIGHT_ON
 
 
 def straight_children(ch) -> list[tuple[int, int]]:
@@ -72,9 +73,9 @@ def chord_rolls(original: Tree, paths: list[np.ndarray], ch, swing, dt: float,
                 duration: float, damping_ratio: float = 0.0) -> np.ndarray:
     """(G,) rad: the roll of each group's chord frame (`explicit.chords`), 0 unless one of its
     straight-on children (`straight_children`) has members rolled against its root
-    (`member_rolls` at least ROLL_MIN away from 0), swings with mixed periods, and a roll
-    near the members' mean roll lowers that child's search cost (module docstring). swing:
-    the groups' `GroupSwing` (group order)."""
+    (`member_rolls` at least ROLL_MIN away from 0), swings with mixed periods, and one of
+    ROLL_CANDIDATES lowers that child's search cost (module docstring). swing: the groups'
+    `GroupSwing` (group order)."""
     from plantlod.sim.kinematics import rest_pose
 
     from .explicit import _searched_strengths
@@ -94,14 +95,14 @@ def chord_rolls(original: Tree, paths: list[np.ndarray], ch, swing, dt: float,
     mean = member_rolls(original, paths, [c for _, c in pairs])
     keep = np.abs(mean) >= np.radians(ROLL_MIN)
     pairs = [pc for pc, k in zip(pairs, keep) if k]
-    mean = mean[keep]
     if not pairs:
         return rolls
     w0 = rest_pose(original).swing[np.array([int(paths[c][0]) for _, c in pairs])]   # (n, 3, 3)
     parent_frame = ch.frame[np.array([p for p, _ in pairs])]                           # (n, 3, 3)
-    # candidates: unrolled, and around the members' mean roll
-    offsets = np.radians(np.asarray(ROLL_OFFSETS, dtype=np.float64))
-    gammas = np.concatenate([np.zeros((len(pairs), 1)), mean[:, None] + offsets[None, :]], axis=1)
+    # candidates: rolls over a quarter turn (a quarter turn more swings the same with the two
+    # strengths swapped, and the search picks strengths), 0 first
+    gammas = np.broadcast_to(np.radians(np.asarray(ROLL_CANDIDATES, dtype=np.float64)),
+                             (len(pairs), len(ROLL_CANDIDATES)))
     n, r = gammas.shape
     turns = np.einsum("nji,njk,nrkl->nril", w0, parent_frame, rot_z(gammas))          # (n, R, 3, 3)
     children = np.repeat(np.array([c for _, c in pairs]), r)

@@ -82,7 +82,7 @@ STRENGTH_SEARCH_POINTS = 8   # period grid of that search, coarse and then aroun
 STRENGTH_SEARCH_EVERY = 4    # samples of the search's swings kept (as simplify measures)
 GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
 # rolls of a chord frame about its chord (simplify/chord_rolls.py)
-ROLL_OFFSETS = (-15.0, 0.0, 15.0)   # degrees: rolls tried around the members' mean roll (and 0)
+ROLL_CANDIDATES = (0.0, -45.0, -30.0, -15.0, 15.0, 30.0)   # degrees tried, 0 (unrolled) first
 ROLL_MIN = 5.0                # degrees: groups whose members' mean roll is smaller are left unrolled
 ROLL_GAIN = 0.1               # a roll is kept only where it lowers the search cost by this fraction
 ROLL_MIXED_PERIODS = 1.002    # only groups whose swing periods spread by more than this ratio

@@ -432,11 +432,9 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
 
 
 def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, dt: float,
-                        duration: float, damping_ratio: float, costs: bool = False,
-                        coarse_only: bool = False):
+                        duration: float, damping_ratio: float, costs: bool = False):
     """(n, 2) own strengths of n chords whose carry maps mix bend and rotation (and with
-    ``costs`` their (n,) costs below at those strengths, 0 where nothing swings; with
-    ``coarse_only`` the search stops after its coarse grid, to rank carry maps cheaply).
+    ``costs`` their (n,) costs below at those strengths, 0 where nothing swings).
 
     A chord's own static angles s(d) = C⁻¹ g X(d, ∞) (the statics it is fitted to, g the group's
     amplitude factors) swing with
@@ -479,7 +477,7 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
     q = STRENGTH_SEARCH_POINTS
     best = own.copy()
     least = np.zeros(len(own))
-    for around_best in (False,) if coarse_only else (False, True):
+    for around_best in (False, True):
         if not around_best:
             grid = np.exp(np.linspace(np.log(lo * 0.99), np.log(hi * 1.01), q, axis=1))   # (n, Q)
             grid = np.broadcast_to(grid[:, None, :], (len(own), 2, q))      # (n, m, Q)
