@@ -9,7 +9,8 @@ tip needs (the branch frame and the tip), with the same formulas:
     S_i = R_parent Q_i Rot(u_i, θ_i),  R_i = S_i Rz(ψ_i),
     base_i = tip_parent + R_parent o_i,  tip_i = base_i + L_i R_i e_z
 
-(Q_i = Rz(φ_i) Ry(α_i); Rot as `kinematics.swing_rotation`), with sin and cos from
+(Q_i = Rz(φ_i) Ry(α_i); Rot as `kinematics.swing_rotation`; R_i only through R_i e_z = S_i e_z
+and R_parent Q_i = S_parent (Rz(ψ_parent) Q_i), so only swing frames are kept), with sin and cos from
 `trig.sincos1` as in the stepping kernels. No fastmath: the tips agree with `pose`
 (numpy's sin and cos) to rounding (tests/test_sim_tips_kernel.py).
 """
@@ -29,12 +30,14 @@ from .trig import sincos1
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
-def _tips(parent, rest, twist, offset, length, bend, rot, which, out):
+def _tips(parent, rest, offset, length, bend, rot, which, out):
+    """rest (n, 3, 3): Rz(ψ_parent) Q_i (Q_i alone for a root); offset (n, 3): Rz(ψ_parent) o_i.
+    A branch frame R_i = S_i Rz(ψ_i) enters its tip only as R_i e_z = S_i e_z and its
+    children only as R_i Q_c = S_i (Rz(ψ_i) Q_c), so the swing frames S are all it keeps."""
     samples, n = bend.shape
     for k in numba.prange(samples):
-        frame = np.empty((n, 3, 3))
+        swing = np.empty((n, 3, 3))
         tip = np.empty((n, 3))
-        swing = np.empty((3, 3))
         local = np.empty((3, 3))
         rmat = np.empty((3, 3))
         for i in range(n):
@@ -56,7 +59,7 @@ def _tips(parent, rest, twist, offset, length, bend, rot, which, out):
             rmat[2, 0] = -s * uy
             rmat[2, 1] = s * ux
             rmat[2, 2] = c
-            for a in range(3):                      # local = Q_i Rot
+            for a in range(3):                      # local = (Rz(psi_parent) Q_i) Rot
                 for bb in range(3):
                     local[a, bb] = rest[i, a, 0] * rmat[0, bb] + rest[i, a, 1] * rmat[1, bb] \
                         + rest[i, a, 2] * rmat[2, bb]
@@ -64,20 +67,17 @@ def _tips(parent, rest, twist, offset, length, bend, rot, which, out):
             if p < 0:
                 for a in range(3):
                     for bb in range(3):
-                        swing[a, bb] = local[a, bb]
+                        swing[i, a, bb] = local[a, bb]
                     tip[i, a] = offset[i, a]
             else:
                 for a in range(3):
                     for bb in range(3):
-                        swing[a, bb] = frame[p, a, 0] * local[0, bb] + frame[p, a, 1] * local[1, bb] \
-                            + frame[p, a, 2] * local[2, bb]
-                    tip[i, a] = tip[p, a] + (frame[p, a, 0] * offset[i, 0] + frame[p, a, 1] * offset[i, 1]
-                                             + frame[p, a, 2] * offset[i, 2])
-            for a in range(3):                      # R_i = S_i Rz(psi_i)
-                for bb in range(3):
-                    frame[i, a, bb] = swing[a, 0] * twist[i, 0, bb] + swing[a, 1] * twist[i, 1, bb] \
-                        + swing[a, 2] * twist[i, 2, bb]
-                tip[i, a] += length[i] * frame[i, a, 2]
+                        swing[i, a, bb] = swing[p, a, 0] * local[0, bb] + swing[p, a, 1] * local[1, bb] \
+                            + swing[p, a, 2] * local[2, bb]
+                    tip[i, a] = tip[p, a] + (swing[p, a, 0] * offset[i, 0] + swing[p, a, 1] * offset[i, 1]
+                                             + swing[p, a, 2] * offset[i, 2])
+            for a in range(3):
+                tip[i, a] += length[i] * swing[i, a, 2]
         for j in range(which.shape[0]):
             for a in range(3):
                 out[k, j, a] = tip[which[j], a]
@@ -107,8 +107,14 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
         euler, offset, length = euler[keep], offset[keep], length[keep]
         bend, rot = np.ascontiguousarray(bend[:, keep]), np.ascontiguousarray(rot[:, keep])
         which = new_index[which]
-    _tips(parent, np.ascontiguousarray(rest_swing_rotation(euler)),
-          np.ascontiguousarray(rot_z(euler[:, 2])), np.ascontiguousarray(offset),
+    # each branch's rest rotation and offset seen from its parent's swing frame
+    twist = rot_z(euler[:, 2])                                  # (n, 3, 3) Rz(psi)
+    has = parent >= 0
+    rest = rest_swing_rotation(euler)                           # (n, 3, 3) Q = Rz(phi) Ry(alpha)
+    rest[has] = twist[parent[has]] @ rest[has]
+    offset = offset.copy()
+    offset[has] = np.einsum("nij,nj->ni", twist[parent[has]], offset[has])
+    _tips(parent, np.ascontiguousarray(rest), np.ascontiguousarray(offset),
           np.ascontiguousarray(length), bend, rot, which, out)
     return out
 
