@@ -50,7 +50,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     begin = time.perf_counter()
     from plantlod.sim import kernel
 
-    engine = kernel.engine_for(kernel.prepare(tree), settings.steps)
+    engine = kernel.engine_for(tree, settings.steps)     # the counts only: no flattening
     if engine == "compiled":
         kernel.compiled()          # numba loads here (the cached machine code on the first call)
 

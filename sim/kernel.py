@@ -329,17 +329,21 @@ _compiled = None
 _interpreted_work = 0
 
 
-def engine_for(model: KernelModel, steps: int) -> str:
+def engine_for(model: "KernelModel | Tree", steps: int) -> str:
     """"interpreted" while numba is not loaded and this run fits in what is left of the
     process's INTERPRET_BRANCH_STEPS (branches + leaves) x steps, else "compiled"; both
     give the same bits. $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or
-    interpreted overrides it."""
+    interpreted overrides it. model: the flattened tree, or the tree itself (only its
+    branch and leaf counts are read)."""
     forced = os.environ.get(KERNEL_ENV, "").strip().lower()
     if forced in ("compiled", "interpreted"):
         return forced
     if forced:
         raise InputError(f"{KERNEL_ENV}={forced!r}: expected compiled or interpreted")
-    work = (model.parent.shape[0] + model.leaf_scale.shape[0]) * steps
+    if isinstance(model, KernelModel):
+        work = (model.parent.shape[0] + model.leaf_scale.shape[0]) * steps
+    else:
+        work = (model.n_branches + model.n_leaves) * steps
     if "numba" not in sys.modules and _interpreted_work + work <= INTERPRET_BRANCH_STEPS:
         return "interpreted"
     return "compiled"

@@ -239,3 +239,17 @@ def test_kernel_environment_variable_forces_the_engine(monkeypatch):
     monkeypatch.setenv("PLANTLOD_KERNEL", "fast")
     with pytest.raises(InputError, match="PLANTLOD_KERNEL"):
         kernel.engine_for(model, 1)
+
+
+def test_the_engine_is_chosen_alike_from_a_tree_and_its_flattened_model(monkeypatch):
+    from plantlod.sim import kernel
+
+    monkeypatch.delenv("PLANTLOD_KERNEL", raising=False)
+    monkeypatch.delitem(sys.modules, "numba", raising=False)     # as before numba loads
+    monkeypatch.setattr(kernel, "_interpreted_work", 0)
+    tree = stalk(8)
+    size = tree.n_branches + tree.n_leaves
+    last = kernel.INTERPRET_BRANCH_STEPS // size        # the longest run still interpreted
+    for steps, engine in ((1, "interpreted"), (last, "interpreted"), (last + 1, "compiled")):
+        assert kernel.engine_for(tree, steps) == engine
+        assert kernel.engine_for(kernel.prepare(tree), steps) == engine
