@@ -169,8 +169,8 @@ def test_a_rolled_chord_frame_turns_its_straight_child_by_the_roll():
     rolls = chord_rolls(original, paths, ch, dominant_strengths(original, paths, DT, 20.0), DT,
                         20.0)
     assert np.count_nonzero(rolls) >= 1
-    _, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
-                                    dt=DT, refine=False, gains=False, motion=False)
+    text, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
+                                       dt=DT, refine=False, gains=False, motion=False)
     gmap = group_map(original, level)
     carry = carry_matrix(swing_turns(original, level, gmap.paths))
     for s in range(level.n_branches):
@@ -179,6 +179,43 @@ def test_a_rolled_chord_frame_turns_its_straight_child_by_the_roll():
         gamma = rolls[parent] if parent >= 0 else 0.0
         expected = [[math.cos(gamma), -math.sin(gamma)], [math.sin(gamma), math.cos(gamma)]]
         np.testing.assert_allclose(carry[s], expected, atol=1e-9)
+    # a roll turns frames only: the written file still puts every chord from its group
+    # root's base to its group tip (rest tip error 0)
+    from plantlod.sim.kinematics import rest_pose
+
+    again = build(parse_lsys(text, "again")).tree
+    np.testing.assert_allclose(rest_pose(again).tip,
+                               rest_pose(original).tip[[p[-1] for p in gmap.paths]], atol=1e-9)
+    np.testing.assert_allclose(rest_pose(again).base,
+                               rest_pose(original).base[[p[0] for p in gmap.paths]], atol=1e-9)
+
+
+def test_a_rolled_frame_keeps_its_leaves_world_normals():
+    # the same trunk with a leaf on every segment: where a level branch's frame is rolled,
+    # its equivalent leaves are written in the rolled frame, so their world normals (and
+    # the force they take) are those of the unrolled level
+    from plantlod.sim.kinematics import rest_pose
+
+    system = parse_lsys(ROLLED_STALK.replace("T /", "T [&(20) L] /"), "leafy.lsys")
+    original = build(system).tree
+    header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
+                                              "force_absorbed", "force_propagated",
+                                              "drag_coefficient", "leaf_force_scale")}
+    grouping = merge_levels(original)[1]
+    levels = {roll: explicit_system_text(original, grouping, name="t", header=header, level=1,
+                                         dt=DT, refine=False, gains=False, motion=False,
+                                         roll=roll)[1] for roll in (False, True)}
+    rolled_leaf_branches = {int(b) for b in levels[True].leaf_branch} & {
+        s for s in range(levels[True].n_branches)
+        if not np.allclose(rest_pose(levels[True]).frame[s], rest_pose(levels[False]).frame[s])}
+    assert rolled_leaf_branches                  # some leaf sits on a rolled branch
+
+    def world_normals(tree):
+        frames = rest_pose(tree).frame[np.asarray(tree.leaf_branch)]
+        return np.einsum("kij,kj->ki", frames, np.asarray(tree.leaf_normal))
+
+    np.testing.assert_allclose(world_normals(levels[True]), world_normals(levels[False]),
+                               atol=1e-9)
 
 
 def test_rolls_lower_the_measured_errors_of_a_rolled_trunk():
