@@ -53,8 +53,9 @@ _STATEMENTS_HELP = ("a header key, define, branch, leaf, axiom:, productions:, "
 
 # One expression token after optional white space; no group matches at the end of the
 # line or at a character that starts no token. Operators longest first.
+_NUMBER = r"(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"    # 2, 0.5, .5, 2e-3
 _TOKEN = re.compile(r"""(\s*)(?:
-      (?P<num>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)
+      (?P<num>""" + _NUMBER + r""")
     | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
     | (?P<op>\|\||&&|==|!=|<=|>=|-->|->|→|[<>+\-*/%^!])
     | (?P<punct>[(),])
@@ -62,8 +63,7 @@ _TOKEN = re.compile(r"""(\s*)(?:
 _NUMBER_TAIL = re.compile(r"[A-Za-z0-9_.]+")       # glued to a number: a bad number
 # a whole expression that is one plain number: what follows it can end an expression but not
 # continue it (',' ')' the end of the line, or a name after white space, as in key=value lists)
-_PLAIN_NUMBER = re.compile(r"\s*((?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)"
-                           r"(?=\s*[,)]|\s*$|\s+[A-Za-z_])")
+_PLAIN_NUMBER = re.compile(r"\s*(" + _NUMBER + r")(?=\s*[,)]|\s*$|\s+[A-Za-z_])")
 _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")

@@ -156,14 +156,12 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     from plantlod.sim.damping import Damping
     from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
-    from plantlod.simplify.explicit import explicit_system_text, merge_levels
+    from plantlod.simplify.explicit import explicit_system_text, level_header, merge_levels
     from plantlod.simplify.motion_fit import measurement_runs_for
 
     system = parse_lsys(data.decode("utf-8"), str(path))
     original = build(system).tree
-    header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
-                                              "force_absorbed", "force_propagated",
-                                              "drag_coefficient", "leaf_force_scale")}
+    header = level_header(system)
     levels = merge_levels(original)
     winds = [WindCase(speed, d) for d in TIP_ERROR_DIRECTIONS]
     steps = int(round(duration / dt))

@@ -94,6 +94,14 @@ class KernelModel:
     gain: np.ndarray
     damping: Damping
 
+    @property
+    def n_branches(self) -> int:
+        return self.parent.shape[0]
+
+    @property
+    def n_leaves(self) -> int:
+        return self.leaf_scale.shape[0]
+
     def branch_damping(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(c_b, c_r): per-branch damping of the bend and the rotation at time step ``dt``,
         the shapes of ``bend_k`` and ``rot_k``."""
@@ -308,7 +316,7 @@ def advance(model: KernelModel, state: KernelState, wind: np.ndarray, dt: float,
         engine = engine_for(model, wind.shape[0])
     if engine == "interpreted":
         global _interpreted_work
-        _interpreted_work += (model.parent.shape[0] + model.leaf_scale.shape[0]) * wind.shape[0]
+        _interpreted_work += (model.n_branches + model.n_leaves) * wind.shape[0]
         # memoryviews: element access gives Python floats and ints, several times
         # faster than numpy scalars, and the same doubles
         views = tuple(memoryview(np.ascontiguousarray(a)) for a in args)
@@ -333,17 +341,14 @@ def engine_for(model: "KernelModel | Tree", steps: int) -> str:
     """"interpreted" while numba is not loaded and this run fits in what is left of the
     process's INTERPRET_BRANCH_STEPS (branches + leaves) x steps, else "compiled"; both
     give the same bits. $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or
-    interpreted overrides it. model: the flattened tree, or the tree itself (only its
-    branch and leaf counts are read)."""
+    interpreted overrides it. model: anything with ``n_branches`` and ``n_leaves`` (the
+    flattened tree, or the tree itself: flattening only to count is not needed)."""
     forced = os.environ.get(KERNEL_ENV, "").strip().lower()
     if forced in ("compiled", "interpreted"):
         return forced
     if forced:
         raise InputError(f"{KERNEL_ENV}={forced!r}: expected compiled or interpreted")
-    if isinstance(model, KernelModel):
-        work = (model.parent.shape[0] + model.leaf_scale.shape[0]) * steps
-    else:
-        work = (model.n_branches + model.n_leaves) * steps
+    work = (model.n_branches + model.n_leaves) * steps
     if "numba" not in sys.modules and _interpreted_work + work <= INTERPRET_BRANCH_STEPS:
         return "interpreted"
     return "compiled"

@@ -514,6 +514,17 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
     return (strengths, least) if costs else strengths
 
 
+# the original's header values an explicit level carries over
+LEVEL_HEADER_KEYS = ("branching_angle", "rotation_angle", "seed", "force_absorbed",
+                     "force_propagated", "drag_coefficient", "leaf_force_scale")
+
+
+def level_header(system) -> dict:
+    """{key: value} of the original L-system's LEVEL_HEADER_KEYS (``explicit_system_text``'s
+    ``header``)."""
+    return {key: getattr(system, key) for key in LEVEL_HEADER_KEYS}
+
+
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
                          refine: bool = True, gains: bool = True,
@@ -521,8 +532,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                          runs_for=None, roll: bool = True) -> tuple[str, Tree]:
     """The level's explicit-form L-system (text, header comment not included) and its tree.
 
-    header : the original's header values (branching_angle, rotation_angle, seed,
-             force_absorbed, force_propagated, drag_coefficient, leaf_force_scale)
+    header : the original's header values (`level_header`)
     gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
     damping_ratio : ζ of model.md 4 the groups' swings are measured under
     motion : fit the level to motion (`motion_fit`) after its statics
@@ -544,9 +554,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     root_address = [original.address[r] for r in grouping.root]
     radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
     head = [f"name: {name} level {level} (explicit form)", "derivation_length: 0"]
-    head += [f"{key}: {format_number(header[key])}" for key in (
-        "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
-        "drag_coefficient", "leaf_force_scale")]
+    head += [f"{key}: {format_number(header[key])}" for key in LEVEL_HEADER_KEYS]
     declarations = ["branch F: length=1 radius=1 bend_strength=1 rotation_strength=1", "leaf L: area=1"]
 
     # the groups' own strengths and amplitude factors, in group order (any leaf set)

@@ -279,7 +279,7 @@ def simplify_explicit(system: LSystem, options: Options,
     shared: the original, its groupings and runs (`chain_share`) for these options, when a
     chain shares them.
     """
-    from .explicit import explicit_system_text
+    from .explicit import explicit_system_text, level_header
     from .motion_fit import shared_runs
 
     source = system.source or None
@@ -303,9 +303,7 @@ def simplify_explicit(system: LSystem, options: Options,
                            options.damping, shared.measure)
     if progress:
         progress("fitting the explicit form", 0.0)
-    header = {key: getattr(system, key) for key in (
-        "branching_angle", "rotation_angle", "seed", "force_absorbed", "force_propagated",
-        "drag_coefficient", "leaf_force_scale")}
+    header = level_header(system)
     text, tree = explicit_system_text(original, levels[options.level if grouping is None
                                                       else min(grouping, last)],
                                       name=system.name or "tree",

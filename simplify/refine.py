@@ -211,9 +211,3 @@ def _gain_times(gains: np.ndarray, force: np.ndarray) -> np.ndarray:
     refinement's inner loop: much faster than einsum for these 2×3 blocks)."""
     return np.stack([gains[:, i, 0] * force[..., 0] + gains[:, i, 1] * force[..., 1]
                      + gains[:, i, 2] * force[..., 2] for i in range(2)], axis=-1)
-
-
-def _gain_transposed_times(gains: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """(..., G, 3) of gains (G, 2, 3) transposed times angles (..., G, 2)."""
-    return np.stack([gains[:, 0, j] * angle[..., 0] + gains[:, 1, j] * angle[..., 1]
-                     for j in range(3)], axis=-1)

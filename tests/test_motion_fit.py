@@ -14,7 +14,7 @@ from plantlod.compare.groups import carry_matrix, swing_turns
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.explicit import (GroupSwing, _searched_strengths, explicit_system_text,
-                                        period_of_strength, strength_of_period)
+                                        level_header, period_of_strength, strength_of_period)
 from plantlod.simplify.grouping import FrameTurns, _carry_mixing, merge_levels
 from plantlod.simplify.motion_fit import own_corrections
 from plantlod.simplify.targets import group_map
@@ -134,9 +134,7 @@ axiom: T / T / T / T / T / T / T / T / T / T &(20) L
 
 def _rolled_stalk():
     system = parse_lsys(ROLLED_STALK, "rolled.lsys")
-    header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
-                                              "force_absorbed", "force_propagated",
-                                              "drag_coefficient", "leaf_force_scale")}
+    header = level_header(system)
     return build(system).tree, header
 
 
@@ -198,9 +196,7 @@ def test_a_rolled_frame_keeps_its_leaves_world_normals():
 
     system = parse_lsys(ROLLED_STALK.replace("T /", "T [&(20) L] /"), "leafy.lsys")
     original = build(system).tree
-    header = {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
-                                              "force_absorbed", "force_propagated",
-                                              "drag_coefficient", "leaf_force_scale")}
+    header = level_header(system)
     grouping = merge_levels(original)[1]
     levels = {roll: explicit_system_text(original, grouping, name="t", header=header, level=1,
                                          dt=DT, refine=False, gains=False, motion=False,

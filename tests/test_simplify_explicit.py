@@ -14,8 +14,8 @@ import pytest
 from golden_util import ROOT, run_cli
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
-from plantlod.simplify.explicit import (equivalent_leaves, explicit_system_text, merge_levels,
-                                        unit_response)
+from plantlod.simplify.explicit import (equivalent_leaves, explicit_system_text, level_header,
+                                        merge_levels, unit_response)
 from plantlod.compare.groups import assign_groups, main_paths
 from plantlod.compare.measures import period
 from plantlod.simplify.static import rest_frames
@@ -28,12 +28,6 @@ EVAL = ["eval/stochastic.lsys", "eval/twin_draw.lsys", "eval/sympodial.lsys", "e
 def _tree(name):
     system = parse_lsys((ROOT / "examples" / name).read_text(), name)
     return system, build(system).tree
-
-
-def _header(system):
-    return {k: getattr(system, k) for k in ("branching_angle", "rotation_angle", "seed",
-                                            "force_absorbed", "force_propagated",
-                                            "drag_coefficient", "leaf_force_scale")}
 
 
 @pytest.mark.parametrize("name", EVAL)
@@ -60,7 +54,7 @@ def test_chords_put_group_tips_where_the_original_has_them(name):
     system, tree = _tree(name)
     levels = merge_levels(tree)
     level = min(2, len(levels) - 1)
-    text, simplified = explicit_system_text(tree, levels[level], name="t", header=_header(system),
+    text, simplified = explicit_system_text(tree, levels[level], name="t", header=level_header(system),
                                             level=level, dt=0.01, duration=5.0)
     again = build(parse_lsys(text, "again")).tree                      # the file means the tree
     groups = assign_groups(tree, again)
@@ -126,7 +120,7 @@ def test_a_long_axiom_is_written_on_indented_lines_and_read_back(monkeypatch):
     from plantlod.formats.lsys_file import write_lsys
 
     system, tree = _tree("eval/twin_draw.lsys")
-    text, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=_header(system),
+    text, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=level_header(system),
                                        level=1, dt=0.01, duration=2.0)
     parsed = parse_lsys(text, "t")
     monkeypatch.setattr(lsys_file, "AXIOM_LINE_CHARS", 40)
@@ -175,7 +169,7 @@ def test_level_one_moves_like_the_original_at_low_wind(name):
     from plantlod.simplify.targets import group_map
 
     system, tree = _tree(name)
-    _, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=_header(system),
+    _, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=level_header(system),
                                     level=1, dt=0.01)
     winds = [WindCase(0.5, 0.0), WindCase(0.5, 90.0)]
     reports = Runs(tree, group_map(tree, level), winds, 0.01, 600, 4).compare(level)
@@ -233,7 +227,7 @@ def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
 
     system, tree = _tree(name)
     text, level = explicit_system_text(tree, merge_levels(tree)[1], name="t",
-                                       header=_header(system), level=1, dt=0.01, gains=gains)
+                                       header=level_header(system), level=1, dt=0.01, gains=gains)
     parsed = build(parse_lsys(text, "t")).tree
     assert (level.force_gain is not None) == gains
     for f in fields(parsed):
@@ -254,7 +248,7 @@ def test_runs_reuse_reports_only_for_the_same_tree(monkeypatch):
     from plantlod.simplify.targets import group_map
 
     system, tree = _tree("eval/sympodial.lsys")
-    _, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=_header(system),
+    _, level = explicit_system_text(tree, merge_levels(tree)[1], name="t", header=level_header(system),
                                     level=1, dt=0.01, motion=False)
     winds = [ev.WindCase(0.5, 0.0), ev.WindCase(2.0, 90.0), ev.WindCase(5.0, 37.0)]
     runs = ev.Runs(tree, group_map(tree, level), winds, 0.01, 300, 4)
