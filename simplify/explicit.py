@@ -190,20 +190,23 @@ def chords(original: Tree, grouping: Grouping, paths: list[np.ndarray], frames=N
 
 
 def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen",
-                      rolls: np.ndarray | None = None) -> Skeleton:
+                      rolls: np.ndarray | None = None, frames=None,
+                      paths: list[np.ndarray] | None = None, ch: Chords | None = None) -> Skeleton:
     """The explicit-form axiom of one level; rest geometry: chords (module doc, `chords`).
 
     leaves: "eigen", at most three equivalent leaves per group (`equivalent_leaves`), or
     "basis", nine whose normals are the chord frame's axes and diagonals (`basis_leaves`).
     rolls: (G,) rad, each chord's branch frame turned about the chord by this much
     (`chord_rolls`: it turns the swing frame of a group that continues straight on).
+    frames, paths, ch: the original's `rest_frames`, the groups' main paths and `chords`,
+    where the caller has them already (made here otherwise).
     """
     from plantlod.lsys.rotation import rot_z
 
-    frames = rest_frames(original)
+    frames = rest_frames(original) if frames is None else frames
     g_count = grouping.count
-    paths = main_paths(original, grouping.group, g_count)
-    ch = chords(original, grouping, paths, frames)
+    paths = main_paths(original, grouping.group, g_count) if paths is None else paths
+    ch = chords(original, grouping, paths, frames) if ch is None else ch
     base, tip, length, parent_group = ch.base, ch.tip, ch.length, ch.parent_group
     frame = ch.frame if rolls is None else ch.frame @ rot_z(np.asarray(rolls, dtype=np.float64))
     children: list[list[int]] = [[] for _ in range(g_count)]
@@ -564,12 +567,15 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
     # the rolls of chord frames that turn straight-on groups' swing frames (chord_rolls)
-    rolls = chord_rolls(original, paths, chords(original, grouping, paths), group_swing, dt,
-                        duration, damping_ratio) if roll else None
+    frames = rest_frames(original)
+    ch = chords(original, grouping, paths, frames)
+    rolls = chord_rolls(original, paths, ch, group_swing, dt, duration,
+                        damping_ratio) if roll else None
 
     def fit(leaves: str) -> tuple[str, float]:
         """The level's text with one leaf set, and its static error (`closed_form`)."""
-        sk = explicit_skeleton(original, grouping, leaves, rolls)
+        sk = explicit_skeleton(original, grouping, leaves, rolls, frames=frames, paths=paths,
+                               ch=ch)
 
         def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
             lines = []
