@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -138,21 +139,18 @@ def _unturn(angles: tuple[float, float, float]) -> str:
 class Skeleton:
     """One level's axiom and what its parameters are fitted with.
 
-    axiom          : the axiom's text (derivation length 0); modules: the same, one per module
+    modules        : the axiom (derivation length 0), one module or bracket per entry
     branch_address : (G,) axiom address of each group's branch
     leaf_address   : per group, the axiom addresses of its equivalent leaves
     leaf_area      : per group, their areas (m^2, summing to the group's leaf area)
     length         : (G,) chord lengths, m
-    paths          : per group, its main path in the original (branch indices)
     """
 
-    axiom: str
     modules: list[str]
     branch_address: list[str]
     leaf_address: list[list[str]]
     leaf_area: list[np.ndarray]
     length: np.ndarray
-    paths: list[np.ndarray]
 
 
 @dataclass
@@ -189,24 +187,20 @@ def chords(original: Tree, grouping: Grouping, paths: list[np.ndarray], frames=N
     return Chords(base, tip, length, frame, parent_group)
 
 
-def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen",
-                      rolls: np.ndarray | None = None, frames=None,
-                      paths: list[np.ndarray] | None = None, ch: Chords | None = None) -> Skeleton:
+def explicit_skeleton(original: Tree, grouping: Grouping, frames, ch: Chords,
+                      leaves: str = "eigen", rolls: np.ndarray | None = None) -> Skeleton:
     """The explicit-form axiom of one level; rest geometry: chords (module doc, `chords`).
 
     leaves: "eigen", at most three equivalent leaves per group (`equivalent_leaves`), or
     "basis", nine whose normals are the chord frame's axes and diagonals (`basis_leaves`).
     rolls: (G,) rad, each chord's branch frame turned about the chord by this much
     (`chord_rolls`: it turns the swing frame of a group that continues straight on).
-    frames, paths, ch: the original's `rest_frames`, the groups' main paths and `chords`,
-    where the caller has them already (made here otherwise).
+    frames, ch: the original's `rest_frames` and the groups' `chords` (the caller's, made
+    once for both leaf sets).
     """
     from plantlod.lsys.rotation import rot_z
 
-    frames = rest_frames(original) if frames is None else frames
     g_count = grouping.count
-    paths = main_paths(original, grouping.group, g_count) if paths is None else paths
-    ch = chords(original, grouping, paths, frames) if ch is None else ch
     base, tip, length, parent_group = ch.base, ch.tip, ch.length, ch.parent_group
     frame = ch.frame if rolls is None else ch.frame @ rot_z(np.asarray(rolls, dtype=np.float64))
     children: list[list[int]] = [[] for _ in range(g_count)]
@@ -265,7 +259,7 @@ def explicit_skeleton(original: Tree, grouping: Grouping, leaves: str = "eigen",
         emit("[")
         place(g, np.eye(3), np.zeros(3))
         emit("]")
-    return Skeleton("".join(tokens), tokens, branch_address, leaf_address, leaf_area, length, paths)
+    return Skeleton(tokens, branch_address, leaf_address, leaf_area, length)
 
 
 def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: float = 0.0
@@ -517,6 +511,23 @@ def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray,
     return (strengths, least) if costs else strengths
 
 
+class LevelFit(NamedTuple):
+    """One leaf set's fit of a level (`explicit_system_text`): values (group order, per key),
+    leaf_area (per group, its leaves' fitted areas), tree_leaf_area (K,) the same in the
+    skeleton's leaf order, text(values, leaf_area) the level's text, static_error
+    (`closed_form`), to_group (S,) each skeleton branch's group, carry (S, 2, 2) their carry
+    maps, skeleton the level's tree before its parameters."""
+
+    values: dict
+    leaf_area: list
+    tree_leaf_area: np.ndarray
+    text: Callable
+    static_error: float
+    to_group: np.ndarray
+    carry: np.ndarray
+    skeleton: Tree
+
+
 # the original's header values an explicit level carries over
 LEVEL_HEADER_KEYS = ("branching_angle", "rotation_angle", "seed", "force_absorbed",
                      "force_propagated", "drag_coefficient", "leaf_force_scale")
@@ -572,10 +583,11 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     rolls = chord_rolls(original, paths, ch, group_swing, dt, duration,
                         damping_ratio) if roll else None
 
-    def fit(leaves: str) -> tuple[str, float]:
-        """The level's text with one leaf set, and its static error (`closed_form`)."""
-        sk = explicit_skeleton(original, grouping, leaves, rolls, frames=frames, paths=paths,
-                               ch=ch)
+    strengths_of: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}   # the leaf sets share them
+
+    def fit(leaves: str) -> "LevelFit":
+        """The level's values with one leaf set, its text and its static error (`closed_form`)."""
+        sk = explicit_skeleton(original, grouping, frames, ch, leaves, rolls)
 
         def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
             lines = []
@@ -601,8 +613,12 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         to_group = np.array([position[a] for a in order])
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
         turn = swing_turns(original, skeleton, gmap.paths)
-        kb, kr = own_strengths(group_swing.take(to_group), carry_matrix(turn), dt, duration,
-                               damping_ratio)
+        carry = carry_matrix(turn)
+        key = to_group.tobytes() + carry.tobytes()
+        if key not in strengths_of:       # the strength search depends on neither leaf set
+            strengths_of[key] = own_strengths(group_swing.take(to_group), carry, dt, duration,
+                                              damping_ratio)
+        kb, kr = strengths_of[key]
         params = closed_form(original, skeleton, gmap, refine=refine, turn=turn,
                              kappa_range=KAPPA_RANGE, strengths=(kb, kr),
                              target_gain=gain_group[to_group], settings=settings,
@@ -617,31 +633,31 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         by_address = {addr: area for (addr, _k), area in params.leaf_areas.items()}
         leaf_area = [np.array([by_address[a] for a in sk.leaf_address[g]])
                      for g in range(grouping.count)]
+        tree_leaf_area = np.array([by_address[a] for a in skeleton.leaf_address],
+                                  dtype=np.float64)              # the skeleton's leaf order
         if gains:
             # k_FA becomes each branch's gain matrix, fitted to its group's static response
             # (the skeleton with the fitted values: what the text would read back as)
             level = replace(skeleton, **{k: np.asarray(fitted[k], dtype=np.float64) for k in (
                 "bend_strength", "rotation_strength", "force_absorbed", "force_propagated",
-                "drag_coefficient")}, leaf_area=np.array([by_address[a] for a in skeleton.leaf_address],
-                                                         dtype=np.float64))
+                "drag_coefficient")}, leaf_area=tree_leaf_area)
             matrices = fit_gain_matrices(level, original, gmap, turn=turn,
                                          target_gain=gain_group[to_group])[back]
             del values["force_absorbed"]
             values.update({key: matrices[:, k] for k, key in enumerate(GAIN_KEYS)})
-        return values, leaf_area, text, params.static_error, to_group, carry_matrix(turn), skeleton, sk.leaf_address
+        return LevelFit(values, leaf_area, tree_leaf_area, text, params.static_error, to_group,
+                        carry, skeleton)
 
     # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;
     # without the refinement there is no static error to compare); they are only tried where
     # the eigen-leaves miss the statics by more than BASIS_LEAF_TRY (a second fit costs as much)
     best = fit("eigen")
-    if refine and best[3] > BASIS_LEAF_TRY:
+    if refine and best.static_error > BASIS_LEAF_TRY:
         basis = fit("basis")
-        if basis[3] < BASIS_LEAF_GAIN * best[3]:
+        if basis.static_error < BASIS_LEAF_GAIN * best.static_error:
             best = basis
-    values, leaf_area, text, _error, to_group, carry, skeleton, group_leaves = best
-    area_of = {a: area for g in range(grouping.count)
-               for a, area in zip(group_leaves[g], leaf_area[g])}
-    leaf_order = [area_of[a] for a in skeleton.leaf_address]
+    values, leaf_area, text = best.values, best.leaf_area, best.text
+    to_group, carry, skeleton = best.to_group, best.carry, best.skeleton
 
     def rebuild(v: dict[str, np.ndarray]) -> tuple[str, Tree]:
         """The level's text with values ``v`` and the tree it reads back as: the skeleton with
@@ -658,7 +674,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         else:
             arrays["force_absorbed"] = np.asarray(v["force_absorbed"], dtype=np.float64)[to_group]
         return text(v, leaf_area), replace(skeleton, **arrays,
-                                           leaf_area=np.array(leaf_order, dtype=np.float64))
+                                           leaf_area=best.tree_leaf_area.copy())
 
     if not motion:
         return rebuild(values)

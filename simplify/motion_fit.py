@@ -83,15 +83,14 @@ def measurement_runs_for(original: Tree, dt: float, duration: float,
                        list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping)))
 
 
-def swing_figures(reports, largest: list[float]) -> tuple[np.ndarray, ...]:
-    """(A_x, A_y, P_x, P_y) (W, 2, S) and A_max (W,) of the winds whose original stays within
-    SMALL_ANGLE_LIMIT (all winds when none does): rows of ``reports`` (one `Report` per wind)."""
-    keep = [k for k, a in enumerate(largest) if a <= SMALL_ANGLE_LIMIT] or list(range(len(reports)))
-    figures = np.array([[getattr(reports[k].table, name)
-                         for k in keep] for name in ("amplitude_original", "amplitude_simplified",
-                                                     "period_original", "period_simplified")],
+def swing_figures(reports) -> tuple[np.ndarray, ...]:
+    """(A_x, A_y, P_x, P_y) (W, 2, S) and A_max (W,) of ``reports`` (one `Report` per fit wind;
+    `motion_fit` has already kept only the winds within SMALL_ANGLE_LIMIT)."""
+    figures = np.array([[getattr(r.table, name) for r in reports]
+                        for name in ("amplitude_original", "amplitude_simplified",
+                                     "period_original", "period_simplified")],
                        dtype=np.float64)                                      # (4, W, 2, S)
-    a_max = np.array([reports[k].largest_amplitude for k in keep], dtype=np.float64)
+    a_max = np.array([r.largest_amplitude for r in reports], dtype=np.float64)
     return figures[0], figures[1], figures[2], figures[3], a_max
 
 
@@ -183,7 +182,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             worse += 1
         if round_ == MOTION_FIT_ROUNDS or worse >= 2 or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
             break
-        ax, ay, px, py, a_max = swing_figures(reports, largest)
+        ax, ay, px, py, a_max = swing_figures(reports)
         kb = values["bend_strength"][to_group]
         kr = values["rotation_strength"][to_group]
         d_period, d_gain = own_corrections(ax, ay, px, py, a_max, carry, kb == kr)

@@ -29,7 +29,7 @@ from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 from plantlod.sim.stability import check_stability
 
-from .bounds import bounds_score, form_rank  # noqa: F401  (tests and callers import them here too)
+from .bounds import bounds_score, form_rank
 from .constants import SMALL_ANGLE_LIMIT
 from .calibrate import calibrate
 from .targets import GroupMap, group_map
@@ -296,7 +296,8 @@ def simplify_explicit(system: LSystem, options: Options,
 
     if shared is None:
         shared = chain_share(system, options, level_exists)
-    level_exists(shared.groupings)
+    else:
+        level_exists(shared.groupings)
     original, levels = shared.original, shared.groupings
     last = len(levels) - 1
     runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
