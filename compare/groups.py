@@ -27,7 +27,8 @@ import numpy as np
 from .constants import ALPHA_TIE_TOL
 from plantlod.lsys.derived import ragged_arange
 from plantlod.lsys.errors import InputError
-from plantlod.lsys.rotation import rot_y, rot_z
+from plantlod.lsys.rotation import rot_z
+from plantlod.sim.kinematics import rest_rotations
 from plantlod.lsys.tree import Tree
 
 # How many offending addresses an error message lists before "…".
@@ -253,9 +254,9 @@ def path_rotations(original: Tree, paths: list[np.ndarray]) -> np.ndarray:
     for all paths at once, one path position at a time.
     """
     members = _concatenate(paths)
-    euler = np.asarray(original.euler, dtype=np.float64).reshape(-1, 3)[members]   # (M, 3)
-    swing = rot_z(euler[:, 0]) @ rot_y(euler[:, 1])      # (M, 3, 3) Rz(phi) Ry(alpha)
-    twist = rot_z(euler[:, 2])                            # (M, 3, 3) Rz(psi)
+    rest, twist_angle = rest_rotations(original)
+    swing = rest[members]                                 # (M, 3, 3) Rz(phi) Ry(alpha) [Rz(beta)]
+    twist = rot_z(twist_angle[members])                   # (M, 3, 3) Rz(psi) [Rz(psi - beta)]
     lengths = np.array([len(p) for p in paths], dtype=np.int64)
     position = ragged_arange(lengths)                        # (M,) index within its path
     out = np.empty((len(members), 3, 3))

@@ -39,7 +39,7 @@ def tree_bytes(tree: Tree) -> bytes:
     fields = {}
     for f in dataclasses.fields(tree):
         value = getattr(tree, f.name)
-        if value is None:                  # force_gain of a tree without gain matrices
+        if value is None:                  # force_gain, swing_roll of a tree without them
             continue
         if f.name in _STRINGS:
             fields[f.name] = np.array(list(value), dtype=str)
@@ -203,6 +203,9 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     # a level's gain matrices (model.md 5): optional, (B, 6)
     values["force_gain"] = (_numbers(arrays, "force_gain", source, (b, 6))
                             if "force_gain" in arrays else None)
+    # a level's swing rolls (radians, `Tree.swing_roll`): optional, (B,)
+    values["swing_roll"] = (_numbers(arrays, "swing_roll", source, (b,))
+                            if "swing_roll" in arrays else None)
     scale = _numbers(arrays, "leaf_force_scale", source, (), non_negative=True)
     values["leaf_force_scale"] = float(scale)
     label = _need(arrays, "source", source)

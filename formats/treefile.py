@@ -31,10 +31,11 @@ from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths
 FORMAT_NAME = "plantlod-tree"
 # Version 1: plain trees. Version 2: a level's tree, whose header lists in "extras" the
 # keys every branch record adds after "offset": "group_root" (the address of the original
-# branch rooting its group, explicit form) and "gain" (its gain matrix, 6 numbers).
+# branch rooting its group, explicit form), "gain" (its gain matrix, 6 numbers) and
+# "swing_roll" (the roll of its swing frame about its axis, radians: `Tree.swing_roll`).
 FORMAT_VERSION = 1
 LEVEL_FORMAT_VERSION = 2
-EXTRA_BRANCH_KEYS = ("group_root", "gain")
+EXTRA_BRANCH_KEYS = ("group_root", "gain", "swing_roll")
 
 HEADER_KEYS = ("format", "version", "source", "branches", "leaves", "leaf_force_scale", "depth")
 LEVEL_HEADER_KEYS = (*HEADER_KEYS, "extras")
@@ -73,7 +74,8 @@ def _columns(tree: Tree, names: list[str], rows: int) -> list[list[float]]:
 def _extras(tree: Tree) -> tuple[str, ...]:
     """The level keys ``tree`` needs in its branch records (`EXTRA_BRANCH_KEYS`)."""
     return tuple(k for k, present in zip(EXTRA_BRANCH_KEYS, (
-        bool(tree.group_root), getattr(tree, "force_gain", None) is not None)) if present)
+        bool(tree.group_root), getattr(tree, "force_gain", None) is not None,
+        getattr(tree, "swing_roll", None) is not None)) if present)
 
 
 def iter_tree_lines(tree: Tree) -> Iterator[str]:
@@ -98,6 +100,7 @@ def iter_tree_lines(tree: Tree) -> Iterator[str]:
         tree, [*BRANCH_FLOAT_FIELDS, "euler", "offset"], b)
     area, normal = _columns(tree, ["leaf_area", "leaf_normal"], f)
     gain = _columns(tree, ["force_gain"], b)[0] if "gain" in extras else None
+    roll = _columns(tree, ["swing_roll"], b)[0] if "swing_roll" in extras else None
     parents = np.asarray(tree.parent).tolist()
     branch_of = np.asarray(tree.leaf_branch).tolist()
     yield json.dumps(header, ensure_ascii=False) + "\n"
@@ -116,6 +119,7 @@ def iter_tree_lines(tree: Tree) -> Iterator[str]:
                f'"offset": [{ox!r}, {oy!r}, {oz!r}]'
                + (f', "group_root": {enc(tree.group_root[i])}' if "group_root" in extras else "")
                + (f', "gain": [{", ".join(map(repr, gain[i]))}]' if gain is not None else "")
+               + (f', "swing_roll": {roll[i]!r}' if roll is not None else "")
                + '}\n')
 
     for j in range(f):
@@ -384,6 +388,8 @@ def _read(lines: _Lines) -> Tree:
                          f"{real_depth}", "depth")
     if "gain" in extras:
         branches["force_gain"] = branches.pop("gain").reshape(n_branches, 6)
+    if "swing_roll" in extras:
+        branches["swing_roll"] = branches["swing_roll"].reshape(n_branches)
     tree = Tree(**branches, **leaves, leaf_force_scale=leaf_force_scale, source=origin)
     tree.check()
     return tree
@@ -522,6 +528,8 @@ class _Branches:
             if not set(map(len, _typed(cols["gain"], {list}))) <= {6}:
                 raise _Reject
             out["gain"] = _floats(list(chain.from_iterable(cols["gain"]))).reshape(n, 6)
+        if "swing_roll" in self.extras:
+            out["swing_roll"] = _floats(cols["swing_roll"])
         return out
 
     def __call__(self, block: list[_Line], start: int) -> dict:
@@ -580,6 +588,8 @@ class _Branches:
                     raise line.error(f'"gain" must be a list of 6 numbers, got {_json_type(g)}',
                                      "gain")
                 extra["gain"] = [_finite(line, "gain", x) for x in g]
+            if "swing_roll" in self.extras:
+                extra["swing_roll"] = line.number("swing_roll")
             rows.append((address, symbol, parent, [*values, *line.vector("offset")], extra))
         floats = np.array([r[3] for r in rows], dtype=np.float64).reshape(len(rows), 13)
         out = {name: floats[:, k].copy() for k, name in enumerate(BRANCH_FLOAT_FIELDS)}
@@ -590,6 +600,8 @@ class _Branches:
             out["group_root"] = [r[4]["group_root"] for r in rows]
         if "gain" in self.extras:
             out["gain"] = np.array([r[4]["gain"] for r in rows], dtype=np.float64).reshape(-1, 6)
+        if "swing_roll" in self.extras:
+            out["swing_roll"] = np.array([r[4]["swing_roll"] for r in rows], dtype=np.float64)
         return out
 
 

@@ -33,6 +33,7 @@ from .expr import (
 )
 from .system import (
     BRACKETS, BRANCH_KEYS, GAIN_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, STRUCTURE_SYMBOLS,
+    SWING_ROLL_KEY,
     TURTLE_NO_ARG, TURTLE_OPTIONAL_ARG, TURTLE_SYMBOLS, UNSUPPORTED_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
@@ -45,7 +46,8 @@ REQUIRED_HEADER_KEYS = ("derivation_length", "branching_angle", "force_absorbed"
 _INTEGER_KEYS = frozenset({"derivation_length", "seed"})
 SECTIONS = ("productions", "interpretation", "overrides", "groups")
 _DECLARATIONS = ("define", "branch", "leaf")
-OVERRIDE_KEYS = {**BRANCH_KEYS, **LEAF_KEYS, **{k: False for k in GAIN_KEYS}}
+OVERRIDE_KEYS = {**BRANCH_KEYS, **LEAF_KEYS, **{k: False for k in GAIN_KEYS},
+                 SWING_ROLL_KEY: False}
 
 _STATEMENT_WORDS = _DECLARATIONS + SECTIONS + HEADER_KEYS + ("axiom",)
 _STATEMENTS_HELP = ("a header key, define, branch, leaf, axiom:, productions:, "

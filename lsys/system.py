@@ -69,6 +69,10 @@ LEAF_KEYS = {"area": True}
 # The gain matrix of a level's branch (model.md 5), rows [G_bx G_by G_bz G_rx G_ry G_rz]:
 # overrides only; a line that sets one sets all six and no force_absorbed.
 GAIN_KEYS = ("g_bx", "g_by", "g_bz", "g_rx", "g_ry", "g_rz")
+# The roll of a level branch's swing frame about its rest axis, degrees (overrides only;
+# docs/model-extensions.md): S = R_parent Rz(phi) Ry(alpha) Rz(beta) Rot(u, theta), the branch
+# frame and so the rest geometry unchanged.
+SWING_ROLL_KEY = "swing_roll"
 # The row of a branch without a gain matrix: G = k_FA [[1, 0, 0], [0, 1, 0]].
 IDENTITY_GAIN = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 # An override may also set the area of one leaf among several drawn at its address:

@@ -93,6 +93,10 @@ class Tree:
                      [G_bx G_by G_bz G_rx G_ry G_rz], read with k_FA as a factor: a branch
                      that sets G has k_FA = 1, one that does not has the row
                      [1 0 0 0 1 0]; None when no branch sets one
+      swing_roll   : (B,) float64 or None  the roll β of each branch's swing frame about its
+                     rest axis (radians; docs/model-extensions.md): S_i = R_parent Rz(phi)
+                     Ry(alpha) Rz(beta) Rot(u, theta), R_i = S_i Rz(psi - beta), so the rest
+                     geometry is unchanged; None when no branch sets one (β = 0)
     Tree-level:
       leaf_force_scale : s_L
       source           : the file it came from (for headers and messages)
@@ -120,6 +124,7 @@ class Tree:
     # (the file's `groups:` section); empty for a tree whose addresses say it
     group_root: list[str] = field(default_factory=list)
     force_gain: np.ndarray | None = None
+    swing_roll: np.ndarray | None = None
 
     @property
     def n_branches(self) -> int:
@@ -156,6 +161,8 @@ class Tree:
             raise ValueError("branches must be stored parent-before-child")
         if self.force_gain is not None and np.shape(self.force_gain) != (b, 6):
             raise ValueError(f"force_gain must have shape ({b}, 6)")
+        if self.swing_roll is not None and np.shape(self.swing_roll) != (b,):
+            raise ValueError(f"swing_roll must have shape ({b},)")
         f = self.n_leaves
         if self.leaf_area.shape != (f,) or self.leaf_normal.shape != (f, 3) or len(self.leaf_address) != f:
             raise ValueError("leaf arrays disagree in length")

@@ -55,7 +55,7 @@ from .constants import DEFAULT_MOVE_LENGTH, DOLLAR_VERTICAL_TOL
 from .derived import DerivedString
 from .errors import InputError
 from .rotation import rot_x, rot_y, rot_z, zyz_from_matrix
-from .system import BRANCH_KEYS, GAIN_KEYS, IDENTITY_GAIN, LEAF_ORDINAL_KEY, LSystem
+from .system import BRANCH_KEYS, GAIN_KEYS, IDENTITY_GAIN, LEAF_ORDINAL_KEY, SWING_ROLL_KEY, LSystem
 from .tree import Tree, chain_depths, occurrence_numbers
 
 # Module kinds.
@@ -474,10 +474,11 @@ def _assemble(system, derived, codes, kind, value, has_param, scopes, turns, rol
                                 values["radius"])
     leaf_area = _leaf_areas(system, derived.alphabet, codes[leaves], value[leaves],
                             has_param[leaves])
-    for key in GAIN_KEYS:                        # NaN: no gain matrix set there
+    for key in GAIN_KEYS + (SWING_ROLL_KEY,):    # NaN: no gain matrix (swing roll) set there
         values[key] = np.full(len(branches), np.nan)
     _apply_overrides(system, derived, branches, values, leaves, leaf_area)
     values["force_gain"] = _gain_rows(values)
+    values["swing_roll"] = _swing_rolls(values.pop(SWING_ROLL_KEY))
 
     tree = Tree(
         address=_branch_addresses(derived, branches),
@@ -526,6 +527,14 @@ def _gain_rows(values: dict[str, np.ndarray]) -> np.ndarray | None:
     rows = np.where(has[:, None], columns, np.asarray(IDENTITY_GAIN))
     values["force_absorbed"] = np.where(has, 1.0, values["force_absorbed"])
     return np.ascontiguousarray(rows)
+
+
+def _swing_rolls(degrees: np.ndarray) -> np.ndarray | None:
+    """(B,) swing rolls in radians from the overrides' degrees (NaN: not set, 0), None where
+    no branch sets one (`Tree.swing_roll`)."""
+    if np.isnan(degrees).all():
+        return None
+    return np.radians(np.where(np.isnan(degrees), 0.0, degrees)) + 0.0
 
 
 def _leaf_areas(system, alphabet, lcodes, lvalue, lhas) -> np.ndarray:

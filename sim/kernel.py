@@ -55,7 +55,7 @@ from plantlod.lsys.tree import Tree
 from .constants import KERNEL_ENV
 from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 from .damping import Damping, as_damping, coefficients
-from .kinematics import rest_swing_rotation
+from .kinematics import rest_rotations
 from .trig import sincos1
 
 
@@ -64,8 +64,9 @@ class KernelModel:
     """Per-run constants of a tree, flattened for the kernel.
 
     parent     : (B,) int64, -1 for a root
-    rest       : (B, 9) float64, Q_i = Rz(phi) Ry(alpha) row-major
-    cos_psi, sin_psi : (B,) float64
+    rest       : (B, 9) float64, Q_i = Rz(phi) Ry(alpha) row-major (times Rz(beta) for a
+                 branch with a swing roll beta, `kinematics.rest_rotations`)
+    cos_psi, sin_psi : (B,) float64, of psi (psi - beta with a swing roll)
     absorbed   : (B,) k_FA
     propagated : (B,) k_fp
     bend_k, rot_k : (B,) k_bs / 1000 and k_rs / 1000: the velocity change per
@@ -142,7 +143,7 @@ def gain_rows(tree: Tree) -> np.ndarray:
 def prepare(tree: Tree, damping: "float | Damping" = 0.0) -> KernelModel:
     """Flatten ``tree`` into the kernel's arrays (see `KernelModel`); damping: c or a `Damping`."""
     b = tree.n_branches
-    euler = np.asarray(tree.euler, dtype=np.float64).reshape(b, 3)
+    rest, twist = rest_rotations(tree)
     leaf_branch = np.asarray(tree.leaf_branch, dtype=np.int64)
     order = np.argsort(leaf_branch, kind="stable")   # keep file order within a branch
     counts = np.bincount(leaf_branch, minlength=b) if len(leaf_branch) else np.zeros(b, np.int64)
@@ -152,9 +153,9 @@ def prepare(tree: Tree, damping: "float | Damping" = 0.0) -> KernelModel:
     radius = np.asarray(tree.radius, dtype=np.float64)
     return KernelModel(
         parent=np.ascontiguousarray(tree.parent, dtype=np.int64),
-        rest=np.ascontiguousarray(rest_swing_rotation(euler).reshape(b, 9)),
-        cos_psi=np.cos(euler[:, 2]),
-        sin_psi=np.sin(euler[:, 2]),
+        rest=np.ascontiguousarray(rest.reshape(b, 9)),
+        cos_psi=np.cos(twist),
+        sin_psi=np.sin(twist),
         absorbed=np.ascontiguousarray(tree.force_absorbed, dtype=np.float64),
         propagated=np.ascontiguousarray(tree.force_propagated, dtype=np.float64),
         bend_k=np.asarray(tree.bend_strength, dtype=np.float64) / 1000.0,

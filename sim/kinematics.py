@@ -86,6 +86,21 @@ def rest_swing_rotation(euler: np.ndarray) -> np.ndarray:
     return rot_z(euler[:, 0]) @ rot_y(euler[:, 1])
 
 
+def rest_rotations(tree: Tree) -> tuple[np.ndarray, np.ndarray]:
+    """(rest (B, 3, 3), twist (B,)): each branch's rest swing rotation relative to its parent
+    frame, Rz(phi) Ry(alpha) Rz(beta), and the twist psi - beta (radians) that turns it into
+    the branch frame, R_i = S_i Rz(psi - beta). beta is the branch's swing roll
+    (`Tree.swing_roll`, 0 for every branch of a tree read from an ordinary L-system, where
+    this is model.md 3's Rz(phi) Ry(alpha) and psi)."""
+    euler = np.asarray(tree.euler, dtype=np.float64).reshape(-1, 3)
+    rest = rest_swing_rotation(euler)
+    roll = getattr(tree, "swing_roll", None)
+    if roll is None:
+        return rest, euler[:, 2].copy()
+    roll = np.asarray(roll, dtype=np.float64)
+    return rest @ rot_z(roll), euler[:, 2] - roll
+
+
 def depth_levels(parent: np.ndarray) -> list[np.ndarray]:
     """Branch indices grouped by depth (roots first); each level ascending, (n_d,) int64."""
     parent = np.asarray(parent, dtype=np.int64)
@@ -136,8 +151,9 @@ def pose(tree: Tree, bend: np.ndarray, rot: np.ndarray) -> Pose:
     if bend.shape != rot.shape or bend.shape[-1:] != (b,):
         raise ValueError(f"bend and rot must both have shape (..., {b})")
     lead = bend.shape[:-1]
-    local_swing = rest_swing_rotation(tree.euler) @ swing_rotation(bend, rot)   # (..., B, 3, 3)
-    twist = rot_z(np.asarray(tree.euler, dtype=np.float64).reshape(-1, 3)[:, 2])  # (B, 3, 3)
+    rest, twist_angle = rest_rotations(tree)
+    local_swing = rest @ swing_rotation(bend, rot)                              # (..., B, 3, 3)
+    twist = rot_z(twist_angle)                                                  # (B, 3, 3)
     offset = np.asarray(tree.offset, dtype=np.float64).reshape(-1, 3)
     length = np.asarray(tree.length, dtype=np.float64)
     parent = np.asarray(tree.parent, dtype=np.int64)

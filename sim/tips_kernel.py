@@ -25,7 +25,7 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 from . import jit  # noqa: F401  (trig.sincos registered with numba)
-from .kinematics import rest_swing_rotation, rot_z
+from .kinematics import rest_rotations, rot_z
 from .trig import sincos1
 
 
@@ -91,7 +91,7 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
     b = tree.n_branches
     if bend.ndim != 2 or bend.shape != rot.shape or bend.shape[1] != b:
         raise ValueError(f"bend and rot must both have shape (K, {b})")
-    euler = np.asarray(tree.euler, dtype=np.float64).reshape(-1, 3)
+    rest, twist_angle = rest_rotations(tree)                    # Q = Rz(phi) Ry(alpha) [Rz(beta)]
     out = np.empty((bend.shape[0], len(which), 3))
     if b == 0 or bend.shape[0] == 0:
         return out
@@ -104,13 +104,13 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
         new_index[keep] = np.arange(len(keep))
         up = parent[keep]
         parent = np.where(up >= 0, new_index[np.maximum(up, 0)], -1)
-        euler, offset, length = euler[keep], offset[keep], length[keep]
+        rest, twist_angle = rest[keep], twist_angle[keep]
+        offset, length = offset[keep], length[keep]
         bend, rot = np.ascontiguousarray(bend[:, keep]), np.ascontiguousarray(rot[:, keep])
         which = new_index[which]
     # each branch's rest rotation and offset seen from its parent's swing frame
-    twist = rot_z(euler[:, 2])                                  # (n, 3, 3) Rz(psi)
+    twist = rot_z(twist_angle)                                  # (n, 3, 3) Rz(psi)
     has = parent >= 0
-    rest = rest_swing_rotation(euler)                           # (n, 3, 3) Q = Rz(phi) Ry(alpha)
     rest[has] = twist[parent[has]] @ rest[has]
     offset = offset.copy()
     offset[has] = np.einsum("nij,nj->ni", twist[parent[has]], offset[has])

@@ -161,7 +161,7 @@ def tree_digest(tree: Tree) -> bytes:
     h = hashlib.sha256()
     for name in ("parent", "length", "radius", "bend_strength", "rotation_strength",
                  "force_absorbed", "force_propagated", "drag_coefficient", "euler", "offset",
-                 "leaf_branch", "leaf_area", "leaf_normal", "force_gain"):
+                 "leaf_branch", "leaf_area", "leaf_normal", "force_gain", "swing_roll"):
         value = getattr(tree, name)
         data = b"" if value is None else np.ascontiguousarray(value).tobytes()
         h.update(name.encode() + len(data).to_bytes(8, "little") + data)

@@ -342,6 +342,8 @@ def reference_pose(tree, bend, rot):
     angles (radians). In parent-before-child order:
       S_i = R_parent Rz(phi_i) Ry(alpha_i) Rot(u_i, theta_i)   (swing frame)
       R_i = S_i Rz(psi_i)                                      (branch frame)
+    or, for a branch with a swing roll beta_i (`Tree.swing_roll`, a level's key),
+      S_i = R_parent Rz(phi_i) Ry(alpha_i) Rz(beta_i) Rot(u_i, theta_i),  R_i = S_i Rz(psi_i - beta_i)
       base_i = tip_parent + R_parent o_i   (o_i from the origin for a root)
       tip_i = base_i + L_i R_i e_z
     Returns (bases, tips, frames, swings): lists of B 3-lists (world, m) and
@@ -351,14 +353,16 @@ def reference_pose(tree, bend, rot):
     for i in range(tree.n_branches):
         parent = int(tree.parent[i])
         phi, alpha, psi = (float(a) for a in tree.euler[i])
+        roll = getattr(tree, "swing_roll", None)
+        beta = 0.0 if roll is None else float(roll[i])
         offset = [float(x) for x in tree.offset[i]]
         if parent < 0:
             r_parent, parent_tip = identity(), [0.0, 0.0, 0.0]
         else:
             r_parent, parent_tip = frames[parent], tips[parent]
-        swing = mat_mul(mat_mul(mat_mul(r_parent, rot_z(phi)), rot_y(alpha)),
+        swing = mat_mul(mat_mul(mat_mul(mat_mul(r_parent, rot_z(phi)), rot_y(alpha)), rot_z(beta)),
                         _swing_rotation(float(bend[i]), float(rot[i])))
-        frame = mat_mul(swing, rot_z(psi))
+        frame = mat_mul(swing, rot_z(psi - beta))
         base = add(parent_tip, mat_vec(r_parent, offset))
         tip = add(base, scale(float(tree.length[i]), column(frame, 2)))
         bases.append(base)
