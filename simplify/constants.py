@@ -81,12 +81,12 @@ MIXED_CARRY = 0.1            # a chord whose carry map has diagonal and off-diag
 STRENGTH_SEARCH_POINTS = 8   # period grid of that search, coarse and then around the best
 STRENGTH_SEARCH_EVERY = 4    # samples of the search's swings kept (as simplify measures)
 GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (period, amplitude) is read in
-# rolls of a chord frame about its chord (simplify/chord_rolls.py)
-ROLL_CANDIDATES = (0.0, -45.0, -30.0, -15.0, 15.0, 30.0)   # degrees tried, 0 (unrolled) first
+# swing rolls of a level branch about its rest axis (simplify/swing_rolls.py)
+ROLL_CANDIDATES = (0.0, -45.0, -30.0, -15.0, 15.0, 30.0)   # degrees tried, 0 (unrolled) first,
+                                                          # then the members' mean roll
 ROLL_MIN = 5.0                # degrees: groups whose members' mean roll is smaller are left unrolled
 ROLL_GAIN = 0.1               # a roll is kept only where it lowers the search cost by this fraction
 ROLL_MIXED_PERIODS = 1.002    # only groups whose swing periods spread by more than this ratio
-STRAIGHT_ON = 1e-10           # |z_parent x z_child| below this: the chord continues straight on
 STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x (period gap + turn))
 FRAME_TURN_WEIGHT = 4.0      # ... and x (1 + this x the turn it gives level branches; simplify/grouping.py)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)

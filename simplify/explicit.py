@@ -188,21 +188,16 @@ def chords(original: Tree, grouping: Grouping, paths: list[np.ndarray], frames=N
 
 
 def explicit_skeleton(original: Tree, grouping: Grouping, frames, ch: Chords,
-                      leaves: str = "eigen", rolls: np.ndarray | None = None) -> Skeleton:
+                      leaves: str = "eigen") -> Skeleton:
     """The explicit-form axiom of one level; rest geometry: chords (module doc, `chords`).
 
     leaves: "eigen", at most three equivalent leaves per group (`equivalent_leaves`), or
     "basis", nine whose normals are the chord frame's axes and diagonals (`basis_leaves`).
-    rolls: (G,) rad, each chord's branch frame turned about the chord by this much
-    (`chord_rolls`: it turns the swing frame of a group that continues straight on).
     frames, ch: the original's `rest_frames` and the groups' `chords` (the caller's, made
     once for both leaf sets).
     """
-    from plantlod.lsys.rotation import rot_z
-
     g_count = grouping.count
-    base, tip, length, parent_group = ch.base, ch.tip, ch.length, ch.parent_group
-    frame = ch.frame if rolls is None else ch.frame @ rot_z(np.asarray(rolls, dtype=np.float64))
+    base, tip, length, parent_group, frame = ch.base, ch.tip, ch.length, ch.parent_group, ch.frame
     children: list[list[int]] = [[] for _ in range(g_count)]
     for g in range(g_count):
         if parent_group[g] >= 0:
@@ -550,7 +545,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     gains  : give every branch a gain matrix (`gain_matrix`) in place of its k_FA
     damping_ratio : ζ of model.md 4 the groups' swings are measured under
     motion : fit the level to motion (`motion_fit`) after its statics
-    roll   : turn the frames of straight-on groups where that suits their swing (`chord_rolls`)
+    roll   : turn level branches' swing frames about their axes where that suits their
+             groups' swing (`swing_rolls`, the swing_roll key)
     runs_for : runs_for(tree), the original's `evaluate.Runs` read with a level tree's groups
                (`motion_fit.shared_runs`), in the winds the level is fitted to motion in; by
                default simplify's measurement winds over SIMPLIFY_WIND_RANGE, simulated here
@@ -558,7 +554,9 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
 
-    from .chord_rolls import chord_rolls
+    from .swing_rolls import swing_rolls
+    from plantlod.lsys.rotation import rot_z
+    from plantlod.lsys.system import SWING_ROLL_KEY
     from .targets import GroupMap
     from .closed_form import EXPLICIT_REFINE, GRAMMAR_REFINE, closed_form
     from plantlod.compare.groups import assign_stated_groups, carry_matrix, swing_turns
@@ -577,22 +575,21 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     gain_group = group_swing.gain
     # a stalk keeps the relative bounds (issue 12): fit relative errors
     settings = GRAMMAR_REFINE if is_stalk(original) else EXPLICIT_REFINE
-    # the rolls of chord frames that turn straight-on groups' swing frames (chord_rolls)
     frames = rest_frames(original)
     ch = chords(original, grouping, paths, frames)
-    rolls = chord_rolls(original, paths, ch, group_swing, dt, duration,
-                        damping_ratio) if roll else None
+    rolls_of: dict[bytes, np.ndarray] = {}       # swing rolls (degrees); the leaf sets share them
 
     strengths_of: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}   # the leaf sets share them
 
     def fit(leaves: str) -> "LevelFit":
         """The level's values with one leaf set, its text and its static error (`closed_form`)."""
-        sk = explicit_skeleton(original, grouping, frames, ch, leaves, rolls)
+        sk = explicit_skeleton(original, grouping, frames, ch, leaves)
 
         def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
             lines = []
             for g, address in enumerate(sk.branch_address):
-                kv = " ".join(f"{k}={format_number(values[k][g])}" for k in sorted(values))
+                kv = " ".join(f"{k}={format_number(values[k][g])}" for k in sorted(values)
+                              if k != SWING_ROLL_KEY or values[k][g] != 0)
                 lines.append(f"  {address}: {kv}")
                 for a, area in zip(sk.leaf_address[g], leaf_area[g]):
                     lines.append(f"  {a}: area={format_number(area)}")
@@ -613,6 +610,18 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         to_group = np.array([position[a] for a in order])
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
         turn = swing_turns(original, skeleton, gmap.paths)
+        # swing rolls (`swing_rolls`): the skeleton as the text with its swing_roll keys reads
+        roll_deg = np.zeros(skeleton.n_branches)
+        if roll:
+            key = to_group.tobytes() + turn.tobytes()
+            if key not in rolls_of:          # the swing frames depend on neither leaf set
+                rolls_of[key] = swing_rolls(original, gmap.paths, turn, group_swing.take(to_group),
+                                            dt, duration, damping_ratio)
+            roll_deg = rolls_of[key]
+        if roll_deg.any():
+            beta = np.radians(roll_deg)
+            skeleton = replace(skeleton, swing_roll=beta)
+            turn = turn @ rot_z(beta)
         carry = carry_matrix(turn)
         key = to_group.tobytes() + carry.tobytes()
         if key not in strengths_of:       # the strength search depends on neither leaf set
@@ -625,6 +634,8 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                              lengths=sk.length[to_group])
         fitted = {"length": sk.length[to_group], "radius": radius[to_group], "bend_strength": kb,
                   "rotation_strength": kr}
+        if roll_deg.any():
+            fitted[SWING_ROLL_KEY] = roll_deg
         for key in ("force_absorbed", "force_propagated", "drag_coefficient"):
             fitted[key] = params.branch[key]
         back = np.argsort(to_group)                      # group number -> skeleton branch

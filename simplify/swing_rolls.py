@@ -1,23 +1,22 @@
-"""Rolls of a level branch's frame about its chord: the one free turn of an explicit level's
-swing frames (model.md 3 and 5).
+"""Swing rolls of a level's branches: a level branch's swing frame turned about its own rest
+axis (`Tree.swing_roll`, the `swing_roll` key; docs/model-extensions.md).
 
-A level branch's swing frame is fixed by its chord and its parent's chord wherever it leans
-off its parent (α > 0). Where a group continues straight on from its parent group's tip
-(α = 0), its swing frame is its parent's branch frame R_parent = S_parent Rz(ψ_parent), and
-ψ_parent turns nothing else: the parent's own swing frame does not depend on it, its leaning
-children's frames do not (φ takes the turn back), and its leaves are written in its frame.
+A level branch's swing frame is fixed by its chord and its parent's chord (model.md 3): it
+bends in the plane of its lean and rotates across it. Where its group's members are rolled
+against each other (phyllotaxis, `/(137.5)` between segments, a sympodial fork's turns) and
+bend and rotate with different strengths, the group's combined angles in W_0 mix two periods
+in proportions that change with the wind's direction. One branch whose swing axes sit where
+its chord puts them reads in W_0 through its carry map C (`compare.groups.carry_matrix`) and
+cannot mix them the same way; turned by β about its axis, it reads C Rz(β) θ' and can.
 
-That turn matters where the group's members are rolled against each other (phyllotaxis,
-`/(137.5)` between trunk segments) and bend and rotate with different strengths: the group's
-combined angles in W_0 then mix periods in proportions that change with the wind's
-direction, which one branch with its own frame equal to W_0 cannot follow (its W_0
-components are its own bend and rotation, one period each). Turned by γ, its W_0 components
-mix its two periods too, y = C(γ) θ'. For each such group whose members are rolled, the
-roll of its parent's frame is chosen from ROLL_CANDIDATES (a quarter turn: a quarter turn
-more swings the same with the two strengths swapped) by the cost of
-`explicit._searched_strengths` (the group's swing model in every direction, model.md 6's
-measures against level 1's bounds): γ = 0 (the frame as before) is kept unless another
-costs less by ROLL_GAIN.
+For each group that swings with mixed periods (ROLL_MIXED_PERIODS) and whose members' mean
+roll (`member_rolls`) lies at least ROLL_MIN away from the branch's own, β is chosen from
+ROLL_CANDIDATES (a quarter turn: a quarter turn more swings the same with the two strengths
+swapped) and the members' mean roll itself, by the cost of `explicit._searched_strengths`
+(the group's swing model in every direction, model.md 6's measures against level 1's
+bounds); β = 0 is kept unless another costs less by ROLL_GAIN. Root groups are left unrolled:
+the swing model superposes members that each swing from rest, which is weakest for a trunk
+that carries the whole crown, and rolled trunks lost whole trees (docs/simplify.md).
 """
 
 from __future__ import annotations
@@ -28,19 +27,7 @@ from plantlod.compare.groups import carry_matrix
 from plantlod.lsys.rotation import rot_z
 from plantlod.lsys.tree import Tree
 
-from .constants import ROLL_CANDIDATES, ROLL_GAIN, ROLL_MIN, ROLL_MIXED_PERIODS, STRAIGHT_ON
-
-
-def straight_children(ch) -> list[tuple[int, int]]:
-    """(parent group, child group) pairs where the child's chord continues its parent's
-    chord exactly (α = 0 after model.md 2's 1e-9 rule; tested here as |z_p × z_c| <
-    STRAIGHT_ON) and is its parent's only such child (a roll of the parent turns them all)."""
-    z = ch.frame[:, :, 2]
-    kids: dict[int, list[int]] = {}
-    for c, p in enumerate(ch.parent_group.tolist()):
-        if p >= 0 and z[p] @ z[c] > 0 and np.linalg.norm(np.cross(z[p], z[c])) < STRAIGHT_ON:
-            kids.setdefault(p, []).append(c)
-    return [(p, cs[0]) for p, cs in sorted(kids.items()) if len(cs) == 1]
+from .constants import ROLL_CANDIDATES, ROLL_GAIN, ROLL_MIN, ROLL_MIXED_PERIODS
 
 
 def member_rolls(original: Tree, paths: list[np.ndarray], groups: list[int]) -> np.ndarray:
@@ -69,49 +56,47 @@ def member_rolls(original: Tree, paths: list[np.ndarray], groups: list[int]) -> 
     return out
 
 
-def chord_rolls(original: Tree, paths: list[np.ndarray], ch, swing, dt: float,
+def swing_rolls(original: Tree, paths: list[np.ndarray], turn: np.ndarray, swing, dt: float,
                 duration: float, damping_ratio: float = 0.0) -> np.ndarray:
-    """(G,) rad: the roll of each group's chord frame (`explicit.chords`), 0 unless one of its
-    straight-on children (`straight_children`) has members rolled against its root
-    (`member_rolls` at least ROLL_MIN away from 0), swings with mixed periods, and one of
-    ROLL_CANDIDATES lowers that child's search cost (module docstring). swing: the groups'
-    `GroupSwing` (group order)."""
-    from plantlod.sim.kinematics import rest_pose
+    """(S,) degrees: the swing roll β of each level branch (module docstring), 0 where none.
 
+    paths : each level branch's group main path (S,); turn (S, 3, 3): W_0ᵀ W' of each level
+    branch before any roll (`compare.groups.swing_turns`); swing: the groups' `GroupSwing` in
+    the same order. Degrees, so that the value written to the file reads back as the radians
+    used here, np.radians(β): every candidate is a whole number of degrees.
+    """
     from .explicit import _searched_strengths
 
-    g_count = len(paths)
-    rolls = np.zeros(g_count)
-    pairs = straight_children(ch)
-    if not pairs:
-        return rolls
-    swinging = (swing.amplitudes > 0) & np.isfinite(swing.periods)          # (G, 2, D)
+    out = np.zeros(len(paths))
+    swinging = (swing.amplitudes > 0) & np.isfinite(swing.periods)          # (S, 2, D)
     longest = np.where(swinging, swing.periods, -np.inf).max(axis=(1, 2))
     shortest = np.where(swinging, swing.periods, np.inf).min(axis=(1, 2))
-    pairs = [(p, c) for p, c in pairs
-             if swinging[c].any() and longest[c] > ROLL_MIXED_PERIODS * shortest[c]]
-    if not pairs:
-        return rolls
-    mean = member_rolls(original, paths, [c for _, c in pairs])
-    keep = np.abs(mean) >= np.radians(ROLL_MIN)
-    pairs = [pc for pc, k in zip(pairs, keep) if k]
-    if not pairs:
-        return rolls
-    w0 = rest_pose(original).swing[np.array([int(paths[c][0]) for _, c in pairs])]   # (n, 3, 3)
-    parent_frame = ch.frame[np.array([p for p, _ in pairs])]                           # (n, 3, 3)
-    # candidates: rolls over a quarter turn (a quarter turn more swings the same with the two
-    # strengths swapped, and the search picks strengths), 0 first
-    gammas = np.broadcast_to(np.radians(np.asarray(ROLL_CANDIDATES, dtype=np.float64)),
-                             (len(pairs), len(ROLL_CANDIDATES)))
-    n, r = gammas.shape
-    turns = np.einsum("nji,njk,nrkl->nril", w0, parent_frame, rot_z(gammas))          # (n, R, 3, 3)
-    children = np.repeat(np.array([c for _, c in pairs]), r)
+    rooted = np.array([original.parent[int(p[0])] < 0 for p in paths], dtype=bool)
+    mixed = np.flatnonzero(swinging.any(axis=(1, 2)) & (longest > ROLL_MIXED_PERIODS * shortest)
+                           & ~rooted)
+    if not len(mixed):
+        return out
+    # the members' mean roll against the branch's own (the roll of W_0ᵀ W' about z), mod 180°
+    mean = member_rolls(original, paths, mixed.tolist())
+    own = np.arctan2(turn[mixed, 1, 0] - turn[mixed, 0, 1], turn[mixed, 0, 0] + turn[mixed, 1, 1])
+    apart = (mean - own + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+    keep = np.abs(apart) >= np.radians(ROLL_MIN)
+    mixed, apart = mixed[keep], apart[keep]
+    if not len(mixed):
+        return out
+    # candidates: the fixed quarter turn (0 first), then the members' mean roll mod 90°
+    near = np.round(np.degrees((apart + 0.25 * np.pi) % (0.5 * np.pi) - 0.25 * np.pi))
+    degrees = np.concatenate([np.broadcast_to(np.asarray(ROLL_CANDIDATES, dtype=np.float64),
+                                              (len(mixed), len(ROLL_CANDIDATES))),
+                              near[:, None]], axis=1)                       # (n, R)
+    n, r = degrees.shape
+    turns = turn[mixed][:, None] @ rot_z(np.radians(degrees))               # (n, R, 3, 3)
     a_max = swing.amplitudes.max(axis=(0, 1))
-    _, cost = _searched_strengths(swing.take(children), carry_matrix(turns.reshape(-1, 3, 3)),
-                                  a_max, dt, duration, damping_ratio, costs=True)
+    _, cost = _searched_strengths(swing.take(np.repeat(mixed, r)),
+                                  carry_matrix(turns.reshape(-1, 3, 3)), a_max, dt, duration,
+                                  damping_ratio, costs=True)
     cost = cost.reshape(n, r)
-    for k, (p, _c) in enumerate(pairs):
-        best = int(np.argmin(cost[k]))
-        if cost[k, best] < (1.0 - ROLL_GAIN) * cost[k, 0]:
-            rolls[p] = gammas[k, best]
-    return rolls
+    best = np.argmin(cost, axis=1)
+    better = cost[np.arange(n), best] < (1.0 - ROLL_GAIN) * cost[:, 0]
+    out[mixed[better]] = degrees[np.arange(n), best][better]
+    return out

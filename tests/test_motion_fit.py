@@ -151,47 +151,30 @@ def test_straight_groups_keep_their_roots_frames_whatever_the_rolls():
         np.testing.assert_allclose(carry, np.broadcast_to(np.eye(2), carry.shape), atol=1e-9)
 
 
-def test_a_rolled_chord_frame_turns_its_straight_child_by_the_roll():
-    # with chord_rolls, a straight-on child reads in W_0 turned by its parent's roll γ:
-    # carry [[cos γ, -sin γ], [sin γ, cos γ]] (model.md 3: the child's swing frame is its
-    # parent's branch frame); at least one roll is chosen on this trunk, and the roots keep
-    # the identity (nothing turns a root's swing frame)
-    from plantlod.simplify.chord_rolls import chord_rolls
-    from plantlod.simplify.explicit import chords, dominant_strengths
-    from plantlod.compare.groups import main_paths
-
+def test_a_swing_roll_turns_the_branch_reading_by_the_roll():
+    # with swing rolls, a level branch that continues straight on from its parent's group tip
+    # (unrolled: carry the identity) reads in W_0 turned by its own roll β: carry
+    # [[cos β, -sin β], [sin β, cos β]] (Ω = Rz(β) ω', ω' = (-θr, θb, 0)), computed here from
+    # the level's rest pose; at least one roll is chosen on this trunk, the root keeps none,
+    # and the text's swing_roll keys read back as the tree's rolls
     original, header = _rolled_stalk()
     grouping = merge_levels(original)[1]
-    paths = main_paths(original, grouping.group, grouping.count)
-    ch = chords(original, grouping, paths)
-    rolls = chord_rolls(original, paths, ch, dominant_strengths(original, paths, DT, 20.0), DT,
-                        20.0)
-    assert np.count_nonzero(rolls) >= 1
     text, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
                                        dt=DT, refine=False, gains=False, motion=False)
-    gmap = group_map(original, level)
-    carry = carry_matrix(swing_turns(original, level, gmap.paths))
-    for s in range(level.n_branches):
-        g = int(np.flatnonzero(grouping.root == gmap.paths[s][0])[0])
-        parent = ch.parent_group[g]
-        gamma = rolls[parent] if parent >= 0 else 0.0
-        expected = [[math.cos(gamma), -math.sin(gamma)], [math.sin(gamma), math.cos(gamma)]]
+    roll = np.asarray(level.swing_roll)
+    assert np.count_nonzero(roll) >= 1
+    assert np.all(roll[np.asarray(level.parent) < 0] == 0)
+    np.testing.assert_array_equal(build(parse_lsys(text, "again")).tree.swing_roll, roll)
+    carry = carry_matrix(swing_turns(original, level, group_map(original, level).paths))
+    for s, beta in enumerate(roll.tolist()):
+        expected = [[math.cos(beta), -math.sin(beta)], [math.sin(beta), math.cos(beta)]]
         np.testing.assert_allclose(carry[s], expected, atol=1e-9)
-    # a roll turns frames only: the written file still puts every chord from its group
-    # root's base to its group tip (rest tip error 0)
-    from plantlod.sim.kinematics import rest_pose
-
-    again = build(parse_lsys(text, "again")).tree
-    np.testing.assert_allclose(rest_pose(again).tip,
-                               rest_pose(original).tip[[p[-1] for p in gmap.paths]], atol=1e-9)
-    np.testing.assert_allclose(rest_pose(again).base,
-                               rest_pose(original).base[[p[0] for p in gmap.paths]], atol=1e-9)
 
 
-def test_a_rolled_frame_keeps_its_leaves_world_normals():
-    # the same trunk with a leaf on every segment: where a level branch's frame is rolled,
-    # its equivalent leaves are written in the rolled frame, so their world normals (and
-    # the force they take) are those of the unrolled level
+def test_a_swing_roll_moves_no_rest_geometry():
+    # the same trunk with a leaf on every segment: rolled or not, the level's rest branch
+    # frames, bases, tips and leaf normals are the same (a roll turns swing frames only), and
+    # every chord runs from its group root's base to its group tip (rest tip error 0)
     from plantlod.sim.kinematics import rest_pose
 
     system = parse_lsys(ROLLED_STALK.replace("T /", "T [&(20) L] /"), "leafy.lsys")
@@ -201,16 +184,18 @@ def test_a_rolled_frame_keeps_its_leaves_world_normals():
     levels = {roll: explicit_system_text(original, grouping, name="t", header=header, level=1,
                                          dt=DT, refine=False, gains=False, motion=False,
                                          roll=roll)[1] for roll in (False, True)}
-    rolled_leaf_branches = {int(b) for b in levels[True].leaf_branch} & {
-        s for s in range(levels[True].n_branches)
-        if not np.allclose(rest_pose(levels[True]).frame[s], rest_pose(levels[False]).frame[s])}
-    assert rolled_leaf_branches                  # some leaf sits on a rolled branch
-
-    def world_normals(tree):
-        frames = rest_pose(tree).frame[np.asarray(tree.leaf_branch)]
-        return np.einsum("kij,kj->ki", frames, np.asarray(tree.leaf_normal))
-
-    np.testing.assert_allclose(world_normals(levels[True]), world_normals(levels[False]),
+    assert levels[False].swing_roll is None and np.count_nonzero(levels[True].swing_roll)
+    rolled, plain = rest_pose(levels[True]), rest_pose(levels[False])
+    for field in ("frame", "base", "tip"):
+        np.testing.assert_allclose(getattr(rolled, field), getattr(plain, field), atol=1e-12)
+    np.testing.assert_array_equal(levels[True].leaf_normal, levels[False].leaf_normal)
+    # the swing frames differ by Rz(β) exactly where β is set
+    beta = np.asarray(levels[True].swing_roll)
+    turned = np.einsum("sji,sjk->sik", plain.swing, rolled.swing)          # S_plainᵀ S_rolled
+    np.testing.assert_allclose(turned[:, 0, 0], np.cos(beta), atol=1e-12)
+    np.testing.assert_allclose(turned[:, 1, 0], np.sin(beta), atol=1e-12)
+    gmap = group_map(original, levels[True])
+    np.testing.assert_allclose(rolled.tip, rest_pose(original).tip[[p[-1] for p in gmap.paths]],
                                atol=1e-9)
 
 
