@@ -70,7 +70,7 @@ LEAF_KEYS = {"area": True}
 # overrides only; a line that sets one sets all six and no force_absorbed.
 GAIN_KEYS = ("g_bx", "g_by", "g_bz", "g_rx", "g_ry", "g_rz")
 # The roll of a level branch's swing frame about its rest axis, degrees (overrides only;
-# docs/model-extensions.md): S = R_parent Rz(phi) Ry(alpha) Rz(beta) Rot(u, theta), the branch
+# docs/model.md, "Swing roll"): S = R_parent Rz(phi) Ry(alpha) Rz(beta) Rot(u, theta), the branch
 # frame and so the rest geometry unchanged.
 SWING_ROLL_KEY = "swing_roll"
 # The row of a branch without a gain matrix: G = k_FA [[1, 0, 0], [0, 1, 0]].

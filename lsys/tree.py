@@ -94,7 +94,7 @@ class Tree:
                      that sets G has k_FA = 1, one that does not has the row
                      [1 0 0 0 1 0]; None when no branch sets one
       swing_roll   : (B,) float64 or None  the roll β of each branch's swing frame about its
-                     rest axis (radians; docs/model-extensions.md): S_i = R_parent Rz(phi)
+                     rest axis (radians; docs/model.md, "Swing roll"): S_i = R_parent Rz(phi)
                      Ry(alpha) Rz(beta) Rot(u, theta), R_i = S_i Rz(psi - beta), so the rest
                      geometry is unchanged; None when no branch sets one (β = 0)
     Tree-level:

@@ -585,9 +585,10 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         """The level's values with one leaf set, its text and its static error (`closed_form`)."""
         sk = explicit_skeleton(original, grouping, frames, ch, leaves)
 
-        def text(values: dict[str, np.ndarray], leaf_area: list[np.ndarray]) -> str:
+        def text(values: dict[str, np.ndarray] | None, leaf_area: list[np.ndarray]) -> str:
+            """The level's text; without ``values``, no overrides section (the skeleton)."""
             lines = []
-            for g, address in enumerate(sk.branch_address):
+            for g, address in enumerate(sk.branch_address if values is not None else ()):
                 kv = " ".join(f"{k}={format_number(values[k][g])}" for k in sorted(values)
                               if k != SWING_ROLL_KEY or values[k][g] != 0)
                 lines.append(f"  {address}: {kv}")
@@ -595,19 +596,26 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                     lines.append(f"  {a}: area={format_number(area)}")
             lines.sort(key=lambda line: int(line.split(":")[0]))
             groups = [f"  {a}: {r}" for a, r in zip(sk.branch_address, root_address)]
+            overrides = "overrides:\n" + "\n".join(lines) + "\n\n" if lines else ""
             return "\n".join(head) + "\n\n" + "\n".join(declarations) + "\n\n" \
                 + "\n".join(axiom_lines(sk.modules)) + "\n\n" \
-                + "overrides:\n" + "\n".join(lines) + "\n\ngroups:\n" + "\n".join(groups) + "\n"
+                + overrides + "groups:\n" + "\n".join(groups) + "\n"
 
-        ones = np.ones(grouping.count)
-        base_values = {"length": sk.length, "radius": radius, "bend_strength": ones,
-                       "rotation_strength": ones}
-        skeleton = build(parse_lsys(text(base_values, sk.leaf_area), name)).tree
-        groups = assign_stated_groups(original, skeleton)
+        # the skeleton: its structure parsed (axiom and groups), its chord lengths, radii and
+        # leaf areas set as the overrides would read back (format_number is exact), without
+        # parsing thousands of override lines (tests/test_simplify_explicit.py compares the two)
+        skeleton = build(parse_lsys(text(None, sk.leaf_area), name)).tree
         # the skeleton's branches come in axiom order; map them to group numbers
         order = np.array([int(a) for a in skeleton.address])
         position = {int(a): g for g, a in enumerate(sk.branch_address)}
         to_group = np.array([position[a] for a in order])
+        area_of = {a: area for g in range(grouping.count)
+                   for a, area in zip(sk.leaf_address[g], sk.leaf_area[g].tolist())}
+        skeleton = replace(skeleton, length=np.array(sk.length[to_group], dtype=np.float64),
+                           radius=np.array(radius[to_group], dtype=np.float64),
+                           leaf_area=np.array([area_of[a] for a in skeleton.leaf_address],
+                                              dtype=np.float64))
+        groups = assign_stated_groups(original, skeleton)
         gmap = GroupMap(groups, [paths[to_group[s]] for s in range(skeleton.n_branches)])
         turn = swing_turns(original, skeleton, gmap.paths)
         # swing rolls (`swing_rolls`): the skeleton as the text with its swing_roll keys reads

@@ -1,5 +1,5 @@
 """Swing rolls of a level's branches: a level branch's swing frame turned about its own rest
-axis (`Tree.swing_roll`, the `swing_roll` key; docs/model-extensions.md).
+axis (`Tree.swing_roll`, the `swing_roll` key; docs/model.md, "Swing roll").
 
 A level branch's swing frame is fixed by its chord and its parent's chord (model.md 3): it
 bends in the plane of its lean and rotates across it. Where its group's members are rolled

@@ -7,6 +7,7 @@ strengths whose period is the one the section-6 measure gives."""
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -26,7 +27,16 @@ EVAL = ["eval/stochastic.lsys", "eval/twin_draw.lsys", "eval/sympodial.lsys", "e
 
 
 def _tree(name):
-    system = parse_lsys((ROOT / "examples" / name).read_text(), name)
+    """An example file, or ``family/<kind>-<seed>``: a tree of bench/tree_family.py."""
+    if name.startswith("family/"):
+        sys.path.insert(0, str(ROOT / "bench"))
+        import tree_family
+
+        kind, seed = name[len("family/"):].rsplit("-", 1)
+        text = tree_family.generate(kind, int(seed))
+    else:
+        text = (ROOT / "examples" / name).read_text()
+    system = parse_lsys(text, name)
     return system, build(system).tree
 
 
@@ -218,11 +228,13 @@ def test_a_chain_runs_the_original_once_per_wind(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("name, gains", [("eval/bent_leafy.lsys", True), ("eval/sympodial.lsys", True),
-                                         ("eval/bush3d.lsys", False)])
+                                         ("eval/bush3d.lsys", False),
+                                         ("family/sympodial-47", True)])
 def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
     """explicit_system_text builds its tree from the skeleton's arrays instead of parsing its
     text again: every field must equal the tree built from the text (eigen or basis leaves,
-    with and without gain matrices; the motion fit's corrections included)."""
+    with and without gain matrices, with swing rolls (family/sympodial-47); the motion fit's
+    corrections included)."""
     from dataclasses import fields
 
     system, tree = _tree(name)
@@ -230,6 +242,7 @@ def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
                                        header=level_header(system), level=1, dt=0.01, gains=gains)
     parsed = build(parse_lsys(text, "t")).tree
     assert (level.force_gain is not None) == gains
+    assert (level.swing_roll is not None) == name.startswith("family/")
     for f in fields(parsed):
         a, b = getattr(level, f.name), getattr(parsed, f.name)
         if isinstance(b, np.ndarray):

@@ -1,4 +1,4 @@
-"""The swing roll of a level's branch (docs/model-extensions.md): its swing frame turned about
+"""The swing roll of a level's branch (docs/model.md, "Swing roll"): its swing frame turned about
 its rest axis by β, S = R_parent Rz(φ) Ry(α) Rz(β) Rot(u, θ), its branch frame unchanged.
 
 The kernels, the lanes engine, poses and tips are checked against the literal reference model
