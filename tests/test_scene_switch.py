@@ -11,6 +11,7 @@ from golden_util import ROOT
 from plantlod.scene.levels import level_chain
 from plantlod.scene.switch import Transfer
 from plantlod.simplify.static import static_angles, static_parts
+from test_motion_fit import ROLLED_STALK
 
 
 @pytest.fixture(scope="module")
@@ -20,6 +21,12 @@ def chains(tmp_path_factory):
     for name in ("stalk8.lsys", "eval/twin_draw.lsys"):
         chain, _ = level_chain(ROOT / "examples" / name, 5.0, 0.01, 2.0, cache)
         out[name] = (chain, Transfer(chain.trees, chain.groups))
+    # a trunk rolled between segments: its levels carry swing rolls (docs/model.md)
+    rolled = cache / "rolled.lsys"
+    rolled.write_text(ROLLED_STALK)
+    chain, _ = level_chain(rolled, 5.0, 0.01, 20.0, cache)      # periods need the time
+    assert any(t.swing_roll is not None for t in chain.trees[1:])
+    out["rolled"] = (chain, Transfer(chain.trees, chain.groups))
     return out
 
 
@@ -35,7 +42,7 @@ def test_fine_to_coarse_on_a_stalk_is_the_sum_over_each_group(chains):
         np.testing.assert_allclose(got, by_hand, atol=1e-15)
 
 
-@pytest.mark.parametrize("name", ["stalk8.lsys", "eval/twin_draw.lsys"])
+@pytest.mark.parametrize("name", ["stalk8.lsys", "eval/twin_draw.lsys", "rolled"])
 def test_a_level_state_through_the_full_tree_and_back_is_unchanged(chains, name):
     chain, transfer = chains[name]
     rng = np.random.default_rng(7)
