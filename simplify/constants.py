@@ -84,6 +84,7 @@ GROUP_SWING_DIRECTIONS = 8   # horizontal wind directions a group's swing (perio
 # swing rolls of a level branch about its rest axis (simplify/swing_rolls.py)
 ROLL_CANDIDATES = (0.0, -45.0, -30.0, -15.0, 15.0, 30.0)   # degrees tried, 0 (unrolled) first,
                                                           # then the members' mean roll
+ROLL_MIN = 5.0                # degrees: groups whose members' mean roll is smaller are left unrolled
 ROLL_GAIN = 0.1               # a roll is kept only where it lowers the search cost by this fraction
 ROLL_MIXED_PERIODS = 1.002    # only groups whose swing periods spread by more than this ratio
 STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x (period gap + turn))

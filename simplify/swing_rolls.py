@@ -9,10 +9,10 @@ in proportions that change with the wind's direction. One branch whose swing axe
 its chord puts them reads in W_0 through its carry map C (`compare.groups.carry_matrix`) and
 cannot mix them the same way; turned by β about its axis, it reads C Rz(β) θ' and can.
 
-For each group that swings with mixed periods (ROLL_MIXED_PERIODS), β is chosen from
+For each group that swings with mixed periods (ROLL_MIXED_PERIODS) and whose members' mean
+roll (`member_rolls`) lies at least ROLL_MIN away from the branch's own, β is chosen from
 ROLL_CANDIDATES (a quarter turn: a quarter turn more swings the same with the two strengths
-swapped) and the members' mean roll (`member_rolls`) against the branch's own, by the cost of
-`explicit._searched_strengths`
+swapped) and the members' mean roll itself, by the cost of `explicit._searched_strengths`
 (the group's swing model in every direction, model.md 6's measures against level 1's
 bounds); β = 0 is kept unless another costs less by ROLL_GAIN. Root groups are left unrolled:
 the swing model superposes members that each swing from rest, which is weakest for a trunk
@@ -27,7 +27,7 @@ from plantlod.compare.groups import carry_matrix
 from plantlod.lsys.rotation import rot_z
 from plantlod.lsys.tree import Tree
 
-from .constants import ROLL_CANDIDATES, ROLL_GAIN, ROLL_MIXED_PERIODS
+from .constants import ROLL_CANDIDATES, ROLL_GAIN, ROLL_MIN, ROLL_MIXED_PERIODS
 
 
 def member_rolls(original: Tree, paths: list[np.ndarray], groups: list[int]) -> np.ndarray:
@@ -80,6 +80,10 @@ def swing_rolls(original: Tree, paths: list[np.ndarray], turn: np.ndarray, swing
     mean = member_rolls(original, paths, mixed.tolist())
     own = np.arctan2(turn[mixed, 1, 0] - turn[mixed, 0, 1], turn[mixed, 0, 0] + turn[mixed, 1, 1])
     apart = (mean - own + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+    keep = np.abs(apart) >= np.radians(ROLL_MIN)
+    mixed, apart = mixed[keep], apart[keep]
+    if not len(mixed):
+        return out
     # candidates: the fixed quarter turn (0 first), then the members' mean roll mod 90°
     near = np.round(np.degrees((apart + 0.25 * np.pi) % (0.5 * np.pi) - 0.25 * np.pi))
     degrees = np.concatenate([np.broadcast_to(np.asarray(ROLL_CANDIDATES, dtype=np.float64),
