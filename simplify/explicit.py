@@ -667,8 +667,9 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         return LevelFit(values, leaf_area, tree_leaf_area, text, params.static_error, to_group,
                         carry, skeleton)
 
-    # the eigen-leaves, unless the basis leaves at most halve the static error (BASIS_LEAF_GAIN;
-    # without the refinement there is no static error to compare); they are only tried where
+    # the eigen-leaves, unless the basis leaves fit the statics better (static error below
+    # BASIS_LEAF_GAIN x the eigen-leaves'; without the refinement there is no static error to
+    # compare); they are only tried where
     # the eigen-leaves miss the statics by more than BASIS_LEAF_TRY (a second fit costs as much)
     best = fit("eigen")
     if refine and best.static_error > BASIS_LEAF_TRY:
