@@ -17,8 +17,15 @@ component counts:
 and carries them back to the branch's own components through its carry map C (y = C θ',
 `compare.groups.carry_matrix`): own component m takes Σ_c |C[c, m]| w_c ρ[g, c] / Σ_c |C[c, m]| w_c
 (w_c: the summed weights). The branch's own period is multiplied by exp(ρ_P) (so its strength is
-`strength_of_period` of it) and its gain row by exp(ρ_A), each clipped to exp(±MOTION_FIT_STEP).
-A branch whose two strengths are one (`explicit.own_strengths` tied them) keeps them tied.
+`strength_of_period` of it), clipped to exp(±MOTION_FIT_STEP). A branch whose two strengths are
+one (`explicit.own_strengths` tied them) keeps them tied.
+
+Gains: a level whose branches carry the gain matrix G gets G refitted wind by wind
+(`gain_matrix_step`): its static W_0 angles C diag(1000 / k) G f(w) (f the rest force in the
+branch's swing frame) are fitted to the current ones scaled by A_x / A_y per wind and
+component, so a group that swings more than its level branch toward one direction and less
+toward another is followed there (one scale per row cannot). A level with one k_FA per
+branch scales it by exp of the mean of the two rows' ρ_A, clipped as above.
 
 Only the winds where the original stays within SMALL_ANGLE_LIMIT are run (the bounds hold
 only there; all of them where none does). The round scoring best on those winds
@@ -40,8 +47,8 @@ from plantlod.lsys.system import GAIN_KEYS
 from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
-from .constants import (COUNTED_AMPLITUDE_FRACTION, MOTION_FIT_GOOD, MOTION_FIT_ROUNDS,
-                        MOTION_FIT_STEP, SMALL_ANGLE_LIMIT)
+from .constants import (COUNTED_AMPLITUDE_FRACTION, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD,
+                        MOTION_FIT_ROUNDS, MOTION_FIT_STEP, SMALL_ANGLE_LIMIT)
 from .evaluate import Runs, WindCase
 
 
@@ -81,6 +88,20 @@ def measurement_runs_for(original: Tree, dt: float, duration: float,
     damping = Damping(ratio=damping_ratio)
     return shared_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping,
                        list(simulate_runs(original, winds, dt, steps, SIMPLIFY_EVERY, damping)))
+
+
+def fit_wind_forces(tree: Tree, winds: list[WindCase]) -> np.ndarray:
+    """(W, S, 3) N: each branch's total rest force in its rest swing frame in each wind
+    (model.md 4 at rest: v F^L + v² F^D, `static.static_parts`)."""
+    from .static import rest_frames, static_parts
+
+    frames = rest_frames(tree)
+    az = np.radians([w.direction for w in winds])
+    directions = np.stack([np.cos(az), np.sin(az), np.zeros(len(winds))], axis=1)
+    parts = static_parts(tree, directions, frames)
+    v = np.array([w.speed for w in winds], dtype=np.float64)[:, None, None]
+    world = v * parts.leaf + v * v * parts.drag                               # (W, S, 3)
+    return np.einsum("sji,wsj->wsi", frames.swing, world)
 
 
 def swing_figures(reports) -> tuple[np.ndarray, ...]:
@@ -132,6 +153,47 @@ def own_corrections(ax, ay, px, py, a_max, carry: np.ndarray, tied: np.ndarray
     return to_own(p_total, p_mean, tied), to_own(a_total, a_mean, np.zeros_like(tied))
 
 
+def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, carry: np.ndarray,
+                     force: np.ndarray, ax: np.ndarray, ay: np.ndarray, a_max: np.ndarray,
+                     ridge: float = MOTION_FIT_GAIN_RIDGE) -> np.ndarray:
+    """New gain matrices (S, 2, 3) whose static swing reads, wind by wind, as the group swings.
+
+    gain (S, 2, 3) the level branches' G; k_old, k_new (S, 2) their strengths before and after
+    this round's period step; carry (S, 2, 2); force (W, S, 3) each branch's rest force in its
+    swing frame in each fit wind (N); ax, ay (W, 2, S) the group's and the branch's amplitudes
+    in W_0 (`swing_figures`), a_max (W,).
+
+    The branch's static W_0 angles are y(w) = C diag(1000 / k) G f(w) (model.md 4, 5). Where a
+    component counts, the target is y_old(w) A_x / A_y (its swing scaled as the group's); G is
+    the ridge-regularised least-squares fit to those targets in A_max units, each (w, c)
+    weighted by (A_x / A_max)² (the major swings lead), pulled toward the current G (directions
+    no fit wind drives keep their gains).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(a_max > 0, a_max, 1.0)[:, None, None]
+        rel = ax / scale
+        ok = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION) & (ay > 0)
+        ratio = np.where(ok, ax / np.where(ok, ay, 1.0), 1.0)                  # (W, 2, S)
+    # y_old (W, S, 2): static own angles carried into W_0
+    own_old = 1000.0 / k_old[None, :, :] * np.einsum("smj,wsj->wsm", gain, force)
+    y_old = np.einsum("scm,wsm->wsc", carry, own_old)
+    target = y_old * np.transpose(ratio, (0, 2, 1)) / scale[:, :, 0][:, :, None]   # (W, S, 2)
+    weight = np.where(np.transpose(ok, (0, 2, 1)), np.transpose(rel, (0, 2, 1)) ** 2, 0.0)
+    # design (W, S, c, m, j): C[c, m] 1000 / k_new[m] f_j, in A_max units
+    design = (carry[None, :, :, :, None] * (1000.0 / k_new)[None, :, None, :, None]
+              * force[:, :, None, None, :]) / scale[:, :, 0][:, :, None, None, None]
+    design = design.reshape(force.shape[0], force.shape[1], 2, 6)              # (W, S, c, 6)
+    normal = np.einsum("wsc,wsck,wscl->skl", weight, design, design)           # (S, 6, 6)
+    rhs = np.einsum("wsc,wsck,wsc->sk", weight, design, target)                # (S, 6)
+    g0 = gain.reshape(-1, 6)
+    lam = ridge * np.maximum(np.trace(normal, axis1=1, axis2=2) / 6.0, 1e-300)  # (S,)
+    normal = normal + lam[:, None, None] * np.eye(6)[None]
+    rhs = rhs + lam[:, None] * g0
+    solved = np.linalg.solve(normal, rhs[:, :, None])[:, :, 0]
+    active = weight.sum(axis=(0, 2)) > 0
+    return np.where(active[:, None], solved, g0).reshape(-1, 2, 3)
+
+
 def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[[dict], tuple[str, Tree]],
                to_group: np.ndarray, carry: np.ndarray, runs_for: Callable[[Tree], Runs],
                level: int, dt: float) -> tuple[str, Tree]:
@@ -170,6 +232,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         return replace(level_tree, **changed)
 
     best, worse = None, 0
+    force = None
     for round_ in range(MOTION_FIT_ROUNDS + 1):
         try:
             reports = runs.compare(tree_of(values))
@@ -190,9 +253,16 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             period_of_strength(kb, dt) * np.exp(d_period[:, 0]), dt)
         values["rotation_strength"][to_group] = strength_of_period(
             period_of_strength(kr, dt) * np.exp(d_period[:, 1]), dt)
-        if gains:                                 # G's bend row, then its rotation row
+        if gains:                                 # G fitted to the group's swing, wind by wind
+            if force is None:
+                force = fit_wind_forces(level_tree, winds)
+            g = np.stack([values[k][to_group] for k in GAIN_KEYS], axis=1).reshape(-1, 2, 3)
+            k_new = np.stack([values["bend_strength"][to_group],
+                              values["rotation_strength"][to_group]], axis=1)
+            g = gain_matrix_step(g, np.stack([kb, kr], axis=1), k_new, carry, force,
+                                 ax, ay, a_max).reshape(-1, 6)
             for k, key in enumerate(GAIN_KEYS):
-                values[key][to_group] *= np.exp(d_gain[:, k // 3])
+                values[key][to_group] = g[:, k]
         else:                                     # one k_FA: the mean of the two rows' corrections
             values["force_absorbed"][to_group] *= np.exp(d_gain.mean(axis=1))
     if best is None or best[2] == 0:

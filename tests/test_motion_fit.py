@@ -213,3 +213,36 @@ def test_rolls_lower_the_measured_errors_of_a_rolled_trunk():
         reports = Runs(original, group_map(original, level), winds, DT, 2000, 4).compare(level)
         worst[roll] = max(max(r.motion_error / 0.05, r.period_error_major / 0.02) for r in reports)
     assert worst[True] < worst[False]
+
+
+def test_the_gain_matrix_step_recovers_a_gain_from_swings_wind_by_wind():
+    # static swing model: a branch's W_0 amplitude in wind w is |C diag(1000/k) G f(w)|; the
+    # group's is the same with G*. With forces spanning all three axes and a negligible ridge,
+    # the step returns the G that reads as G* at the new strengths: diag(k_new / k_old) G*
+    # (closed form), where one scale per row could not (G* differs from G by direction).
+    from plantlod.simplify.motion_fit import gain_matrix_step
+
+    rng = np.random.default_rng(5)
+    s_count, w_count = 4, 12
+    gain = rng.normal(0.0, 1.0, (s_count, 2, 3)) * 1e-3 + np.array([[1e-3, 0, 0], [0, 1e-3, 0]])
+    true = gain * (1.0 + 0.2 * rng.normal(0.0, 1.0, gain.shape))
+    k_old = rng.uniform(20.0, 60.0, (s_count, 2))
+    k_new = k_old * rng.uniform(0.9, 1.1, (s_count, 2))
+    angle = rng.uniform(-0.5, 0.5, s_count)
+    carry = np.stack([np.stack([np.cos(angle), -np.sin(angle)], -1),
+                      np.stack([np.sin(angle), np.cos(angle)], -1)], 1)         # (S, 2, 2)
+    force = rng.normal(0.0, 1.0, (w_count, s_count, 3))
+
+    def swing(g, k):
+        own = 1000.0 / k[None] * np.einsum("smj,wsj->wsm", g, force)
+        return np.transpose(np.einsum("scm,wsm->wsc", carry, own), (0, 2, 1))  # (W, 2, S)
+
+    y_old, y_true = swing(gain, k_old), swing(true, k_old)
+    a_max = np.abs(y_true).max(axis=(1, 2))
+    # the step keeps the current signs: where the two differ, the group's swing is given as
+    # 0 (below the 1 % that counts), and the rest still determines G
+    same = np.sign(y_old) == np.sign(y_true)
+    assert same.mean() > 0.8
+    new = gain_matrix_step(gain, k_old, k_new, carry, force, np.where(same, np.abs(y_true), 0.0),
+                           np.abs(y_old), a_max, ridge=1e-12)
+    np.testing.assert_allclose(new, (k_new / k_old)[:, :, None] * true, rtol=1e-6)
