@@ -94,10 +94,9 @@ def rest_rotations(tree: Tree) -> tuple[np.ndarray, np.ndarray]:
     this is model.md 3's Rz(phi) Ry(alpha) and psi)."""
     euler = np.asarray(tree.euler, dtype=np.float64).reshape(-1, 3)
     rest = rest_swing_rotation(euler)
-    roll = getattr(tree, "swing_roll", None)
-    if roll is None:
+    if tree.swing_roll is None:
         return rest, euler[:, 2].copy()
-    roll = np.asarray(roll, dtype=np.float64)
+    roll = np.asarray(tree.swing_roll, dtype=np.float64)
     return rest @ rot_z(roll), euler[:, 2] - roll
 
 

@@ -61,14 +61,12 @@ EXPLICIT_REFINE_PRIOR = 0.03
 EXPLICIT_REFINE_EVALUATIONS = 30    # 100 before the gain matrix: same passes on the eval trees, 3-4x the time
 EXPLICIT_REFINE_LSMR_ITERATIONS = 25   # 50 before the gain matrix (bent_leafy needed it then; no longer)
 # Equivalent leaves of an explicit level: the eigen-leaves ("eigen"), or the nine basis leaves
-# ("basis") where their fit has at most BASIS_LEAF_GAIN x the static error
-# (simplify/explicit.py). Basis
+# ("basis") where their static error is the lower one (simplify/explicit.py). Basis
 # leaves: bent_leafy level 2 21 % -> 1.7 % motion error. Until session 10 they had to halve
-# the static error (0.5: they carried a scene's level switches less well, twin_draw level 9,
-# the scene test's verified error 0.88 -> 1.19 px, which no longer happens); with 1.0 (the
-# lower static error wins) make lod-family's tuning range went 2653 -> 2705 level-1 and
-# 2556 -> 2589 level-2 cases (bent_leafy 302 -> 351 at level 1).
-BASIS_LEAF_GAIN = 1.0
+# the static error (they carried a scene's level switches less well, twin_draw level 9,
+# the scene test's verified error 0.88 -> 1.19 px, which no longer happens); with the lower
+# error winning, make lod-family's tuning range went 2653 -> 2705 level-1 and 2556 -> 2589
+# level-2 cases (bent_leafy 302 -> 351 at level 1).
 BASIS_LEAF_TRY = 0.02         # basis leaves are tried only where the eigen-leaves' static error is above this
                               # (family seeds 0-35: none below 0.029 gained from them)
 BASIS_LEAF_FLOOR = 1e-3       # a basis leaf starts at least at this x the group's leaf area

@@ -39,7 +39,7 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_GAIN, BASIS_LEAF_TRY,
+from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_TRY,
                         GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, MIXED_CARRY,
                         STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
 from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
@@ -667,14 +667,13 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
         return LevelFit(values, leaf_area, tree_leaf_area, text, params.static_error, to_group,
                         carry, skeleton)
 
-    # the eigen-leaves, unless the basis leaves fit the statics better (static error below
-    # BASIS_LEAF_GAIN x the eigen-leaves'; without the refinement there is no static error to
-    # compare); they are only tried where
-    # the eigen-leaves miss the statics by more than BASIS_LEAF_TRY (a second fit costs as much)
+    # the eigen-leaves, unless the basis leaves fit the statics better (a lower static error;
+    # without the refinement there is none to compare); they are only tried where the
+    # eigen-leaves miss the statics by more than BASIS_LEAF_TRY (a second fit costs as much)
     best = fit("eigen")
     if refine and best.static_error > BASIS_LEAF_TRY:
         basis = fit("basis")
-        if basis.static_error < BASIS_LEAF_GAIN * best.static_error:
+        if basis.static_error < best.static_error:
             best = basis
     values, leaf_area, text = best.values, best.leaf_area, best.text
     to_group, carry, skeleton = best.to_group, best.carry, best.skeleton

@@ -169,19 +169,19 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     weighted by (A_x / A_max)² (the major swings lead), pulled toward the current G (directions
     no fit wind drives keep their gains).
     """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        scale = np.where(a_max > 0, a_max, 1.0)[:, None, None]
-        rel = ax / scale
-        ok = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION) & (ay > 0)
-        ratio = np.where(ok, ax / np.where(ok, ay, 1.0), 1.0)                  # (W, 2, S)
-    # y_old (W, S, 2): static own angles carried into W_0
+    scale = np.where(a_max > 0, a_max, 1.0)                                    # (W,)
+    # the figures as (W, S, c)
+    ax, ay = np.transpose(ax, (0, 2, 1)), np.transpose(ay, (0, 2, 1))
+    rel = ax / scale[:, None, None]
+    ok = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION) & (ay > 0)
+    ratio = np.where(ok, ax / np.where(ok, ay, 1.0), 1.0)
+    weight = np.where(ok, rel ** 2, 0.0)
+    # y_old (W, S, c): static own angles carried into W_0; the targets in A_max units
     own_old = 1000.0 / k_old[None, :, :] * np.einsum("smj,wsj->wsm", gain, force)
-    y_old = np.einsum("scm,wsm->wsc", carry, own_old)
-    target = y_old * np.transpose(ratio, (0, 2, 1)) / scale[:, :, 0][:, :, None]   # (W, S, 2)
-    weight = np.where(np.transpose(ok, (0, 2, 1)), np.transpose(rel, (0, 2, 1)) ** 2, 0.0)
+    target = np.einsum("scm,wsm->wsc", carry, own_old) * ratio / scale[:, None, None]
     # design (W, S, c, m, j): C[c, m] 1000 / k_new[m] f_j, in A_max units
     design = (carry[None, :, :, :, None] * (1000.0 / k_new)[None, :, None, :, None]
-              * force[:, :, None, None, :]) / scale[:, :, 0][:, :, None, None, None]
+              * force[:, :, None, None, :]) / scale[:, None, None, None, None]
     design = design.reshape(force.shape[0], force.shape[1], 2, 6)              # (W, S, c, 6)
     normal = np.einsum("wsc,wsck,wscl->skl", weight, design, design)           # (S, 6, 6)
     rhs = np.einsum("wsc,wsck,wsc->sk", weight, design, target)                # (S, 6)
