@@ -299,12 +299,21 @@ class Report:
         }
 
 
+def component_figures(t: np.ndarray, bend: np.ndarray, rot: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """(amplitudes, periods), each (2, G) (row 0 bend, row 1 rotation; rad and s), of the
+    angles bend, rot (K, G) sampled at t (K,): `amplitude` and `period` of each column."""
+    return (np.stack([amplitude(bend), amplitude(rot)]),
+            np.stack([period(t, bend), period(t, rot)]))
+
+
 def compare_groups(t: np.ndarray,
                    orig_combined_b: np.ndarray, orig_combined_r: np.ndarray,
                    simp_b: np.ndarray, simp_r: np.ndarray,
                    tips_orig: np.ndarray, tips_simp: np.ndarray,
                    rest_height: float,
-                   addresses: list[str]) -> Report:
+                   addresses: list[str],
+                   original_figures: tuple[np.ndarray, np.ndarray] | None = None) -> Report:
     """Compare every group of the original with its simplified branch over one window.
 
     t                  : (K,) sample times, s (already cut to the window; see `window`)
@@ -314,6 +323,9 @@ def compare_groups(t: np.ndarray,
     tips_simp          : (K, G, 3) tips of the simplified branches, m
     rest_height        : the original tree's rest height (largest tip z at rest), m
     addresses          : (G,) the simplified branches' addresses, for the report
+    original_figures   : (amplitudes, periods), each (2, G), of the original's Θb and Θr as
+                         `component_figures` gives them, when one original run is compared
+                         with many simplified ones (computed here otherwise)
 
     Raises InputError on shapes that disagree, non-finite samples, or a rest
     height that is not positive.
@@ -343,10 +355,9 @@ def compare_groups(t: np.ndarray,
                          f"expected a tree whose highest tip is above z = 0")
 
     # (2, G) per component: row 0 bend, row 1 rotation
-    amp_x = np.stack([amplitude(angles[0]), amplitude(angles[1])])
-    amp_y = np.stack([amplitude(angles[2]), amplitude(angles[3])])
-    per_x = np.stack([period(t, angles[0]), period(t, angles[1])])
-    per_y = np.stack([period(t, angles[2]), period(t, angles[3])])
+    amp_x, per_x = component_figures(t, angles[0], angles[1]) if original_figures is None \
+        else original_figures
+    amp_y, per_y = component_figures(t, angles[2], angles[3])
     amp_err = relative_error(amp_y, amp_x)
     per_err = relative_error(per_y, per_x)
     largest = float(amp_x.max()) if g else 0.0

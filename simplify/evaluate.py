@@ -24,7 +24,7 @@ from plantlod.sim.wind import wind_from_speed
 from plantlod.compare.runs import tip_series
 from .targets import GroupMap
 from plantlod.compare.groups import combined_angles
-from plantlod.compare.measures import Report, compare_groups
+from plantlod.compare.measures import Report, compare_groups, component_figures
 
 
 
@@ -69,6 +69,7 @@ class OriginalRun:
     combined_r: np.ndarray     # (K, G) rad
     rest_tips: np.ndarray      # (G, 3) m
     tip_moves: np.ndarray      # (K, G, 3) float32, m from rest_tips
+    figures: tuple             # (amplitudes, periods) (2, G) of combined_b, _r (`component_figures`)
 
     @property
     def tips(self) -> np.ndarray:
@@ -101,7 +102,8 @@ class Runs:
             cb, cr = combined_angles(original, gmap.paths, bend, rot)
             tips = tip_series(original, bend, rot, gmap.tips)
             self.runs.append(OriginalRun(wind, times, cb, cr, tips[0].copy(),
-                                         (tips - tips[0]).astype(np.float32)))
+                                         (tips - tips[0]).astype(np.float32),
+                                         component_figures(times, cb, cr)))
 
     def _simulated(self, tree: Tree, winds: list[WindCase] | None = None):
         """(wind, times, bend, rot) of ``tree`` for every wind (`simulate_runs`)."""
@@ -135,7 +137,7 @@ class Runs:
                         bend, rot = carry_angles(turn, bend, rot)
                     known[id(run)] = compare_groups(run.times, run.combined_b, run.combined_r,
                                                     bend, rot, run.tips, tips, self.height,
-                                                    simplified.address)
+                                                    simplified.address, run.figures)
             except RunFailure as exc:
                 raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
                                  simplified.source or None) from None

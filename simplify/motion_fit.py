@@ -31,8 +31,9 @@ Only the winds where the original stays within SMALL_ANGLE_LIMIT are run (the bo
 only there; all of them where none does). The round scoring best on those winds
 (`bounds.form_rank`: winds missing the level's bounds, then the worst ratio) is kept, so a
 round can only help on the winds it is scored in. At most MOTION_FIT_ROUNDS rounds; the fit
-stops after two rounds that do not improve on the best, or once every wind is within
-MOTION_FIT_GOOD of its bounds.
+stops at the first round that does not improve on the best by a wind fewer missed or a worst
+ratio MOTION_FIT_MIN_GAIN lower (later rounds gain less than that), or once every wind is
+within MOTION_FIT_GOOD of its bounds.
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
 from .constants import (COUNTED_AMPLITUDE_FRACTION, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD,
-                        MOTION_FIT_ROUNDS, MOTION_FIT_STEP, SMALL_ANGLE_LIMIT)
+                        MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS, MOTION_FIT_STEP,
+                        SMALL_ANGLE_LIMIT)
 from .evaluate import Runs, WindCase
 
 
@@ -194,6 +196,13 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     return np.where(active[:, None], solved, g0).reshape(-1, 2, 3)
 
 
+def improves(rank: tuple, best: tuple) -> bool:
+    """Whether a round's `form_rank` (winds missed, worst ratio) is worth another round
+    against the best so far: a wind fewer missed, or the same and a worst ratio at least
+    MOTION_FIT_MIN_GAIN lower."""
+    return rank[0] < best[0] or (rank[0] == best[0] and rank[1] < best[1] * (1 - MOTION_FIT_MIN_GAIN))
+
+
 def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[[dict], tuple[str, Tree]],
                to_group: np.ndarray, carry: np.ndarray, runs_for: Callable[[Tree], Runs],
                level: int, dt: float) -> tuple[str, Tree]:
@@ -203,8 +212,8 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
     to_group (S,): the group of each level-tree branch (tree order); carry (S, 2, 2) their carry
     maps; runs_for(tree): the original's `Runs` in the fit winds, read with ``tree``'s groups.
     The rounds change the level tree's arrays in place of its text (parsing a level of
-    thousands of branches takes longer than simulating it); a round that scores no better
-    than the best twice in a row ends the fit.
+    thousands of branches takes longer than simulating it); a round that does not improve on
+    the best by MOTION_FIT_MIN_GAIN ends the fit (`improves`).
     """
     from .explicit import is_stalk, period_of_strength, strength_of_period
 
@@ -231,7 +240,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             changed["force_absorbed"] = v["force_absorbed"][to_group]
         return replace(level_tree, **changed)
 
-    best, worse = None, 0
+    best = None
     force = None
     for round_ in range(MOTION_FIT_ROUNDS + 1):
         try:
@@ -239,11 +248,10 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         except InputError:                        # the corrected level diverges: keep the best
             break
         rank = form_rank(list(zip(winds, reports)), level, largest, stalk)
+        gained = best is None or improves(rank, best[0])
         if best is None or rank < best[0]:
-            best, worse = (rank, {k: v.copy() for k, v in values.items()}, round_), 0
-        else:
-            worse += 1
-        if round_ == MOTION_FIT_ROUNDS or worse >= 2 or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
+            best = (rank, {k: v.copy() for k, v in values.items()}, round_)
+        if round_ == MOTION_FIT_ROUNDS or not gained or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
             break
         ax, ay, px, py, a_max = swing_figures(reports)
         kb = values["bend_strength"][to_group]
