@@ -112,6 +112,17 @@ def axiom_lines(modules: list[str]) -> list[str]:
     return lines
 
 
+def _comment_lines(comment: str) -> list[str]:
+    return [f"# {line}".rstrip() for line in comment.split("\n")]
+
+
+def with_header_comment(text: str, header_comment: str) -> str:
+    """``text`` (canonical, as `write_lsys` writes a system without a comment) with
+    ``header_comment`` written first: ``write_lsys(system, header_comment)`` without
+    formatting the system again."""
+    return "\n".join(_comment_lines(header_comment)) + "\n\n" + text
+
+
 def write_lsys(system: LSystem, header_comment: str | None = None) -> str:
     """The canonical text of ``system``, ending in a newline.
 
@@ -121,7 +132,7 @@ def write_lsys(system: LSystem, header_comment: str | None = None) -> str:
     """
     blocks: list[list[str]] = []
     if header_comment is not None:
-        blocks.append([f"# {line}".rstrip() for line in header_comment.split("\n")])
+        blocks.append(_comment_lines(header_comment))
     blocks.append(_header_lines(system))
     blocks.append([f"define {name} = {format_number(value)}" for name, value in system.defines])
     blocks.append([_format_branch(b) for b in system.branches]

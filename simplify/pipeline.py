@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from plantlod.formats.lsys_file import write_lsys
+from plantlod.formats.lsys_file import with_header_comment, write_lsys
 from plantlod.lsys.build import build
 from .constants import CALIBRATION_EVALUATIONS
 from .constants import SIMPLIFY_DT
@@ -101,7 +101,6 @@ class Options:
 class Result:
     """The level-n system, its text (header comment included) and the figures in that header."""
 
-    system: LSystem
     text: str
     original: Tree
     tree: Tree
@@ -109,6 +108,18 @@ class Result:
     summary: Summary
     notes: list[str] = field(default_factory=list)
     largest_angles: list[float] = field(default_factory=list)   # per wind, rad (Runs)
+    comment: str | None = None               # the header comment (`header_comment`)
+    source: str | None = None                # the original's file, for messages
+    _system: LSystem | None = field(default=None, repr=False)
+
+    @property
+    def system(self) -> LSystem:
+        """The level's system, its ``comment`` the header: read from ``text`` when first
+        asked for (an explicit level of thousands of branches takes about a second to read,
+        and the command writes ``text`` only)."""
+        if self._system is None:
+            self._system = replace(parse_lsys(self.text, self.source), comment=self.comment)
+        return self._system
 
 
 def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, source) -> None:
@@ -320,11 +331,11 @@ def simplify_explicit(system: LSystem, options: Options,
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
     notes = _angle_notes(runs.winds, largest)
-    out = parse_lsys(text, system.source)
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
-    out = replace(out, comment=comment)
-    return Result(out, write_lsys(out, comment), original, tree, reports, summary, notes, largest)
+    # the level's text is canonical (what write_lsys writes of it; tests/test_simplify_explicit.py)
+    return Result(with_header_comment(text, comment), original, tree, reports, summary, notes,
+                  largest, comment, system.source)
 
 
 def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
@@ -406,8 +417,8 @@ def simplify_grammar(system: LSystem, options: Options,
     header = header_comment(system, options, reports, summary, form="grammar",
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)
-    text = write_lsys(out, header)
-    return Result(out, text, original, tree, reports, summary, notes, largest)
+    return Result(write_lsys(out, header), original, tree, reports, summary, notes, largest,
+                  header, system.source, out)
 
 
 def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:

@@ -35,6 +35,16 @@ def test_derive_and_simulate_give_the_commands_bytes(stalk):
     assert plantlod.write_angles(angles) == run_cli("simulate", "stalk8.lsys", *RUN, cwd=stalk).stdout
 
 
+@pytest.mark.parametrize("form", ["grammar", "explicit"])
+def test_simplify_gives_the_commands_bytes(stalk, form):
+    """The system the API returns (the explicit form reads it from its text when asked for)
+    writes as the command's output, header comment included."""
+    level = plantlod.simplify(plantlod.read_lsystem("stalk8.lsys"), level=1, form=form)
+    cli_text = run_cli("simplify", "stalk8.lsys", "--level", "1", "--form", form,
+                       "--no-progress", cwd=stalk).stdout
+    assert level.comment and plantlod.write_lsystem(level) == cli_text
+
+
 def test_simplify_and_compare_give_the_commands_bytes(stalk):
     from plantlod.compare.report import dumps
 

@@ -234,13 +234,18 @@ def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
     """explicit_system_text builds its tree from the skeleton's arrays instead of parsing its
     text again: every field must equal the tree built from the text (eigen or basis leaves,
     with and without gain matrices, with swing rolls (family/sympodial-47); the motion fit's
-    corrections included)."""
+    corrections included), and the text is canonical (what `write_lsys` writes of it)."""
     from dataclasses import fields
 
     system, tree = _tree(name)
     text, level = explicit_system_text(tree, merge_levels(tree)[1], name="t",
                                        header=level_header(system), level=1, dt=0.01, gains=gains)
-    parsed = build(parse_lsys(text, "t")).tree
+    parsed_system = parse_lsys(text, "t")
+    # the text is canonical: the pipeline writes it with its header comment as it is
+    from plantlod.formats.lsys_file import with_header_comment, write_lsys
+    assert write_lsys(parsed_system, "a header\n\nof two paragraphs") == \
+        with_header_comment(text, "a header\n\nof two paragraphs")
+    parsed = build(parsed_system).tree
     assert (level.force_gain is not None) == gains
     assert (level.swing_roll is not None) == name.startswith("family/")
     for f in fields(parsed):
