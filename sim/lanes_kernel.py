@@ -66,7 +66,7 @@ def _param_overload(a, i, l0):
     return lambda a, i, l0: load(a, (i, l0))
 
 
-@numba.njit(cache=True, error_model="numpy", parallel=True)
+@numba.njit(cache=True, error_model="numpy", parallel=True, nogil=True)
 def run_lanes_kernel(parent, rest, cos_psi, sin_psi, absorbed, propagated, bend_k, rot_k, drag,
                      leaf_start, leaf_scale, leaf_normal, gain, damp_b, damp_r,
                      bend, rot, bend_vel, rot_vel,

@@ -55,10 +55,11 @@ from .evaluate import Runs, WindCase
 
 
 def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, every: int,
-                damping, simulated: list) -> Callable[[Tree], Runs]:
+                damping, simulated: list | Callable[[], list]) -> Callable[[Tree], Runs]:
     """runs_for(tree): the original's `Runs` in ``winds`` (its runs ``simulated``, an
-    `evaluate.simulate_runs` list) read with ``tree``'s groups, made once per set of level
-    branch addresses, so that a level's fit and its measurement share it."""
+    `evaluate.simulate_runs` list, or a function giving it when first needed) read with
+    ``tree``'s groups, made once per set of level branch addresses, so that a level's fit
+    and its measurement share it."""
     from .targets import group_map
 
     made: dict[tuple[str, ...], Runs] = {}
@@ -68,7 +69,7 @@ def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, ev
         if key not in made:
             made.clear()
             made[key] = Runs(original, group_map(original, tree), winds, dt, steps, every, damping,
-                             simulated=simulated)
+                             simulated=simulated() if callable(simulated) else simulated)
         return made[key]
 
     return runs_for

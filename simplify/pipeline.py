@@ -11,6 +11,7 @@ those figures in the file's header comment.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
@@ -241,24 +242,55 @@ def _bounds_text(reports: list[tuple[WindCase, Report]]) -> str:
             f"tip {_percent(worst('tip_error'))} of the height")
 
 
+class InBackground:
+    """``work()`` run on a daemon thread from the start, its value (or its exception) taken by
+    `result`. The original's runs go there while the level's statics are fitted: the lanes
+    kernel releases the GIL (`plantlod.sim.lanes_kernel`), the static fits call no parallel
+    kernel, and neither reads what the other writes, so the output is the same as in order."""
+
+    def __init__(self, work: Callable[[], object]):
+        self._value, self._error = None, None
+        self._thread = threading.Thread(target=self._run, args=(work,), daemon=True,
+                                        name="plantlod-original-runs")
+        self._thread.start()
+
+    def _run(self, work) -> None:
+        try:
+            self._value = work()
+        except BaseException as exc:          # handed to the caller of result()
+            self._error = exc
+
+    def result(self):
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
+
+
 @dataclass
 class ChainShare:
     """What every explicit level of one tree shares, so that a chain (``--levels``) builds,
     groups and simulates the original once: the original tree, its groupings
     (`grouping.merge_levels`) and its runs in the measurement winds (`Options.winds`, an
-    `evaluate.simulate_runs` list) that each level is fitted to motion and measured against.
+    `evaluate.simulate_runs` list) that each level is fitted to motion and measured against,
+    simulated in the background (`InBackground`; `measure` waits for them).
     The runs are kept as float32 angles (rounding 6e-8 relative; 4,096 branches' 16 runs of
     501 samples take 0.13 GB so)."""
 
     original: Tree
     groupings: list
-    measure: list
+    runs: InBackground
+
+    @property
+    def measure(self) -> list:
+        return self.runs.result()
 
 
 def chain_share(system: LSystem, options: Options, groupings_checked=None,
                 built: tuple[Tree, list] | None = None) -> ChainShare:
-    """Build, check, group and simulate the original of ``system`` once (`ChainShare`).
-    Raises InputError for a tree without branches or one unstable at ``options.dt``.
+    """Build, check, group and simulate the original of ``system`` once (`ChainShare`; the
+    simulation goes on in the background). Raises InputError for a tree without branches or
+    one unstable at ``options.dt``.
     groupings_checked: called with the groupings before the simulation (a caller's own
     checks, so that bad input is refused before the runs are paid for).
     built: (original, groupings) where the caller has them already."""
@@ -273,11 +305,14 @@ def chain_share(system: LSystem, options: Options, groupings_checked=None,
     groupings = merge_levels(original) if built is None else built[1]
     if groupings_checked is not None:
         groupings_checked(groupings)
-    return ChainShare(original, groupings,
-                      [(wind, times, bend.astype(np.float32), rot.astype(np.float32))
-                       for wind, times, bend, rot in simulate_runs(
-                           original, options.winds(), options.dt, options.steps, options.every,
-                           options.damping)])
+
+    def runs() -> list:
+        return [(wind, times, bend.astype(np.float32), rot.astype(np.float32))
+                for wind, times, bend, rot in simulate_runs(
+                    original, options.winds(), options.dt, options.steps, options.every,
+                    options.damping)]
+
+    return ChainShare(original, groupings, InBackground(runs))
 
 
 def simplify_explicit(system: LSystem, options: Options,
@@ -312,7 +347,7 @@ def simplify_explicit(system: LSystem, options: Options,
     original, levels = shared.original, shared.groupings
     last = len(levels) - 1
     runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
-                           options.damping, shared.measure)
+                           options.damping, lambda: shared.measure)
     if progress:
         progress("fitting the explicit form", 0.0)
     header = level_header(system)

@@ -287,3 +287,27 @@ def test_runs_reuse_reports_only_for_the_same_tree(monkeypatch):
     changed = runs.compare(stiffer)
     assert simulated[-1] == 3
     assert [r.to_dict() for r in changed] != [r.to_dict() for r in both]
+
+
+def test_work_in_the_background_hands_back_its_value_or_its_exception():
+    """chain_share simulates the original on a thread while the statics are fitted: result()
+    waits for the value, and an exception raised there (a run that fails) reaches the caller."""
+    import threading
+
+    from plantlod.lsys.errors import RunFailure
+    from plantlod.simplify.pipeline import InBackground
+
+    started = threading.Event()
+
+    def work():
+        started.set()
+        return [k * k for k in range(5)]
+
+    job = InBackground(work)
+    assert started.wait(10) and job.result() == [0, 1, 4, 9, 16]
+
+    def fails():
+        raise RunFailure("diverged at t = 1 s")
+
+    with pytest.raises(RunFailure, match="diverged at t = 1 s"):
+        InBackground(fails).result()
