@@ -87,7 +87,11 @@ ROLL_CANDIDATES = (0.0, -45.0, -30.0, -15.0, 15.0, 30.0)   # degrees tried, 0 (u
 ROLL_MIN = 5.0                # degrees: groups whose members' mean roll is smaller are left unrolled
 ROLL_GAIN = 0.1               # a roll is kept only where it lowers the search cost by this fraction
 ROLL_MIXED_PERIODS = 1.002    # only groups whose swing periods spread by more than this ratio
-STRENGTH_MISMATCH_WEIGHT = 4.0  # explicit groupings: a merge's size counts x (1 + this x (period gap + turn))
+STRENGTH_MISMATCH_WEIGHT = (8.0, 16.0)  # explicit groupings: a merge's size counts x (1 + W x period gap
+                              # + W_t x turn), W the first entry while level 1 is merged, the
+                              # second for every level after it (family seeds 0-199, cases within
+                              # targets at levels 1 / 2: W = 4 2740 / 2626, 8 2767 / 2691,
+                              # 16 2729 / 2768, (8, 16) 2767 / 2762)
 FRAME_TURN_WEIGHT = 4.0      # ... and x (1 + this x the turn it gives level branches; simplify/grouping.py)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 

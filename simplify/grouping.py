@@ -20,9 +20,10 @@ group rooted at u costs
   of its largest diagonal and largest off-diagonal entry), and Δturn is that sum after the
   merge less before it (`FrameTurns`).
 
-W = STRENGTH_MISMATCH_WEIGHT, W_t = FRAME_TURN_WEIGHT. Merge costs change as neighbours merge; a popped merge whose
-cost has risen is pushed back with its new cost (lazy greedy), so the cheapest merge under
-the current groups is taken. Deterministic: ties go to the lower branch index.
+W = STRENGTH_MISMATCH_WEIGHT (one weight while level 1 is merged and a larger one for the
+levels after it, as measured on the generated family; constants.py), W_t = FRAME_TURN_WEIGHT.
+Merge costs change as neighbours merge; a popped merge whose cost has risen is pushed back
+with its new cost (lazy greedy), so the cheapest merge under the current groups is taken. Deterministic: ties go to the lower branch index.
 """
 
 from __future__ import annotations
@@ -196,11 +197,12 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             d = turns.chord(c, end[c])
             before += turns.cost(c, d, old_r)
             after += turns.cost(c, d, new_u)
-        return max(MIN_MERGE_FACTOR, 1.0 + STRENGTH_MISMATCH_WEIGHT * apart(r, u)
+        return max(MIN_MERGE_FACTOR, 1.0 + weight * apart(r, u)
                    + FRAME_TURN_WEIGHT * (after - before))
 
     roots_left = set(range(b))
     while True:
+        weight = STRENGTH_MISMATCH_WEIGHT[min(len(levels), len(STRENGTH_MISMATCH_WEIGHT)) - 1]
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = sorted(r for r in roots_left if parent[r] >= 0)
