@@ -92,7 +92,9 @@ STRENGTH_MISMATCH_WEIGHT = (8.0, 16.0)  # explicit groupings: a merge's size cou
                               # second for every level after it (family seeds 0-199, cases within
                               # targets at levels 1 / 2: W = 4 2740 / 2626, 8 2767 / 2691,
                               # 16 2729 / 2768, (8, 16) 2767 / 2762)
-FRAME_TURN_WEIGHT = 8.0      # ... and x (1 + this x the turn it gives level branches; simplify/grouping.py)
+FRAME_TURN_WEIGHT = 8.0      # ... and x (1 + this x the turn it gives level branches; simplify/grouping.py;
+                             # family tuning range with W as above, levels 1 / 2: W_t = 4 2767 / 2762,
+                             # 8 2835 / 2769, 16 2832 / 2770)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
