@@ -300,7 +300,7 @@ class Report:
 
 
 def component_figures(t: np.ndarray, bend: np.ndarray, rot: np.ndarray
-                        ) -> tuple[np.ndarray, np.ndarray]:
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """(amplitudes, periods), each (2, G) (row 0 bend, row 1 rotation; rad and s), of the
     angles bend, rot (K, G) sampled at t (K,): `amplitude` and `period` of each column."""
     return (np.stack([amplitude(bend), amplitude(rot)]),
