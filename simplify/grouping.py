@@ -23,7 +23,8 @@ group rooted at u costs
 W = STRENGTH_MISMATCH_WEIGHT (one weight while level 1 is merged and a larger one for the
 levels after it, as measured on the generated family; constants.py), W_t = FRAME_TURN_WEIGHT.
 Merge costs change as neighbours merge; a popped merge whose cost has risen is pushed back
-with its new cost (lazy greedy), so the cheapest merge under the current groups is taken. Deterministic: ties go to the lower branch index.
+with its new cost (lazy greedy), so the cheapest merge under the current groups is taken.
+Deterministic: ties go to the lower branch index.
 """
 
 from __future__ import annotations
