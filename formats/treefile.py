@@ -388,8 +388,6 @@ def _read(lines: _Lines) -> Tree:
                          f"{real_depth}", "depth")
     if "gain" in extras:
         branches["force_gain"] = branches.pop("gain").reshape(n_branches, 6)
-    if "swing_roll" in extras:
-        branches["swing_roll"] = branches["swing_roll"].reshape(n_branches)
     tree = Tree(**branches, **leaves, leaf_force_scale=leaf_force_scale, source=origin)
     tree.check()
     return tree

@@ -405,7 +405,7 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
     that component's strength goes with it (a chord turned by 90° about its axis swaps
     them). Where C mixes them (both a diagonal and an off-diagonal entry above
     MIXED_CARRY), a bend and a rotation of different periods beat in every W_0 component,
-    so the pair is searched (`_searched_strengths`) whose beat reads closest to the group's
+    so the pair is searched (`searched_strengths`) whose beat reads closest to the group's
     periods in every direction.
     """
     c = np.abs(carry)
@@ -418,12 +418,12 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
     search = np.flatnonzero(mixed | same)
     if search.size:
         a_max = swing.amplitudes.max(axis=(0, 1))                           # (D,) A_max per wind
-        own[search] = _searched_strengths(swing.take(search), carry[search], a_max, dt,
+        own[search] = searched_strengths(swing.take(search), carry[search], a_max, dt,
                                           duration, damping_ratio)
     return own[:, 0].copy(), own[:, 1].copy()
 
 
-def _searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, dt: float,
+def searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, dt: float,
                         duration: float, damping_ratio: float, costs: bool = False):
     """(n, 2) own strengths of n chords whose carry maps mix bend and rotation (and with
     ``costs`` their (n,) costs below at those strengths, 0 where nothing swings).

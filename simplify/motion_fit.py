@@ -95,7 +95,10 @@ def measurement_runs_for(original: Tree, dt: float, duration: float,
 
 def fit_wind_forces(tree: Tree, winds: list[WindCase]) -> np.ndarray:
     """(W, S, 3) N: each branch's total rest force in its rest swing frame in each wind
-    (model.md 4 at rest: v F^L + v² F^D, `static.static_parts`)."""
+    (model.md 4 at rest: v F^L + v² F^D, `static.static_parts`). The directions are cos and
+    sin of the azimuth, where the runs blow `sim.wind.wind_from_speed`'s exact axis vectors;
+    using those moves the fitted gains in their last digits (every level file's bytes), so it
+    waits for a change that re-measures the family."""
     from .static import rest_frames, static_parts
 
     frames = rest_frames(tree)

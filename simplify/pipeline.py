@@ -246,7 +246,9 @@ class InBackground:
     """``work()`` run on a daemon thread from the start, its value (or its exception) taken by
     `result`. The original's runs go there while the level's statics are fitted: the lanes
     kernel releases the GIL (`plantlod.sim.lanes_kernel`), the static fits call no parallel
-    kernel, and neither reads what the other writes, so the output is the same as in order."""
+    kernel, and neither reads what the other writes, so the output is the same as in order.
+    A daemon thread, not a `concurrent.futures` pool: a pool's worker is joined at exit, so a
+    refused input or a signal would wait for the runs to end before the command exits."""
 
     def __init__(self, work: Callable[[], object]):
         self._value, self._error = None, None

@@ -12,7 +12,7 @@ cannot mix them the same way; turned by β about its axis, it reads C Rz(β) θ'
 For each group that swings with mixed periods (ROLL_MIXED_PERIODS) and whose members' mean
 roll (`member_rolls`) lies at least ROLL_MIN away from the branch's own, β is chosen from
 ROLL_CANDIDATES (a quarter turn: a quarter turn more swings the same with the two strengths
-swapped) and the members' mean roll itself, by the cost of `explicit._searched_strengths`
+swapped) and the members' mean roll itself, by the cost of `explicit.searched_strengths`
 (the group's swing model in every direction, model.md 6's measures against level 1's
 bounds); β = 0 is kept unless another costs less by ROLL_GAIN. Root groups are left unrolled:
 the swing model superposes members that each swing from rest, which is weakest for a trunk
@@ -65,7 +65,7 @@ def swing_rolls(original: Tree, paths: list[np.ndarray], turn: np.ndarray, swing
     the same order. Degrees, so that the value written to the file reads back as the radians
     used here, np.radians(β): every candidate is a whole number of degrees.
     """
-    from .explicit import _searched_strengths
+    from .explicit import searched_strengths
 
     out = np.zeros(len(paths))
     swinging = (swing.amplitudes > 0) & np.isfinite(swing.periods)          # (S, 2, D)
@@ -92,7 +92,7 @@ def swing_rolls(original: Tree, paths: list[np.ndarray], turn: np.ndarray, swing
     n, r = degrees.shape
     turns = turn[mixed][:, None] @ rot_z(np.radians(degrees))               # (n, R, 3, 3)
     a_max = swing.amplitudes.max(axis=(0, 1))
-    _, cost = _searched_strengths(swing.take(np.repeat(mixed, r)),
+    _, cost = searched_strengths(swing.take(np.repeat(mixed, r)),
                                   carry_matrix(turns.reshape(-1, 3, 3)), a_max, dt, duration,
                                   damping_ratio, costs=True)
     cost = cost.reshape(n, r)

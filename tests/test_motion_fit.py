@@ -13,7 +13,7 @@ import pytest
 from plantlod.compare.groups import carry_matrix, swing_turns
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
-from plantlod.simplify.explicit import (GroupSwing, _searched_strengths, explicit_system_text,
+from plantlod.simplify.explicit import (GroupSwing, searched_strengths, explicit_system_text,
                                         level_header, period_of_strength, strength_of_period)
 from plantlod.simplify.grouping import FrameTurns, _carry_mixing, merge_levels
 from plantlod.simplify.motion_fit import own_corrections
@@ -45,7 +45,7 @@ def test_the_search_swaps_strengths_for_a_chord_turned_by_a_right_angle():
     d = np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
     statics = np.stack([0.3 * np.cos(d), 0.5 * np.sin(d)])
     swing = _swing((4.2, 3.6), statics)
-    best = _searched_strengths(swing, _rotation(math.pi / 2), np.abs(statics).max(axis=0), DT, 20.0, 0.0)
+    best = searched_strengths(swing, _rotation(math.pi / 2), np.abs(statics).max(axis=0), DT, 20.0, 0.0)
     p = period_of_strength(best[0], DT)
     assert p[0] == pytest.approx(3.6, rel=0.005) and p[1] == pytest.approx(4.2, rel=0.005)
 
@@ -61,7 +61,7 @@ def test_the_searched_pair_scores_no_worse_than_the_tied_one():
     swing = _swing((4.2, 3.6), statics)
     carry = _rotation(math.radians(30))
     a_max = np.abs(statics).max(axis=0)
-    best = _searched_strengths(swing, carry, a_max, DT, 20.0, 0.0)[0]
+    best = searched_strengths(swing, carry, a_max, DT, 20.0, 0.0)[0]
     t = np.arange(2001)[::4] * DT
     own = np.linalg.solve(carry[0], statics)                               # (m, D)
 
