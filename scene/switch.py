@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from plantlod.lsys.tree import Tree
-from plantlod.compare.groups import carry_angles, combined_angles, main_paths, swing_turns
+from plantlod.compare.groups import (carry_angles, carry_matrix, combined_angles, main_paths,
+                                     path_rotations, swing_turns)
 from plantlod.simplify.static import rest_frames, static_angles, static_parts
 
 from .constants import SHARE_FLOOR
@@ -41,6 +42,7 @@ class Transfer:
         self._paths: dict[int, list[np.ndarray]] = {}
         self._turn: dict[int, np.ndarray] = {}
         self._frames: dict[int, object] = {}
+        self._carry: dict[int, np.ndarray] = {}
 
     def paths(self, level: int) -> list[np.ndarray]:
         if level not in self._paths:
@@ -102,7 +104,10 @@ class Transfer:
 
     def _shares(self, level: int, wind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Static (θb, θr) (B0,) of the original under ``wind``; per group and component, a
-        deflection too small to share by (or none: calm) is replaced by 1 on the main path."""
+        main-path deflection too small to share by (or none: calm) is replaced, on the main
+        path, by the diagonal entry of each member's carry map (1 where its frame is W_0's,
+        -1 where it is turned half round, so that members add up in W_0 and never cancel),
+        and by 0 elsewhere in the group."""
         wind = np.asarray(wind, dtype=np.float64)
         speed = float(np.linalg.norm(wind))
         b0 = self.original.n_branches
@@ -116,15 +121,27 @@ class Transfer:
         groups = self.groups[level]
         inside = groups >= 0
         paths = self.paths(level)
-        for s in (sb, sr):
+        on_path = np.concatenate(paths) if paths else np.zeros(0, dtype=np.int64)
+        path_group = np.repeat(np.arange(len(paths)), [len(p) for p in paths])
+        carried = self._path_carry(level)                                   # (M, 2, 2)
+        for s, own in ((sb, carried[:, 0, 0]), (sr, carried[:, 1, 1])):
+            # judged on the main path, which the combined angle reads (a group whose side
+            # members alone deflect would share nothing back)
             size = np.zeros(self.trees[level].n_branches)
-            np.maximum.at(size, groups[inside], np.abs(s[inside]))
+            np.maximum.at(size, path_group, np.abs(s[on_path]))
             largest = float(np.abs(s).max()) if b0 else 0.0
             flat = (size <= SHARE_FLOOR * largest) | (size == 0.0)          # (G,)
             s[inside & flat[np.where(inside, groups, 0)]] = 0.0
-            for g in np.flatnonzero(flat).tolist():
-                s[paths[g]] = 1.0
+            fill = flat[path_group]
+            s[on_path[fill]] = own[fill]
         return sb, sr
+
+    def _path_carry(self, level: int) -> np.ndarray:
+        """(M, 2, 2) carry maps of the main-path members of level ``level`` into their group
+        roots' frames, in path order (`groups.carry_matrix` of `groups.path_rotations`)."""
+        if level not in self._carry:
+            self._carry[level] = carry_matrix(path_rotations(self.original, self.paths(level)))
+        return self._carry[level]
 
 
     def predicted(self, level: int, history: np.ndarray, dt: float) -> np.ndarray | None:

@@ -77,3 +77,28 @@ def test_coarse_to_fine_shares_by_static_deflection(chains):
     for g in range(state.shape[1]):
         members = np.flatnonzero(chain.groups[level] == g)
         np.testing.assert_allclose(calm[0, members], state[0, g] / len(members), rtol=1e-12)
+
+
+def test_members_turned_half_round_share_a_calm_state_without_cancelling():
+    """A group of two segments, the second turned half round (ψ = π after a `-` turn): in W_0
+    its angles count with the opposite sign (model.md 5), so equal calm shares would cancel
+    and the state would come back as 0. Shares carried into W_0 give it back."""
+    from plantlod.lsys.build import build
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.simplify.explicit import explicit_system_text, level_header
+    from plantlod.simplify.grouping import Grouping
+
+    text = ("name: rolled pair\nderivation_length: 0\nbranching_angle: 30\nrotation_angle: 90\n"
+            "force_absorbed: 0.002\nforce_propagated: 0.7\ndrag_coefficient: 0.0015\n"
+            "branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=30\n"
+            "leaf L: area=0.01\naxiom: F -(5) F L\n")
+    system = parse_lsys(text, "pair.lsys")
+    original = build(system).tree
+    grouping = Grouping(np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64))
+    _, level = explicit_system_text(original, grouping, name="t", header=level_header(system),
+                                    level=1, dt=0.01, motion=False, refine=False)
+    transfer = Transfer([original, level], [np.arange(2), np.zeros(2, dtype=np.int64)])
+    state = np.array([[0.01], [-0.02], [0.03], [0.005]])
+    full = transfer.carry(1, 0, state, np.zeros(3))
+    assert full[0, 0] == pytest.approx(-full[0, 1])              # equal in W_0: opposite own angles
+    np.testing.assert_allclose(transfer.carry(0, 1, full, np.zeros(3)), state, rtol=1e-12)
