@@ -117,10 +117,11 @@ def test_hysteresis_stops_a_tree_at_a_boundary_from_flickering(tmp_path):
 
 
 def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_path, chains):
-    # the camera drives away: trees switch coarser as it goes, their state carried
+    # the camera drives away: trees switch coarser as it goes, their state carried (8 switches
+    # since twin_draw's levels keep their tips within 2 cm at 5 m/s, 10 when they missed by 8 cm)
     scene = _keyed_scene(tmp_path, [(0.0, -22.0), (3.0, -150.0)], duration=3.0)
     report = run_scene(scene, cache=chains, verify=True)
-    assert report["camera"] == "keyed" and report["switches"] >= 10
+    assert report["camera"] == "keyed" and report["switches"] >= 5
     levels = report["_levels"]
     assert levels.shape == (13, 100) and len(np.unique(levels)) >= 3   # 3 steps a frame
     assert np.all(np.diff(levels.astype(int), axis=1) >= 0)            # only ever coarser
