@@ -10,7 +10,9 @@ group rooted at u costs
 
 - ``size``: smallest first, so groups grow evenly from the tips toward the trunk;
 - ``apart``: how far r's bend and rotation periods are from the W_0 components of u they
-  land on (one level branch has one period per W_0 component, model.md 6; `PeriodGap`);
+  land on (one level branch has one period per W_0 component, model.md 6; `PeriodGap`),
+  where r joins u's main path; 0 where r goes beside it (its members then leave the
+  combined angle, and nothing of theirs is measured);
 - ``Δturn``: how much the merge turns level branches against their group roots' frames.
   A level branch's swing frame is fixed by its chord and its parent's chord (model.md 3: x in
   their plane), so a merge that moves u's chord turns u's branch and every group hanging from
@@ -305,7 +307,10 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         missed = 0.0
         if tip_weight > 0:
             missed = tip_miss(u, r, path) - tip_miss(u) - tip_miss(r)
-        return max(MIN_MERGE_FACTOR, 1.0 + weight * apart(r, u)
+        # a group merged beside u's main path leaves the measures (model.md 6 reads main
+        # paths): its periods beat against nothing
+        gap = apart(r, u) if path[-1] != end[u] else 0.0
+        return max(MIN_MERGE_FACTOR, 1.0 + weight * gap
                    + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
 
     from .explicit import is_stalk

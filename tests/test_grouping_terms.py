@@ -1,7 +1,8 @@
-"""The grouping's tip-miss term (simplify/grouping.py, `TipMisses`): its linear-statics estimate
-checked against the kinematics of model.md 3 (a rigid chord turned by its members' summed
-rotation, against the members posed one by one), and its effect on a family tree measured by
-simulation."""
+"""Terms of the explicit grouping's merge cost (simplify/grouping.py). The tip miss
+(`TipMisses`): its linear-statics estimate checked against the kinematics of model.md 3 (a
+rigid chord turned by its members' summed rotation, against the members posed one by one), and
+its effect on a family tree measured by simulation. The period gap: nothing for a group merged
+beside a main path."""
 
 from __future__ import annotations
 
@@ -126,3 +127,28 @@ def test_a_monopodial_level_keeps_its_tips(tmp_path):
     winds = [WindCase(10.0, 0.0), WindCase(10.0, 90.0)]
     reports = Runs(original, group_map(original, level), winds, 0.01, 2000, 4).compare(level)
     assert max(r.tip_error for r in reports) <= 0.01
+
+
+def test_a_twig_of_other_strengths_merges_beside_the_main_path():
+    """A twig beside a main path leaves the measures when merged (model.md 6 reads main
+    paths), so its strengths, three times the trunk's, cost it nothing there: level 1 takes
+    the upper twig in beside the trunk segments it hangs from, whose main path stays the
+    straight trunk. (With the period gap counted, level 1 merged the trunk's four segments
+    into one chord and left both twigs alone.)"""
+    from plantlod.compare.groups import main_paths
+    from plantlod.simplify.grouping import merge_levels
+
+    text = ("name: twig\nderivation_length: 0\nbranching_angle: 60\nrotation_angle: 90\n"
+            "force_absorbed: 0.002\nforce_propagated: 0.7\ndrag_coefficient: 0.0015\n"
+            "branch T: length=0.5 radius=0.02 bend_strength=20 rotation_strength=20\n"
+            "branch S: length=0.2 radius=0.005 bend_strength=60 rotation_strength=60\n"
+            "leaf L: area=0.01\naxiom: T T [&(60) S L] T [&(60) S L] T L\n")
+    tree = build(parse_lsys(text, "twig.lsys")).tree
+    twigs = np.flatnonzero(np.asarray(tree.bend_strength) == 60).tolist()
+    trunk = [i for i in range(tree.n_branches) if i not in twigs]
+    level = merge_levels(tree)[1]
+    upper = twigs[1]
+    parent = int(tree.parent[upper])
+    assert level.group[upper] == level.group[parent]
+    path = main_paths(tree, level.group, level.count)[level.group[upper]].tolist()
+    assert upper not in path and path == [i for i in trunk if level.group[i] == level.group[parent]]
