@@ -6,9 +6,11 @@ connected, nested level in level, and the chain ends with one group per root bra
 (Beaudoin & Keyser 2004 merge from the tips too). A merge of the group rooted at r into the
 group rooted at u costs
 
-    (size_r + size_u) · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_t Δturn + W_m Δmiss)
+    size · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_t Δturn + W_m Δmiss)
 
-- ``size``: smallest first, so groups grow evenly from the tips toward the trunk;
+- ``size``: size_r + size_u, smallest first, so groups grow evenly from the tips toward the
+  trunk; size_r alone where r goes beside u's main path (u's level branch stays as it was, and
+  r's members leave the measures: twigs go first, as LOD prunes them);
 - ``apart``: how far r's bend and rotation periods are from the W_0 components of u they
   land on (one level branch has one period per W_0 component, model.md 6; `PeriodGap`),
   where r joins u's main path; 0 where r goes beside it (its members then leave the
@@ -33,8 +35,11 @@ group rooted at u costs
 W = STRENGTH_MISMATCH_WEIGHT (one weight while level 1 is merged and a larger one for the
 levels after it, as measured on the generated family; constants.py), W_t = FRAME_TURN_WEIGHT,
 W_m = TIP_MISS_WEIGHT (likewise a pair).
-Merge costs change as neighbours merge; a popped merge whose cost has risen is pushed back
-with its new cost (lazy greedy), so the cheapest merge under the current groups is taken.
+Merge costs change as neighbours merge. After each merge the merges into the merged group
+and of it are pushed again with their new costs (a twig becomes a side merge once its
+branch's continuation has joined), and a popped merge whose cost has risen since it was
+pushed goes back with its new cost (lazy greedy), so the cheapest merge under the current
+groups is taken.
 Deterministic: ties go to the lower branch index.
 """
 
@@ -165,13 +170,19 @@ class TipMisses:
                                      SIMPLIFY_WIND_RANGE[1], frames)     # (2, B)
         omega = (bend[:, :, None] * frames.swing[None, :, :, 1]
                  - rot[:, :, None] * frames.swing[None, :, :, 0])        # (2, B, 3)
+        # running sums from the root down, per wind: A_i = Σ ω_j and X_i = Σ ω_j × base_j over
+        # i and its ancestors, so that sums along a group's chains are differences
+        base = frames.base
         turned = omega.copy()
+        crossed = np.cross(omega, base[None])
         for i, p in enumerate(parent):
             if p >= 0:
                 turned[:, i] += turned[:, p]
+                crossed[:, i] += crossed[:, p]
         most = float(np.sqrt((turned ** 2).sum(axis=2)).max(initial=0.0))
-        self.omega = omega.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
-        self.base = frames.base.tolist()
+        self.turned = turned.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
+        self.crossed = crossed.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
+        self.base = base.tolist()
         self.tip = frames.tip.tolist()
         reach = [0.0] * len(parent)
         for i in range(len(parent) - 1, -1, -1):                         # children after parents
@@ -183,37 +194,34 @@ class TipMisses:
         self.parent = parent
         self.scale = 0.0 if most == 0 else min(1.0, 0.5 * SMALL_ANGLE_LIMIT / most)
 
-    def miss(self, root: int, path: list[int], members, hanging) -> float:
-        """miss(root's group) in metres times ``scale``: path its main path (root first),
-        members(i) whether branch i is in the group, hanging its child groups' roots."""
-        om = self.omega
-        summed = [0.0] * 6
-        offset = [0.0] * 6                          # Σ ω_j × (base_j - base_g), both winds
+    def miss(self, root: int, end: int, hanging) -> float:
+        """miss(g) in metres times ``scale`` for the group rooted at ``root`` whose main path
+        ends at ``end``, with child groups rooted at ``hanging``. Groups are connected, so the
+        members from the root to any member m are m's ancestors below the root's parent q:
+        ω_P = A_end - A_q, Σ_{j in P} ω_j × base_j = X_end - X_q, and the rotation a group
+        hanging from m misses is ω_P - (A_m - A_q) = A_end - A_m."""
+        q = self.parent[root]
+        a_end, x_end = self.turned[end], self.crossed[end]
+        a_q = self.turned[q] if q >= 0 else (0.0,) * 6
+        x_q = self.crossed[q] if q >= 0 else (0.0,) * 6
         b0 = self.base[root]
-        for j in path:
-            w = om[j]
-            r = [self.base[j][0] - b0[0], self.base[j][1] - b0[1], self.base[j][2] - b0[2]]
-            for k in (0, 3):
-                offset[k] += w[k + 1] * r[2] - w[k + 2] * r[1]
-                offset[k + 1] += w[k + 2] * r[0] - w[k] * r[2]
-                offset[k + 2] += w[k] * r[1] - w[k + 1] * r[0]
-                summed[k] += w[k]
-                summed[k + 1] += w[k + 1]
-                summed[k + 2] += w[k + 2]
+        offset = 0.0                                # |Σ ω_j × (base_j - base_g)|², both winds
+        for k in (0, 3):
+            w0, w1, w2 = a_end[k] - a_q[k], a_end[k + 1] - a_q[k + 1], a_end[k + 2] - a_q[k + 2]
+            c0 = x_end[k] - x_q[k] - (w1 * b0[2] - w2 * b0[1])
+            c1 = x_end[k + 1] - x_q[k + 1] - (w2 * b0[0] - w0 * b0[2])
+            c2 = x_end[k + 2] - x_q[k + 2] - (w0 * b0[1] - w1 * b0[0])
+            offset += c0 * c0 + c1 * c1 + c2 * c2
         worst = 0.0
         for c in hanging:
             m = self.parent[c]
-            felt = [0.0] * 6
-            j = m
-            while j >= 0 and members(j):
-                w = om[j]
-                for k in range(6):
-                    felt[k] += w[k]
-                j = self.parent[j]
-            lever = math.dist(self.tip[m], b0) + self.reach[c]
-            d = math.sqrt(sum((summed[k] - felt[k]) ** 2 for k in range(6)))
-            worst = max(worst, d * lever)
-        return self.scale * (math.sqrt(sum(x * x for x in offset)) + worst)
+            a_m = self.turned[m]
+            d0, d1, d2 = a_end[0] - a_m[0], a_end[1] - a_m[1], a_end[2] - a_m[2]
+            d3, d4, d5 = a_end[3] - a_m[3], a_end[4] - a_m[4], a_end[5] - a_m[5]
+            d = d0 * d0 + d1 * d1 + d2 * d2 + d3 * d3 + d4 * d4 + d5 * d5
+            if d > 0.0:
+                worst = max(worst, math.sqrt(d) * (math.dist(self.tip[m], b0) + self.reach[c]))
+        return self.scale * (math.sqrt(offset) + worst)
 
 
 def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
@@ -258,12 +266,21 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             i = owner[i]
         return i
 
+    chords: dict[int, tuple[int, tuple[float, float, float]]] = {}
+
+    def chord_of(g: int) -> tuple[float, float, float]:
+        """Group g's chord direction (`FrameTurns.chord`), kept until g changes."""
+        known = chords.get(g)
+        if known is None or known[0] != version[g]:
+            known = (version[g], turns.chord(g, end[g]))
+            chords[g] = known
+        return known[1]
+
     def up_axis(u: int):
         p = parent[u]
         if p < 0:
             return (0.0, 0.0, 1.0)
-        g = find(p)
-        return turns.chord(g, end[g])
+        return chord_of(find(p))
 
     def path_of(u: int, extra: int = -1) -> list[int]:
         """u's main path, with group ``extra`` merged into it (its end is the group tip)."""
@@ -282,36 +299,38 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         if key not in miss_cache:
             hang = hanging[u] if extra < 0 else (hanging[u] - {extra}) | hanging[extra]
             miss_cache[key] = misses.miss(
-                u, path_of(u, extra) if path is None else path,
-                lambda j: find(j) == u or (extra >= 0 and find(j) == extra), hang)
+                u, (path_of(u, extra) if path is None else path)[-1], hang)
         return miss_cache[key] / tip_bound
 
-    def cost(r: int, u: int) -> float:
-        """The merge's cost factor (module docstring)."""
-        old_u = turns.chord(u, end[u])
-        old_r = turns.chord(r, end[r])
+    def merge_key(r: int, u: int) -> float:
+        """The merge's cost (module docstring): its size times its factor."""
+        old_u = chord_of(u)
+        old_r = chord_of(r)
         path = path_of(u, r)
-        new_u = turns.chord(u, path[-1])
+        beside = path[-1] == end[u]              # u's main path stays as it is
+        new_u = old_u if beside else turns.chord(u, path[-1])
         axis_u = up_axis(u)
         before = turns.cost(u, old_u, axis_u) + turns.cost(r, old_r, old_u)
         after = turns.cost(u, new_u, axis_u)
-        for c in hanging[u]:
-            if c != r:
-                d = turns.chord(c, end[c])
-                before += turns.cost(c, d, old_u)
-                after += turns.cost(c, d, new_u)
+        if not beside:                           # (beside, u's other groups keep their turn)
+            for c in hanging[u]:
+                if c != r:
+                    d = chord_of(c)
+                    before += turns.cost(c, d, old_u)
+                    after += turns.cost(c, d, new_u)
         for c in hanging[r]:
-            d = turns.chord(c, end[c])
+            d = chord_of(c)
             before += turns.cost(c, d, old_r)
             after += turns.cost(c, d, new_u)
         missed = 0.0
         if tip_weight > 0:
             missed = tip_miss(u, r, path) - tip_miss(u) - tip_miss(r)
         # a group merged beside u's main path leaves the measures (model.md 6 reads main
-        # paths): its periods beat against nothing
-        gap = apart(r, u) if path[-1] != end[u] else 0.0
-        return max(MIN_MERGE_FACTOR, 1.0 + weight * gap
-                   + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
+        # paths): its periods beat against nothing, and u's level branch stays as it was
+        gap = 0.0 if beside else apart(r, u)
+        factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap
+                     + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
+        return (size[r] if beside else size[r] + size[u]) * factor
 
     from .explicit import is_stalk
     stalk = is_stalk(tree)
@@ -332,14 +351,14 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         heap = []
         for r in mergeable:
             u = find(parent[r])
-            heap.append(((size[r] + size[u]) * cost(r, u), r))
+            heap.append((merge_key(r, u), r))
         heapq.heapify(heap)
         while heap and len(roots_left) > max(target, 1):
             key, r = heapq.heappop(heap)
             if r not in roots_left:
                 continue
             u = find(parent[r])
-            now = (size[r] + size[u]) * cost(r, u)
+            now = merge_key(r, u)
             if now > key * (1.0 + 1e-12) and heap and now > heap[0][0]:
                 heapq.heappush(heap, (now, r))        # dearer than when pushed: wait its turn
                 continue
@@ -350,6 +369,10 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             hanging[u] = (hanging[u] - {r}) | hanging[r]
             roots_left.discard(r)
             version[u] += 1
+            # the merges into u and of u have new costs; cheaper ones are pushed again
+            # (the heap keeps the old entries, checked when popped)
+            for c in sorted(hanging[u]) + ([u] if parent[u] >= 0 else []):
+                heapq.heappush(heap, (merge_key(c, find(parent[c])), c))
         group_root = np.array([find(i) for i in range(b)], dtype=np.int64)
         roots = np.array(sorted(roots_left), dtype=np.int64)
         number = np.full(b, -1, dtype=np.int64)

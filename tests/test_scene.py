@@ -78,9 +78,11 @@ def chains(tmp_path_factory):
     return tmp_path_factory.mktemp("chains")
 
 
-def _keyed_scene(tmp_path, keys, duration=2.0):
+def _keyed_scene(tmp_path, keys, duration=2.0, budget_px=None):
     body = BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "").replace(
         "duration = 2", f"duration = {duration}")
+    if budget_px is not None:
+        body = f"budget_px = {budget_px}\n" + body
     for t, y in keys:
         body += f"[[camera.key]]\nt = {t}\nposition = [0, {y}, 1.7]\ntarget = [0, 0, 1.7]\n"
     return read_scene(_scene(tmp_path, body, "keyed.toml"))
@@ -117,11 +119,12 @@ def test_hysteresis_stops_a_tree_at_a_boundary_from_flickering(tmp_path):
 
 
 def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_path, chains):
-    # the camera drives away: trees switch coarser as it goes, their state carried (8 switches
-    # since twin_draw's levels keep their tips within 2 cm at 5 m/s, 10 when they missed by 8 cm)
-    scene = _keyed_scene(tmp_path, [(0.0, -22.0), (3.0, -150.0)], duration=3.0)
+    # the camera drives away: trees switch coarser as it goes, their state carried. A 0.1 px
+    # budget: twin_draw's levels keep their tips within 1 cm at 5 m/s (8 cm before session 12),
+    # so at 1 px its trees start at their coarsest level and hardly switch
+    scene = _keyed_scene(tmp_path, [(0.0, -22.0), (3.0, -150.0)], duration=3.0, budget_px=0.1)
     report = run_scene(scene, cache=chains, verify=True)
-    assert report["camera"] == "keyed" and report["switches"] >= 5
+    assert report["camera"] == "keyed" and report["switches"] >= 10
     levels = report["_levels"]
     assert levels.shape == (13, 100) and len(np.unique(levels)) >= 3   # 3 steps a frame
     assert np.all(np.diff(levels.astype(int), axis=1) >= 0)            # only ever coarser
@@ -132,8 +135,10 @@ def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_
 def test_a_camera_driving_in_switches_finer_and_stays_within_budget(tmp_path, chains):
     """Coming nearer, trees go finer as their level passes the budget (two_way_schedule); the
     finer level's state is predicted from the wind history, so the verified error stays
-    within the budget and the speed-up is the bound's (no hysteresis on the way in)."""
-    scene = _keyed_scene(tmp_path, [(0.0, -150.0), (3.0, -22.0)], duration=3.0)
+    within the budget and the speed-up is the bound's (no hysteresis on the way in). A 0.2 px
+    budget, for switches with twin_draw's accurate levels; at 0.1 px the verified error is
+    0.1015 px (the first-order prediction's own error shows at that scale)."""
+    scene = _keyed_scene(tmp_path, [(0.0, -150.0), (3.0, -22.0)], duration=3.0, budget_px=0.2)
     report = run_scene(scene, cache=chains, verify=True)
     levels = report["_levels"]
     assert report["switches"] >= 5 and np.any(np.diff(levels.astype(int), axis=1) < 0)
