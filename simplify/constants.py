@@ -99,7 +99,9 @@ FRAME_TURN_WEIGHT = 8.0      # ... and x (1 + this x the turn it gives level bra
                              # 8 2835 / 2769, 16 2832 / 2770)
 TIP_MISS_WEIGHT = (1.0, 4.0)  # ... and x (1 + this x the tip miss it adds, in tip bounds; `grouping.TipMisses`),
                               # the first entry at level 1 (family tuning range, levels 1 / 2: without
-                              # it 2835/3731 / 2769/3595, with (1, 4) 3002/3832 / 2990/3719)
+                              # it 2835/3731 / 2769/3595, with (1, 4) 3002/3832 / 2990/3719; once merges
+                              # were re-pushed (grouping.py), (2, 4) 3239/3865 / 3309/3794 against
+                              # (1, 4) 3270/3865 / 3320/3790)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
