@@ -59,9 +59,10 @@ SMALL_ANGLE_LIMIT = 0.1       # rad: the bounds apply while the original's combi
 EXPLICIT_REFINE_FLOOR = 1.0
 EXPLICIT_REFINE_PRIOR = 0.03
 EXPLICIT_REFINE_EVALUATIONS = 30    # 100 before the gain matrix: same passes on the eval trees, 3-4x the time
-EXPLICIT_REFINE_LSMR_ITERATIONS = 15   # 50 before the gain matrix (bent_leafy needed it then), 25 until session 12
-                                       # (family tuning range, levels 1 / 2: 25 3270 / 3320, 15 3281 / 3318;
-                                       # abop_1_24a level 1 at 3,125 branches 10.7 -> 9.7 s in process)
+EXPLICIT_REFINE_LSMR_ITERATIONS = 25   # 50 before the gain matrix (bent_leafy needed it then); 15 tried in
+                                       # session 12: family tuning range 3270 -> 3281 / 3320 -> 3318 cases
+                                       # (levels 1 / 2), abop_1_24a level 1 10.7 -> 9.7 s, but eval/bent_leafy
+                                       # level 1 at 0.5 m/s 6.1 % motion (bound 5 %; its test)
 # Equivalent leaves of an explicit level: the eigen-leaves ("eigen"), or the nine basis leaves
 # ("basis") where their static error is the lower one (simplify/explicit.py). Basis
 # leaves: bent_leafy level 2 21 % -> 1.7 % motion error. Until session 10 they had to halve

@@ -86,9 +86,14 @@ class Runs:
 
     def __init__(self, original: Tree, gmap: GroupMap, winds: list[WindCase],
                  dt: float, steps: int, every: int = 1, damping=0.0,
-                 simulated: list | None = None):
+                 simulated: list | None = None, tip_cache: dict | None = None):
         """simulated: the original's runs as `simulate_runs` gives them (a list), when one set
-        of runs serves several levels (a chain): the original is then not simulated again."""
+        of runs serves several levels (a chain): the original is then not simulated again.
+        tip_cache: a dict a chain's `Runs` share (`motion_fit.shared_runs`): per run, the
+        original's tips at the last set of group tips read. A coarser level's group tips are
+        among a finer level's (a merged group ends where one of its groups ended), so a chain
+        poses the original once, at its finest level's tips; each tip is computed along its
+        own ancestors alone (`sim.tips_kernel`), so the values are the same bits."""
         self.original = original
         self.damping = damping
         self.gmap = gmap
@@ -97,12 +102,22 @@ class Runs:
         self.winds = list(winds)
         self._reports: dict[bytes, dict[int, Report]] = {}    # tree digest -> run id -> report
         self.runs = []
-        for wind, times, bend, rot in (self._simulated(original) if simulated is None
-                                       else simulated):
+        want = gmap.tips
+        for k, (wind, times, bend, rot) in enumerate(self._simulated(original) if simulated is None
+                                                     else simulated):
             cb, cr = combined_angles(original, gmap.paths, bend, rot)
-            tips = tip_series(original, bend, rot, gmap.tips)
-            self.runs.append(OriginalRun(wind, times, cb, cr, tips[0].copy(),
-                                         (tips - tips[0]).astype(np.float32),
+            known = None if tip_cache is None else tip_cache.get(k)
+            if known is not None and np.all(known[0][want] >= 0):
+                column = known[0][want]
+                rest, moves = known[1][column], known[2][:, column]
+            else:
+                tips = tip_series(original, bend, rot, want)
+                rest, moves = tips[0].copy(), (tips - tips[0]).astype(np.float32)
+                if tip_cache is not None:
+                    column = np.full(original.n_branches, -1, dtype=np.int64)
+                    column[want] = np.arange(len(want))
+                    tip_cache[k] = (column, rest, moves)
+            self.runs.append(OriginalRun(wind, times, cb, cr, rest, moves,
                                          component_figures(times, cb, cr)))
 
     def _simulated(self, tree: Tree, winds: list[WindCase] | None = None):

@@ -55,21 +55,25 @@ from .evaluate import Runs, WindCase
 
 
 def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, every: int,
-                damping, simulated: list | Callable[[], list]) -> Callable[[Tree], Runs]:
+                damping, simulated: list | Callable[[], list],
+                tip_cache: dict | None = None) -> Callable[[Tree], Runs]:
     """runs_for(tree): the original's `Runs` in ``winds`` (its runs ``simulated``, an
     `evaluate.simulate_runs` list, or a function giving it when first needed) read with
     ``tree``'s groups, made once per set of level branch addresses, so that a level's fit
-    and its measurement share it."""
+    and its measurement share it; ``tip_cache`` (a dict, `Runs`) is shared by a chain's
+    levels."""
     from .targets import group_map
 
     made: dict[tuple[str, ...], Runs] = {}
+    tips = {} if tip_cache is None else tip_cache   # the original's group tips (`Runs`)
 
     def runs_for(tree: Tree) -> Runs:
         key = tuple(tree.address)
         if key not in made:
             made.clear()
             made[key] = Runs(original, group_map(original, tree), winds, dt, steps, every, damping,
-                             simulated=simulated() if callable(simulated) else simulated)
+                             simulated=simulated() if callable(simulated) else simulated,
+                             tip_cache=tips)
         return made[key]
 
     return runs_for

@@ -282,6 +282,7 @@ class ChainShare:
     original: Tree
     groupings: list
     runs: InBackground
+    tips: dict = field(default_factory=dict)   # the original's group tips per run (`evaluate.Runs`)
 
     @property
     def measure(self) -> list:
@@ -349,7 +350,7 @@ def simplify_explicit(system: LSystem, options: Options,
     original, levels = shared.original, shared.groupings
     last = len(levels) - 1
     runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
-                           options.damping, lambda: shared.measure)
+                           options.damping, lambda: shared.measure, shared.tips)
     if progress:
         progress("fitting the explicit form", 0.0)
     header = level_header(system)

@@ -256,6 +256,39 @@ def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
             assert a == b, f.name
 
 
+def test_a_chain_poses_the_original_once_and_reads_the_same_tips(monkeypatch):
+    """A chain's levels share the original's tips (`Runs`' tip_cache): a coarser level's
+    group tips are among a finer level's, so after level 1 the original is not posed again,
+    and level 2's tips are the same bits as when it is posed for level 2 alone."""
+    import plantlod.simplify.evaluate as ev
+    from plantlod.simplify.targets import group_map
+
+    system, tree = _tree("eval/sympodial.lsys")
+    levels = merge_levels(tree)
+    trees = [explicit_system_text(tree, levels[k], name="t", header=level_header(system),
+                                  level=k, dt=0.01, motion=False, refine=False)[1] for k in (1, 2)]
+    winds = [ev.WindCase(0.5, 0.0), ev.WindCase(5.0, 37.0)]
+    runs = list(ev.simulate_runs(tree, winds, 0.01, 200, 4))
+    posed = []
+    real = ev.tip_series
+
+    def spy(t, bend, rot, which):
+        posed.append(len(which))
+        return real(t, bend, rot, which)
+
+    monkeypatch.setattr(ev, "tip_series", spy)
+    cache: dict = {}
+    for level in trees:
+        ev.Runs(tree, group_map(tree, level), winds, 0.01, 200, 4, simulated=runs, tip_cache=cache)
+    assert posed == [trees[0].n_branches] * 2                   # level 2 read level 1's
+    shared = ev.Runs(tree, group_map(tree, trees[1]), winds, 0.01, 200, 4, simulated=runs,
+                     tip_cache=cache)
+    alone = ev.Runs(tree, group_map(tree, trees[1]), winds, 0.01, 200, 4, simulated=runs)
+    assert trees[1].n_branches < trees[0].n_branches
+    for a, b in zip(shared.runs, alone.runs):
+        assert np.array_equal(a.rest_tips, b.rest_tips) and np.array_equal(a.tip_moves, b.tip_moves)
+
+
 def test_runs_reuse_reports_only_for_the_same_tree(monkeypatch):
     """Runs.compare keeps recent reports per tree: a level compared in some winds, then in
     all, is simulated only in the others, and its reports equal a fresh Runs' ones; a tree
