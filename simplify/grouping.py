@@ -54,7 +54,9 @@ import numpy as np
 from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
-from .constants import (FRAME_TURN_WEIGHT, LEVEL_RATIO, MIN_MERGE_FACTOR, STRENGTH_MISMATCH_WEIGHT,
+from .static import horizontal_directions, rest_frames, static_angles_at, static_parts
+from .constants import (FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO, MIN_MERGE_FACTOR,
+                        SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT, STRENGTH_MISMATCH_WEIGHT,
                         TIP_MISS_WEIGHT)
 
 
@@ -161,9 +163,6 @@ class TipMisses:
     """
 
     def __init__(self, tree: Tree, parent: list[int], children: list[list[int]]):
-        from .static import horizontal_directions, rest_frames, static_angles_at, static_parts
-        from .constants import SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
-
         frames = rest_frames(tree)
         directions = horizontal_directions(4)[:2]                        # toward x and y
         bend, rot = static_angles_at(tree, static_parts(tree, directions, frames),
@@ -282,33 +281,31 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             return (0.0, 0.0, 1.0)
         return chord_of(find(p))
 
-    def path_of(u: int, extra: int = -1) -> list[int]:
-        """u's main path, with group ``extra`` merged into it (its end is the group tip)."""
-        cur, out = u, [u]
+    def main_end(u: int, extra: int = -1) -> int:
+        """The end of u's main path (its group tip), with group ``extra`` merged into it."""
+        cur = u
         while True:
             kids = [c for c in children[cur] if find(c) == u or (extra >= 0 and find(c) == extra)]
             if not kids:
-                return out
+                return cur
             cur = pick_main_member(kids, alpha, keys)
-            out.append(cur)
 
-    def tip_miss(u: int, extra: int = -1, path: list[int] | None = None) -> float:
-        """`TipMisses.miss` of u's group (with ``extra`` merged into it), as a fraction of the
-        level's tip bound."""
+    def tip_miss(u: int, extra: int = -1, tip: int = -1) -> float:
+        """`TipMisses.miss` of u's group (with ``extra`` merged into it; ``tip``: its main
+        path's end where the caller has it), as a fraction of the level's tip bound."""
         key = (u, extra, version[u], version[extra] if extra >= 0 else 0)
         if key not in miss_cache:
             hang = hanging[u] if extra < 0 else (hanging[u] - {extra}) | hanging[extra]
-            miss_cache[key] = misses.miss(
-                u, (path_of(u, extra) if path is None else path)[-1], hang)
+            miss_cache[key] = misses.miss(u, main_end(u, extra) if tip < 0 else tip, hang)
         return miss_cache[key] / tip_bound
 
     def merge_key(r: int, u: int) -> float:
         """The merge's cost (module docstring): its size times its factor."""
         old_u = chord_of(u)
         old_r = chord_of(r)
-        path = path_of(u, r)
-        beside = path[-1] == end[u]              # u's main path stays as it is
-        new_u = old_u if beside else turns.chord(u, path[-1])
+        new_end = main_end(u, r)
+        beside = new_end == end[u]               # u's main path stays as it is
+        new_u = old_u if beside else turns.chord(u, new_end)
         axis_u = up_axis(u)
         before = turns.cost(u, old_u, axis_u) + turns.cost(r, old_r, old_u)
         after = turns.cost(u, new_u, axis_u)
@@ -324,7 +321,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             after += turns.cost(c, d, new_u)
         missed = 0.0
         if tip_weight > 0:
-            missed = tip_miss(u, r, path) - tip_miss(u) - tip_miss(r)
+            missed = tip_miss(u, r, new_end) - tip_miss(u) - tip_miss(r)
         # a group merged beside u's main path leaves the measures (model.md 6 reads main
         # paths): its periods beat against nothing, and u's level branch stays as it was
         gap = 0.0 if beside else apart(r, u)
@@ -332,14 +329,13 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
         return (size[r] if beside else size[r] + size[u]) * factor
 
-    from .explicit import is_stalk
+    from .explicit import is_stalk           # (explicit imports this module)
     stalk = is_stalk(tree)
     misses = TipMisses(tree, parent, children) if max(TIP_MISS_WEIGHT) > 0 and not stalk else None
     miss_cache: dict[tuple[int, int, int, int], float] = {}
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
     while True:
-        from .constants import LEVEL_BOUNDS
         tip_bound = LEVEL_BOUNDS[min(len(levels), max(LEVEL_BOUNDS))][2]
         tip_weight = 0.0 if misses is None else TIP_MISS_WEIGHT[min(len(levels), len(TIP_MISS_WEIGHT)) - 1]
         weight = STRENGTH_MISMATCH_WEIGHT[min(len(levels), len(STRENGTH_MISMATCH_WEIGHT)) - 1]
@@ -362,7 +358,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             if now > key * (1.0 + 1e-12) and heap and now > heap[0][0]:
                 heapq.heappush(heap, (now, r))        # dearer than when pushed: wait its turn
                 continue
-            new_end = path_of(u, r)[-1]
+            new_end = main_end(u, r)
             owner[r] = u
             size[u] += size[r]
             end[u] = new_end
