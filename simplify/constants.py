@@ -98,7 +98,7 @@ STRENGTH_MISMATCH_WEIGHT = (8.0, 16.0)  # explicit groupings: a merge's size cou
 FRAME_TURN_WEIGHT = 8.0      # ... and x (1 + this x the turn it gives level branches; simplify/grouping.py;
                              # family tuning range with W as above, levels 1 / 2: W_t = 4 2767 / 2762,
                              # 8 2835 / 2769, 16 2832 / 2770)
-TIP_MISS_WEIGHT = (1.0, 4.0)  # ... and x (1 + this x the tip miss it adds, in tip bounds; `grouping.TipMisses`),
+TIP_MISS_WEIGHT = (1.0, 4.0)  # ... and x (1 + this x the tip miss it adds, in tip bounds; `merge_costs.TipMisses`),
                               # the first entry at level 1 (family tuning range, levels 1 / 2: without
                               # it 2835/3731 / 2769/3595, with (1, 4) 3002/3832 / 2990/3719; once merges
                               # were re-pushed (grouping.py), (2, 4) 3239/3865 / 3309/3794 against

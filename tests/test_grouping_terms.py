@@ -1,4 +1,4 @@
-"""Terms of the explicit grouping's merge cost (simplify/grouping.py). The tip miss
+"""Terms of the explicit grouping's merge cost (simplify/merge_costs.py, used by grouping.py). The tip miss
 (`TipMisses`): its linear-statics estimate checked against the kinematics of model.md 3 (a
 rigid chord turned by its members' summed rotation, against the members posed one by one), and
 its effect on a family tree measured by simulation. The period gap: nothing for a group merged
@@ -14,7 +14,7 @@ from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.sim.kinematics import pose
 from plantlod.simplify.constants import SIMPLIFY_WIND_RANGE
-from plantlod.simplify.grouping import TipMisses
+from plantlod.simplify.merge_costs import TipMisses
 from plantlod.simplify.static import horizontal_directions, rest_frames, static_angles_at, static_parts
 
 # A trunk of three segments; a lateral at the first segment's tip, another at the last's.

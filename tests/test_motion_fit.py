@@ -15,7 +15,8 @@ from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.explicit import (GroupSwing, searched_strengths, explicit_system_text,
                                         level_header, period_of_strength, strength_of_period)
-from plantlod.simplify.grouping import FrameTurns, _carry_mixing, merge_levels
+from plantlod.simplify.grouping import merge_levels
+from plantlod.simplify.merge_costs import FrameTurns, _carry_mixing
 from plantlod.simplify.motion_fit import own_corrections
 from plantlod.simplify.targets import group_map
 

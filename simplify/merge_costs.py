@@ -1,0 +1,170 @@
+"""The terms of an explicit grouping's merge cost (simplify/grouping.py, docs/simplify.md "Groups").
+
+- `PeriodGap`: how far a merged group's periods are from the W_0 components they land on;
+- `FrameTurns`: how much a merge turns level branches against their group roots' frames;
+- `TipMisses`: how far a group's rigid chord puts the points it carries from the original's.
+
+Each works on the original tree's rest geometry (and, for the tip misses, its linear statics)
+and on plain Python numbers: `merge_levels` calls them tens of thousands of times.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from plantlod.lsys.tree import Tree
+
+from .constants import SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
+from .static import horizontal_directions, rest_frames, static_angles_at, static_parts
+
+
+def _dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _carry_mixing(x0, y0, xs, ys) -> float:
+    """How much a branch whose swing frame has axes (xs, ys) mixes bend and rotation when read
+    in the frame (x0, y0): with M = W_0ᵀ W', C = [[M11, -M10], [-M01, M00]]
+    (`compare.groups.carry_matrix`), min(max(|C00|, |C11|), max(|C01|, |C10|))."""
+    m00, m01, m10, m11 = _dot(x0, xs), _dot(x0, ys), _dot(y0, xs), _dot(y0, ys)
+    return min(max(abs(m11), abs(m00)), max(abs(m10), abs(m01)))
+
+
+class PeriodGap:
+    """apart(r, u) = max_c Σ_m |C[c, m]| |ln(k_m,r / k_c,u)| / Σ_m |C[c, m]|, with C the carry
+    map of r's rest swing frame into u's and k_m the bend and rotation strengths of the roots:
+    members whose components land on a W_0 component of another period beat against it."""
+
+    def __init__(self, x_axis: list, y_axis: list, log_k: list):
+        self.x_axis, self.y_axis, self.log_k = x_axis, y_axis, log_k
+        self.cache: dict[tuple[int, int], float] = {}
+
+    def __call__(self, r: int, u: int) -> float:
+        if (r, u) in self.cache:
+            return self.cache[r, u]
+        xu, yu, xr, yr = self.x_axis[u], self.y_axis[u], self.x_axis[r], self.y_axis[r]
+        c = ((abs(_dot(yu, yr)), abs(_dot(yu, xr))), (abs(_dot(xu, yr)), abs(_dot(xu, xr))))
+        worst = 0.0
+        for row in range(2):
+            weight = c[row][0] + c[row][1]
+            if weight <= 0:
+                continue
+            gap = [abs(self.log_k[r][m] - self.log_k[u][row]) for m in range(2)]
+            gap = [g if math.isfinite(g) else 0.0 for g in gap]
+            worst = max(worst, (c[row][0] * gap[0] + c[row][1] * gap[1]) / weight)
+        self.cache[r, u] = worst
+        return worst
+
+
+class FrameTurns:
+    """The turn cost of level branches against their group roots' frames (module docstring).
+
+    base, tip (B, 3) rest positions; x_axis, y_axis: each branch's rest swing frame columns;
+    gap (B,): |ln(k_bs/k_rs)| per branch."""
+
+    def __init__(self, base: list, tip: list, x_axis: list, y_axis: list, gap: list):
+        self.base, self.tip, self.x_axis, self.y_axis, self.gap = base, tip, x_axis, y_axis, gap
+
+    def chord(self, root: int, end: int) -> tuple[float, float, float]:
+        """Unit direction from ``root``'s base to ``end``'s tip."""
+        d = [self.tip[end][i] - self.base[root][i] for i in range(3)]
+        n = math.sqrt(_dot(d, d))
+        return (0.0, 0.0, 1.0) if n == 0 else (d[0] / n, d[1] / n, d[2] / n)
+
+    def cost(self, root: int, d, up) -> float:
+        """gap × mixing of a level branch of direction ``d`` hanging from a parent of axis
+        ``up``, read in ``root``'s rest swing frame. Its swing frame's x axis lies in the plane
+        of up and d, away from up (model.md 3): x = (cos a d - up) / sin a."""
+        if self.gap[root] == 0.0:
+            return 0.0
+        c = _dot(d, up)
+        s2 = 1.0 - c * c
+        if s2 < 1e-12:                           # straight on: the parent's own roll decides
+            return 0.0
+        s = math.sqrt(s2)
+        xs = [(c * d[i] - up[i]) / s for i in range(3)]
+        ys = [d[1] * xs[2] - d[2] * xs[1], d[2] * xs[0] - d[0] * xs[2], d[0] * xs[1] - d[1] * xs[0]]
+        return self.gap[root] * _carry_mixing(self.x_axis[root], self.y_axis[root], xs, ys)
+
+
+class TipMisses:
+    """How far a group's rigid chord puts the points it carries from where the original's are,
+    in linear statics (model.md 6's tip error, estimated before anything is fitted).
+
+    A level branch turns by its main path's summed rotation ω_P about its root's base. The
+    original's members turn about their own bases, and a group hanging from member m of the
+    group turns only with the members from the root to m. So, with ω_j the static rotation
+    vectors (world axes) of the original's branches in the strongest wind simplify measures
+    (SIMPLIFY_WIND_RANGE's top, toward x and toward y),
+
+        miss(g) = |Σ_{j in P} ω_j × (base_j - base_g)|                  (the chord's tip)
+                + max_c |ω_P - Σ_{j in g, j ≤ m_c} ω_j| (|tip_m_c - base_g| + reach(c))
+
+    over the groups c hanging from g at members m_c (reach: the farthest point of c's subtree
+    from its base). Both parts are norms over the two winds. ``scale`` (at most 1) shrinks them
+    to the strongest winds the bounds hold in: where the tree's most turned branch passes
+    SMALL_ANGLE_LIMIT / 2 (the static half of a swing from rest that reaches the limit), to
+    that.
+    """
+
+    def __init__(self, tree: Tree, parent: list[int], children: list[list[int]]):
+        frames = rest_frames(tree)
+        directions = horizontal_directions(4)[:2]                        # toward x and y
+        bend, rot = static_angles_at(tree, static_parts(tree, directions, frames),
+                                     SIMPLIFY_WIND_RANGE[1], frames)     # (2, B)
+        omega = (bend[:, :, None] * frames.swing[None, :, :, 1]
+                 - rot[:, :, None] * frames.swing[None, :, :, 0])        # (2, B, 3)
+        # running sums from the root down, per wind: A_i = Σ ω_j and X_i = Σ ω_j × base_j over
+        # i and its ancestors, so that sums along a group's chains are differences
+        base = frames.base
+        turned = omega.copy()
+        crossed = np.cross(omega, base[None])
+        for i, p in enumerate(parent):
+            if p >= 0:
+                turned[:, i] += turned[:, p]
+                crossed[:, i] += crossed[:, p]
+        most = float(np.sqrt((turned ** 2).sum(axis=2)).max(initial=0.0))
+        self.turned = turned.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
+        self.crossed = crossed.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
+        self.base = base.tolist()
+        self.tip = frames.tip.tolist()
+        reach = [0.0] * len(parent)
+        for i in range(len(parent) - 1, -1, -1):                         # children after parents
+            far = math.dist(self.tip[i], self.base[i])
+            for c in children[i]:
+                far = max(far, math.dist(self.base[c], self.base[i]) + reach[c])
+            reach[i] = far
+        self.reach = reach
+        self.parent = parent
+        self.scale = 0.0 if most == 0 else min(1.0, 0.5 * SMALL_ANGLE_LIMIT / most)
+
+    def miss(self, root: int, end: int, hanging) -> float:
+        """miss(g) in metres times ``scale`` for the group rooted at ``root`` whose main path
+        ends at ``end``, with child groups rooted at ``hanging``. Groups are connected, so the
+        members from the root to any member m are m's ancestors below the root's parent q:
+        ω_P = A_end - A_q, Σ_{j in P} ω_j × base_j = X_end - X_q, and the rotation a group
+        hanging from m misses is ω_P - (A_m - A_q) = A_end - A_m."""
+        q = self.parent[root]
+        a_end, x_end = self.turned[end], self.crossed[end]
+        a_q = self.turned[q] if q >= 0 else (0.0,) * 6
+        x_q = self.crossed[q] if q >= 0 else (0.0,) * 6
+        b0 = self.base[root]
+        offset = 0.0                                # |Σ ω_j × (base_j - base_g)|², both winds
+        for k in (0, 3):
+            w0, w1, w2 = a_end[k] - a_q[k], a_end[k + 1] - a_q[k + 1], a_end[k + 2] - a_q[k + 2]
+            c0 = x_end[k] - x_q[k] - (w1 * b0[2] - w2 * b0[1])
+            c1 = x_end[k + 1] - x_q[k + 1] - (w2 * b0[0] - w0 * b0[2])
+            c2 = x_end[k + 2] - x_q[k + 2] - (w0 * b0[1] - w1 * b0[0])
+            offset += c0 * c0 + c1 * c1 + c2 * c2
+        worst = 0.0
+        for c in hanging:
+            m = self.parent[c]
+            a_m = self.turned[m]
+            d0, d1, d2 = a_end[0] - a_m[0], a_end[1] - a_m[1], a_end[2] - a_m[2]
+            d3, d4, d5 = a_end[3] - a_m[3], a_end[4] - a_m[4], a_end[5] - a_m[5]
+            d = d0 * d0 + d1 * d1 + d2 * d2 + d3 * d3 + d4 * d4 + d5 * d5
+            if d > 0.0:
+                worst = max(worst, math.sqrt(d) * (math.dist(self.tip[m], b0) + self.reach[c]))
+        return self.scale * (math.sqrt(offset) + worst)
