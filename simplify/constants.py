@@ -70,8 +70,10 @@ EXPLICIT_REFINE_LSMR_ITERATIONS = 25   # 50 before the gain matrix (bent_leafy n
 # the scene test's verified error 0.88 -> 1.19 px, which no longer happens); with the lower
 # error winning, make lod-family's tuning range went 2653 -> 2705 level-1 and 2556 -> 2589
 # level-2 cases (bent_leafy 302 -> 351 at level 1).
-BASIS_LEAF_TRY = 0.02         # basis leaves are tried only where the eigen-leaves' static error is above this
-                              # (family seeds 0-35: none below 0.029 gained from them)
+BASIS_LEAF_TRY = 0.1          # basis leaves are tried only where the eigen-leaves' static error is above this
+                              # (0.02 until session 12; family tuning range, levels 1 / 2: 0.02 3271 / 3320,
+                              # 0.1 3273 / 3329 (bent_leafy level 1 343 -> 328, stochastic 410 -> 429); the
+                              # second fit was most of a level's cost: abop_1_24a level 1 10.7 -> 6.8 s)
 BASIS_LEAF_FLOOR = 1e-3       # a basis leaf starts at least at this x the group's leaf area
 KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA
 
