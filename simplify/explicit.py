@@ -419,12 +419,12 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
     if search.size:
         a_max = swing.amplitudes.max(axis=(0, 1))                           # (D,) A_max per wind
         own[search] = searched_strengths(swing.take(search), carry[search], a_max, dt,
-                                          duration, damping_ratio)
+                                         duration, damping_ratio)
     return own[:, 0].copy(), own[:, 1].copy()
 
 
 def searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, dt: float,
-                        duration: float, damping_ratio: float, costs: bool = False):
+                       duration: float, damping_ratio: float, costs: bool = False):
     """(n, 2) own strengths of n chords whose carry maps mix bend and rotation (and with
     ``costs`` their (n,) costs below at those strengths, 0 where nothing swings).
 

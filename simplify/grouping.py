@@ -58,6 +58,7 @@ from plantlod.lsys.tree import Tree
 from .constants import (FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO, MIN_MERGE_FACTOR,
                         STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
 from .merge_costs import FrameTurns, PeriodGap, TipMisses
+from .static import rest_frames
 
 
 @dataclass(frozen=True)
@@ -79,16 +80,14 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     Each level has at most ``ratio`` times the groups of the level before it,
     except that a tree of several root branches ends with one group per root.
     """
-    from plantlod.sim.kinematics import rest_pose
-
     b = tree.n_branches
     parent = np.asarray(tree.parent, dtype=np.int64).tolist()
     levels = [Grouping(np.arange(b, dtype=np.int64), np.arange(b, dtype=np.int64))]
     if b == 0:
         return levels
-    pose = rest_pose(tree)
-    x_axis = pose.swing[:, :, 0].tolist()
-    y_axis = pose.swing[:, :, 1].tolist()
+    frames = rest_frames(tree)                   # shared by the three cost terms
+    x_axis = frames.swing[:, :, 0].tolist()
+    y_axis = frames.swing[:, :, 1].tolist()
     with np.errstate(divide="ignore", invalid="ignore"):
         log_k = np.log(np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
                                  np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1))
@@ -96,7 +95,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     gap = np.where(np.isfinite(gap), gap, 0.0).tolist()
     log_k = np.where(np.isfinite(log_k), log_k, np.nan).tolist()
     apart = PeriodGap(x_axis, y_axis, log_k)
-    turns = FrameTurns(pose.base.tolist(), pose.tip.tolist(), x_axis, y_axis, gap)
+    turns = FrameTurns(frames.base.tolist(), frames.tip.tolist(), x_axis, y_axis, gap)
     alpha = np.asarray(tree.euler, dtype=np.float64).reshape(-1, 3)[:, 1]
     keys = [parse_address(a) for a in tree.address]
     children: list[list[int]] = [[] for _ in range(b)]
@@ -181,13 +180,15 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
 
     from .explicit import is_stalk           # (explicit imports this module)
     stalk = is_stalk(tree)
-    misses = TipMisses(tree, parent, children) if max(TIP_MISS_WEIGHT) > 0 and not stalk else None
+    misses = (TipMisses(tree, parent, children, frames)
+              if max(TIP_MISS_WEIGHT) > 0 and not stalk else None)
     miss_cache: dict[tuple[int, int, int, int], float] = {}
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
     while True:
         tip_bound = LEVEL_BOUNDS[min(len(levels), max(LEVEL_BOUNDS))][2]
-        tip_weight = 0.0 if misses is None else TIP_MISS_WEIGHT[min(len(levels), len(TIP_MISS_WEIGHT)) - 1]
+        tip_weight = (0.0 if misses is None
+                      else TIP_MISS_WEIGHT[min(len(levels), len(TIP_MISS_WEIGHT)) - 1])
         weight = STRENGTH_MISMATCH_WEIGHT[min(len(levels), len(STRENGTH_MISMATCH_WEIGHT)) - 1]
         count = len(roots_left)
         target = math.floor(ratio * count)
@@ -215,8 +216,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             hanging[u] = (hanging[u] - {r}) | hanging[r]
             roots_left.discard(r)
             version[u] += 1
-            # the merges into u and of u have new costs; cheaper ones are pushed again
-            # (the heap keeps the old entries, checked when popped)
+            # the merges into u and of u have new costs: pushed again with them, so that a
+            # cheaper one is taken in its turn (older entries stay, checked when popped)
             for c in sorted(hanging[u]) + ([u] if parent[u] >= 0 else []):
                 heapq.heappush(heap, (merge_key(c, find(parent[c])), c))
         group_root = np.array([find(i) for i in range(b)], dtype=np.int64)

@@ -17,7 +17,7 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 from .constants import SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
-from .static import horizontal_directions, rest_frames, static_angles_at, static_parts
+from .static import RestFrames, horizontal_directions, rest_frames, static_angles_at, static_parts
 
 
 def _dot(a, b) -> float:
@@ -109,8 +109,11 @@ class TipMisses:
     that.
     """
 
-    def __init__(self, tree: Tree, parent: list[int], children: list[list[int]]):
-        frames = rest_frames(tree)
+    def __init__(self, tree: Tree, parent: list[int], children: list[list[int]],
+                 frames: RestFrames | None = None):
+        """parent, children: the tree's, as lists; frames: its `static.rest_frames` where the
+        caller has them."""
+        frames = rest_frames(tree) if frames is None else frames
         directions = horizontal_directions(4)[:2]                        # toward x and y
         bend, rot = static_angles_at(tree, static_parts(tree, directions, frames),
                                      SIMPLIFY_WIND_RANGE[1], frames)     # (2, B)

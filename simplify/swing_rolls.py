@@ -93,8 +93,8 @@ def swing_rolls(original: Tree, paths: list[np.ndarray], turn: np.ndarray, swing
     turns = turn[mixed][:, None] @ rot_z(np.radians(degrees))               # (n, R, 3, 3)
     a_max = swing.amplitudes.max(axis=(0, 1))
     _, cost = searched_strengths(swing.take(np.repeat(mixed, r)),
-                                  carry_matrix(turns.reshape(-1, 3, 3)), a_max, dt, duration,
-                                  damping_ratio, costs=True)
+                                 carry_matrix(turns.reshape(-1, 3, 3)), a_max, dt, duration,
+                                 damping_ratio, costs=True)
     cost = cost.reshape(n, r)
     best = np.argmin(cost, axis=1)
     better = cost[np.arange(n), best] < (1.0 - ROLL_GAIN) * cost[:, 0]
