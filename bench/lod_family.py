@@ -28,6 +28,8 @@ range nobody tunes on. Output (stdout, and --out FILE.md) is the same for any
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
 import math
 import os
 import pathlib
@@ -309,6 +311,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true",
                         help=f"only the first {QUICK_PER_KIND} trees of each kind (smoke test)")
     parser.add_argument("--out", default=None, help="also write the tables (markdown) here")
+    parser.add_argument("--cases", default=None,
+                        help="also write every case here, one JSON object a line (for analysis)")
     args = parser.parse_args(argv)
     if args.held_out and args.seeds is not None:
         parser.error("--held-out and --seeds: give one of them")
@@ -328,6 +332,9 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines), flush=True)
     if args.out:
         pathlib.Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    if args.cases:
+        pathlib.Path(args.cases).write_text("".join(
+            json.dumps(dataclasses.asdict(c), sort_keys=True) + "\n" for c in cases), encoding="utf-8")
     print(f"\n`python bench/lod_family.py {' '.join(argv)}`: wall time "
           f"{time.perf_counter() - begin:.0f} s ({len(chosen)} trees)")
     return 0

@@ -24,16 +24,24 @@ Gains: a level whose branches carry the gain matrix G gets G refitted wind by wi
 (`gain_matrix_step`): its static W_0 angles C diag(1000 / k) G f(w) (f the rest force in the
 branch's swing frame) are fitted to the current ones scaled by A_x / A_y per wind and
 component, so a group that swings more than its level branch toward one direction and less
-toward another is followed there (one scale per row cannot). A level with one k_FA per
-branch scales it by exp of the mean of the two rows' ρ_A, clipped as above.
+toward another is followed there (one scale per row cannot). That fit assumes a branch swings
+as far as its static angle says. A branch whose swing is more than MOTION_FIT_AMPLIFIED
+times its static angle (`swing_amplification`) is driven by something else: its frame turning
+with its parent, the force along its axis turned across it. Refitting G to its statics moves
+the wrong entries (its lateral force is nearly nothing), so its rows are scaled by exp(ρ_A)
+instead, which scales every drive that passes through them. A level with one k_FA per branch
+scales it by exp of the mean of the two rows' ρ_A, clipped as above.
 
 Only the winds where the original stays within SMALL_ANGLE_LIMIT are run (the bounds hold
-only there; all of them where none does). The round scoring best on those winds
-(`bounds.form_rank`: winds missing the level's bounds, then the worst ratio) is kept, so a
-round can only help on the winds it is scored in. At most MOTION_FIT_ROUNDS rounds; the fit
-stops at the first round that does not improve on the best by a wind fewer missed or a worst
-ratio MOTION_FIT_MIN_GAIN lower (later rounds gain less than that), or once every wind is
-within MOTION_FIT_GOOD of its bounds.
+only there; all of them where none does). Each round is scored group by group
+(`group_scores`: each level branch's worst figure over the level's bounds), and each group
+keeps the values of its best round; the corrections go on from the latest round (a group
+that got worse may get better again). At most MOTION_FIT_ROUNDS rounds; the fit stops at the
+first round in which no group improves on its best, or once every wind is within
+MOTION_FIT_GOOD of its bounds. The result is whichever scores best on the fit winds
+(`bounds.form_rank`: winds missing the level's bounds, then the worst ratio): the groups'
+best rounds put together, or the best whole round; so the fit can only help on the winds it
+is scored in.
 """
 
 from __future__ import annotations
@@ -48,9 +56,11 @@ from plantlod.lsys.system import GAIN_KEYS
 from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
-from .constants import (COUNTED_AMPLITUDE_FRACTION, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD,
-                        MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS, MOTION_FIT_STEP,
-                        SMALL_ANGLE_LIMIT)
+from plantlod.compare.constants import MAJOR_AMPLITUDE_FRACTION
+
+from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMPLIFIED,
+                        MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_ROUNDS,
+                        MOTION_FIT_STEP, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
 from .evaluate import Runs, WindCase
 
 
@@ -204,26 +214,98 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     return np.where(active[:, None], solved, g0).reshape(-1, 2, 3)
 
 
-def improves(rank: tuple, best: tuple) -> bool:
-    """Whether a round's `form_rank` (winds missed, worst ratio) is worth another round
-    against the best so far: a wind fewer missed, or the same and a worst ratio at least
-    MOTION_FIT_MIN_GAIN lower."""
-    return rank[0] < best[0] or (rank[0] == best[0] and rank[1] < best[1] * (1 - MOTION_FIT_MIN_GAIN))
+def swing_amplification(gain: np.ndarray, strength: np.ndarray, carry: np.ndarray,
+                        force: np.ndarray, ay: np.ndarray, a_max: np.ndarray) -> np.ndarray:
+    """(S,) the largest ratio, over fit winds and counted W_0 components, of a level branch's
+    swing A_y to its static angle |C diag(1000 / k) G f| (model.md 4, 5): 1 for a branch that
+    swings from rest as its statics say (an oscillator started at rest swings from 0 to twice
+    its static angle), far above where its swing is driven by its frame's turning.
+
+    gain (S, 2, 3); strength (S, 2) k_bs, k_rs; carry (S, 2, 2); force (W, S, 3) the rest force
+    in each branch's swing frame (`fit_wind_forces`); ay (W, 2, S), a_max (W,) as
+    `swing_figures` gives them."""
+    ay = np.transpose(ay, (0, 2, 1))                                           # (W, S, c)
+    own = 1000.0 / strength[None] * np.einsum("smj,wsj->wsm", gain, force)
+    static = np.abs(np.einsum("scm,wsm->wsc", carry, own))
+    counted = (a_max[:, None, None] > 0) & (ay >= COUNTED_AMPLITUDE_FRACTION * a_max[:, None, None])
+    ratio = np.where(counted, ay / np.maximum(static, 1e-300), 0.0)
+    return ratio.max(axis=(0, 2), initial=0.0)
+
+
+def group_scores(reports, level: int, stalk: bool, s_count: int) -> np.ndarray:
+    """(S,) each level branch's worst figure over its bound in ``reports`` (one `Report` per
+    fit wind): the motion error of its counted components (a stalk: their relative amplitude
+    error), the period error of its major ones (a stalk: of its counted ones) and its tip
+    error, each over the level's bound. The largest over branches is `bounds.bounds_score`
+    of the same reports (tests/test_motion_fit.py)."""
+    motion, period, tip = LEVEL_BOUNDS[min(level, max(LEVEL_BOUNDS))]
+    if stalk:
+        motion, period = STALK_BOUNDS[min(level, max(STALK_BOUNDS))]
+    worst = np.zeros(s_count)
+    for r in reports:
+        t = r.table
+        a_max = r.largest_amplitude
+        if not a_max > 0:
+            continue
+        ax, ay = t.amplitude_original, t.amplitude_simplified
+        counted = t.counted
+        if stalk:
+            amp = np.where(counted, t.amplitude_error, 0.0)
+            timed = counted
+        else:
+            amp = np.where(counted, np.abs(ay - ax) / a_max, 0.0)
+            timed = counted & (ax >= MAJOR_AMPLITUDE_FRACTION * a_max)
+        per = np.where(timed & np.isfinite(t.period_error), t.period_error, 0.0)
+        tips = np.where(np.isfinite(t.tip_error), t.tip_error, 0.0)
+        worst = np.maximum.reduce([worst, amp.max(axis=0) / motion, per.max(axis=0) / period,
+                                   tips / tip])
+    return worst
+
+
+def corrected(values: dict[str, np.ndarray], reports, to_group: np.ndarray, carry: np.ndarray,
+              dt: float, force: np.ndarray | None) -> dict[str, np.ndarray]:
+    """``values`` after one round of corrections (module docstring) from ``reports``, the
+    level's runs with ``values`` in the fit winds; ``force`` (`fit_wind_forces`) for a level
+    with gain matrices, None for one with k_FA."""
+    from .explicit import period_of_strength, strength_of_period
+
+    values = {k: v.copy() for k, v in values.items()}
+    ax, ay, px, py, a_max = swing_figures(reports)
+    kb = values["bend_strength"][to_group]
+    kr = values["rotation_strength"][to_group]
+    d_period, d_gain = own_corrections(ax, ay, px, py, a_max, carry, kb == kr)
+    values["bend_strength"][to_group] = strength_of_period(
+        period_of_strength(kb, dt) * np.exp(d_period[:, 0]), dt)
+    values["rotation_strength"][to_group] = strength_of_period(
+        period_of_strength(kr, dt) * np.exp(d_period[:, 1]), dt)
+    if force is None:                         # one k_FA: the mean of the two rows' corrections
+        values["force_absorbed"][to_group] *= np.exp(d_gain.mean(axis=1))
+        return values
+    # G fitted to the group's swing, wind by wind; rows scaled where the swing is not static
+    g = np.stack([values[k][to_group] for k in GAIN_KEYS], axis=1).reshape(-1, 2, 3)
+    k_old = np.stack([kb, kr], axis=1)
+    k_new = np.stack([values["bend_strength"][to_group],
+                      values["rotation_strength"][to_group]], axis=1)
+    fitted = gain_matrix_step(g, k_old, k_new, carry, force, ax, ay, a_max)
+    amplified = swing_amplification(g, k_old, carry, force, ay, a_max) > MOTION_FIT_AMPLIFIED
+    g = np.where(amplified[:, None, None], g * np.exp(d_gain)[:, :, None], fitted).reshape(-1, 6)
+    for k, key in enumerate(GAIN_KEYS):
+        values[key][to_group] = g[:, k]
+    return values
 
 
 def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[[dict], tuple[str, Tree]],
                to_group: np.ndarray, carry: np.ndarray, runs_for: Callable[[Tree], Runs],
                level: int, dt: float) -> tuple[str, Tree]:
-    """The best of MOTION_FIT_ROUNDS rounds of corrections (module docstring) to ``values``
-    (group order: each key an array over groups), as (text, tree) from ``rebuild(values)``.
+    """Rounds of corrections (module docstring) to ``values`` (group order: each key an array
+    over groups), each group's best round kept; as (text, tree) from ``rebuild(values)``.
 
     to_group (S,): the group of each level-tree branch (tree order); carry (S, 2, 2) their carry
     maps; runs_for(tree): the original's `Runs` in the fit winds, read with ``tree``'s groups.
     The rounds change the level tree's arrays in place of its text (parsing a level of
-    thousands of branches takes longer than simulating it); a round that does not improve on
-    the best by MOTION_FIT_MIN_GAIN ends the fit (`improves`).
+    thousands of branches takes longer than simulating it).
     """
-    from .explicit import is_stalk, period_of_strength, strength_of_period
+    from .explicit import is_stalk
 
     stalk = is_stalk(original)                # held to the relative bounds (STALK_BOUNDS)
 
@@ -238,6 +320,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         largest = [largest[k] for k in small]
     winds = runs.winds
     gains = all(k in values for k in GAIN_KEYS)
+    s_count = len(to_group)
 
     def tree_of(v: dict[str, np.ndarray]) -> Tree:
         changed = {"bend_strength": v["bend_strength"][to_group],
@@ -248,39 +331,40 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             changed["force_absorbed"] = v["force_absorbed"][to_group]
         return replace(level_tree, **changed)
 
-    best = None
-    force = None
-    for round_ in range(MOTION_FIT_ROUNDS + 1):
+    def rank_of(v: dict[str, np.ndarray]):
+        """(form_rank, reports) of the level with values ``v``; None where it diverges."""
         try:
-            reports = runs.compare(tree_of(values))
-        except InputError:                        # the corrected level diverges: keep the best
+            reports = runs.compare(tree_of(v))
+        except InputError:
+            return None
+        return form_rank(list(zip(winds, reports)), level, largest, stalk), reports
+
+    force = fit_wind_forces(level_tree, winds) if gains else None
+    best = None                               # (rank, values, round) of the best whole round
+    best_score = np.full(s_count, np.inf)     # each level branch's best score so far
+    kept = {k: v.copy() for k, v in values.items()}   # each group's values of that round
+    for round_ in range(MOTION_FIT_ROUNDS + 1):
+        ranked = rank_of(values)
+        if ranked is None:                    # the corrected level diverges: keep the best
             break
-        rank = form_rank(list(zip(winds, reports)), level, largest, stalk)
-        gained = best is None or improves(rank, best[0])
+        rank, reports = ranked
         if best is None or rank < best[0]:
             best = (rank, {k: v.copy() for k, v in values.items()}, round_)
-        if round_ == MOTION_FIT_ROUNDS or not gained or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
+        score = group_scores(reports, level, stalk, s_count)
+        better = score < best_score
+        best_score[better] = score[better]
+        for key in kept:
+            kept[key][to_group[better]] = values[key][to_group[better]]
+        if round_ == MOTION_FIT_ROUNDS or (round_ > 0 and not better.any()) \
+                or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
             break
-        ax, ay, px, py, a_max = swing_figures(reports)
-        kb = values["bend_strength"][to_group]
-        kr = values["rotation_strength"][to_group]
-        d_period, d_gain = own_corrections(ax, ay, px, py, a_max, carry, kb == kr)
-        values["bend_strength"][to_group] = strength_of_period(
-            period_of_strength(kb, dt) * np.exp(d_period[:, 0]), dt)
-        values["rotation_strength"][to_group] = strength_of_period(
-            period_of_strength(kr, dt) * np.exp(d_period[:, 1]), dt)
-        if gains:                                 # G fitted to the group's swing, wind by wind
-            if force is None:
-                force = fit_wind_forces(level_tree, winds)
-            g = np.stack([values[k][to_group] for k in GAIN_KEYS], axis=1).reshape(-1, 2, 3)
-            k_new = np.stack([values["bend_strength"][to_group],
-                              values["rotation_strength"][to_group]], axis=1)
-            g = gain_matrix_step(g, np.stack([kb, kr], axis=1), k_new, carry, force,
-                                 ax, ay, a_max).reshape(-1, 6)
-            for k, key in enumerate(GAIN_KEYS):
-                values[key][to_group] = g[:, k]
-        else:                                     # one k_FA: the mean of the two rows' corrections
-            values["force_absorbed"][to_group] *= np.exp(d_gain.mean(axis=1))
-    if best is None or best[2] == 0:
+        values = corrected(values, reports, to_group, carry, dt, force)
+    if best is None:
+        return first
+    if any(not np.array_equal(kept[k], best[1][k]) for k in kept):
+        ranked = rank_of(kept)                # the groups' best rounds put together
+        if ranked is not None and ranked[0] < best[0]:
+            return rebuild(kept)
+    if best[2] == 0:
         return first
     return rebuild(best[1])
