@@ -37,11 +37,13 @@ only there; all of them where none does). Each round is scored group by group
 (`group_scores`: each level branch's worst figure over the level's bounds), and each group
 keeps the values of its best round; the corrections go on from the latest round (a group
 that got worse may get better again). At most MOTION_FIT_ROUNDS rounds; the fit stops at the
-first round in which no group improves on its best, or once every wind is within
-MOTION_FIT_GOOD of its bounds. The result is whichever scores best on the fit winds
-(`bounds.form_rank`: winds missing the level's bounds, then the worst ratio): the groups'
-best rounds put together, or the best whole round; so the fit can only help on the winds it
-is scored in.
+first round that does not improve on the best whole round (`bounds.form_rank`: winds missing
+the level's bounds, then the worst ratio) by a wind fewer missed or a worst ratio
+MOTION_FIT_MIN_GAIN lower (`improves`; later rounds gain less than that), or once every wind
+is within MOTION_FIT_GOOD of its bounds. The result is whichever ranks best on the fit winds:
+the groups' best rounds put together (run once more, unless the best whole round already
+holds every fit wind), or the best whole round; so the fit can only help on the winds it is
+scored in.
 """
 
 from __future__ import annotations
@@ -59,7 +61,7 @@ from .bounds import form_rank
 from plantlod.compare.constants import MAJOR_AMPLITUDE_FRACTION
 
 from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMPLIFIED,
-                        MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_ROUNDS,
+                        MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS,
                         MOTION_FIT_STEP, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
 from .evaluate import Runs, WindCase
 
@@ -214,6 +216,13 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     return np.where(active[:, None], solved, g0).reshape(-1, 2, 3)
 
 
+def improves(rank: tuple, best: tuple) -> bool:
+    """Whether a round's `form_rank` (winds missed, worst ratio) is worth another round
+    against the best so far: a wind fewer missed, or the same and a worst ratio at least
+    MOTION_FIT_MIN_GAIN lower."""
+    return rank[0] < best[0] or (rank[0] == best[0] and rank[1] < best[1] * (1 - MOTION_FIT_MIN_GAIN))
+
+
 def swing_amplification(gain: np.ndarray, strength: np.ndarray, carry: np.ndarray,
                         force: np.ndarray, ay: np.ndarray, a_max: np.ndarray) -> np.ndarray:
     """(S,) the largest ratio, over fit winds and counted W_0 components, of a level branch's
@@ -348,6 +357,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         if ranked is None:                    # the corrected level diverges: keep the best
             break
         rank, reports = ranked
+        gained = best is None or improves(rank, best[0])
         if best is None or rank < best[0]:
             best = (rank, {k: v.copy() for k, v in values.items()}, round_)
         score = group_scores(reports, level, stalk, s_count)
@@ -355,13 +365,12 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         best_score[better] = score[better]
         for key in kept:
             kept[key][to_group[better]] = values[key][to_group[better]]
-        if round_ == MOTION_FIT_ROUNDS or (round_ > 0 and not better.any()) \
-                or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
+        if round_ == MOTION_FIT_ROUNDS or not gained or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
             break
         values = corrected(values, reports, to_group, carry, dt, force)
     if best is None:
         return first
-    if any(not np.array_equal(kept[k], best[1][k]) for k in kept):
+    if best[0][0] > 0 and any(not np.array_equal(kept[k], best[1][k]) for k in kept):
         ranked = rank_of(kept)                # the groups' best rounds put together
         if ranked is not None and ranked[0] < best[0]:
             return rebuild(kept)
