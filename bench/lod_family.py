@@ -197,14 +197,15 @@ def run_all(jobs: list[tuple[str, int, tuple[int, ...]]], workers: int) -> list[
 
 
 def _command(argv: list[str]) -> str:
-    """The command line, without the options that do not change the tables (--jobs, --out)."""
+    """The command line, without the options that do not change the tables (--jobs, --out,
+    --cases)."""
     kept, skip = [], False
     for arg in argv:
         if skip:
             skip = False
-        elif arg in ("--jobs", "--out"):
+        elif arg in ("--jobs", "--out", "--cases"):
             skip = True
-        elif not arg.startswith(("--jobs=", "--out=")):
+        elif not arg.startswith(("--jobs=", "--out=", "--cases=")):
             kept.append(arg)
     return " ".join(["python bench/lod_family.py"] + kept)
 

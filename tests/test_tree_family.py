@@ -7,6 +7,8 @@ rotations (tests/reference_model.py), independently of the simulator's kinematic
 
 from __future__ import annotations
 
+import json
+
 import math
 import pathlib
 import sys
@@ -182,12 +184,23 @@ def test_lod_family_quick_end_to_end(tmp_path, capsys):
     seeds = [s for s in range(0, 90) if tree_family.kind_of(s) == "stalk"]
     seed = min(seeds, key=lambda s: tree_family.branch_count(tree_family.generate("stalk", s)))
     out = tmp_path / "family.md"
+    cases = tmp_path / "cases.jsonl"
     assert lod_family.main(["--quick", "--kinds", "stalk", "--seeds", f"{seed}-{seed}",
-                            "--levels", "1", "--out", str(out)]) == 0
+                            "--levels", "1", "--out", str(out), "--cases", str(cases)]) == 0
     text = out.read_text()
     assert "| stalk | 1 |" in text and f"stalk-{seed}" in text
     assert "wall time" not in text                 # no clock in the table
     assert "wall time" in capsys.readouterr().out
+    assert "--cases" not in text                   # an output option, not part of the command
+    # --cases: one JSON object a case (5 speeds x 4 directions), read back into the same
+    # counts as the table's (cases that count, cases within the stalk targets, by hand)
+    rows = [json.loads(line) for line in cases.read_text().splitlines()]
+    assert len(rows) == 20 and {r["tree"] for r in rows} == {f"stalk-{seed}"}
+    counted = [r for r in rows if not r["error"] and r["angle"] <= 0.1]
+    bounds = {"amplitude_error": 0.02, "period_error": 0.01, "tip_error": 0.01}
+    within = sum(1 for r in counted                # an undefined figure (NaN) does not count
+                 if not any(r["figures"][k] > b for k, b in bounds.items()))
+    assert f"| {within}/{len(counted)} (" in text
 
 
 def test_a_generated_tree_whose_grammar_refinement_overflows_is_simplified(tmp_path):
