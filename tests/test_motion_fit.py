@@ -249,6 +249,17 @@ def test_the_gain_matrix_step_recovers_a_gain_from_swings_wind_by_wind():
     np.testing.assert_allclose(new, (k_new / k_old)[:, :, None] * true, rtol=1e-6)
 
 
+def test_a_round_is_worth_another_only_if_it_gains_a_wind_or_one_per_cent():
+    """The motion fit's stopping rule (MOTION_FIT_MIN_GAIN = 1 %): fewer winds missed always
+    count, the same number must lower the worst ratio by at least 1 %."""
+    from plantlod.simplify.motion_fit import improves
+
+    assert improves((1, 5.0), (2, 1.0))                 # a wind fewer, whatever the ratio
+    assert improves((2, 0.985), (2, 1.0))               # 1.5 % lower
+    assert not improves((2, 0.995), (2, 1.0))           # 0.5 % lower: not worth a round
+    assert not improves((3, 0.5), (2, 1.0))             # a wind more missed
+
+
 def _family(kind: str, seed: int):
     """(system, original tree) of a generated family tree (bench/tree_family.py)."""
     import sys
