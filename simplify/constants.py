@@ -121,9 +121,10 @@ MOTION_FIT_MIN_GAIN = 0.01    # stop at the first round that lowers the worst ra
                               # (3312 against 3297; level 2 3367 both), so this rule stays
 MOTION_FIT_AMPLIFIED = 8.0    # a level branch swinging more than this x its static angle has its gain rows
                               # scaled, not refitted to its statics (motion_fit.swing_amplification; family
-                              # tuning range, levels 1 / 2, each group's best round kept and the fit going on
-                              # while any group improved: 3316 / 3366 cases at 8, 3298 / 3350 at 2 (an
-                              # earlier form of the keeping), 3269 / 3338 scaling every branch's rows)
+                              # tuning range, levels 1 / 2, with the final fit: 3297 / 3367 cases at 8, 3289 /
+                              # 3363 at 4; with the fit going on while any group improved: 3316 / 3366 at 8,
+                              # 3298 / 3350 at 2 (an earlier form of the keeping), 3269 / 3338 scaling every
+                              # branch's rows)
 MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward the current G, x the
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)
