@@ -197,6 +197,21 @@ class GroupTable:
     counted: np.ndarray
     tip_error: np.ndarray
 
+    def motion(self, largest: float) -> np.ndarray:
+        """(2, G) |A_y - A_x| / A_max, model.md 6's motion error of each component (``largest``
+        = A_max, the report's `largest_amplitude`); NaN everywhere when A_max is 0."""
+        if largest > 0:
+            return np.abs(self.amplitude_simplified - self.amplitude_original) / largest
+        return np.full_like(self.amplitude_original, np.nan)
+
+    def major(self, largest: float) -> np.ndarray:
+        """(2, G) bool: the components whose period error model.md 6's period error (major)
+        reads: A_x at least MAJOR_AMPLITUDE_FRACTION of A_max, the error defined."""
+        if largest > 0:
+            return (self.amplitude_original >= MAJOR_AMPLITUDE_FRACTION * largest) \
+                & np.isfinite(self.period_error)
+        return np.zeros_like(self.amplitude_original, bool)
+
     def figures(self) -> list[GroupFigures]:
         """One `GroupFigures` per group, in order."""
         columns = [getattr(self, name).tolist() for name in (
@@ -375,11 +390,8 @@ def compare_groups(t: np.ndarray,
                  for j in range(g) for c in range(2) if counted[c, j] and not per_defined[c, j]]
     tip_worst, tip_at = _worst(tips[None, :], addresses, components=(None,))
     # visible motion (model.md 6): errors against the largest motion, periods of the major components
-    motion = np.abs(amp_y - amp_x) / largest if largest > 0 else np.full_like(amp_x, np.nan)
-    motion_worst, motion_at = _worst(np.where(counted, motion, np.nan), addresses)
-    major = (amp_x >= MAJOR_AMPLITUDE_FRACTION * largest) & np.isfinite(per_err) if largest > 0 \
-        else np.zeros_like(amp_x, bool)
-    major_worst, major_at = _worst(np.where(major, per_err, np.nan), addresses)
+    motion_worst, motion_at = _worst(np.where(counted, table.motion(largest), np.nan), addresses)
+    major_worst, major_at = _worst(np.where(table.major(largest), per_err, np.nan), addresses)
     tip_max = np.sqrt(d2.max(axis=0)) if k else np.zeros(g)            # largest |tip_y - tip_x| over time, (G,) m
     tip_max_worst, tip_max_at = _worst(tip_max[None, :], addresses, components=(None,))
     return Report(amp_worst, per_worst, tip_worst, amp_at, per_at, tip_at, undefined,

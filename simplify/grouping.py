@@ -148,8 +148,9 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             miss_cache[key] = misses.miss(u, main_end(u, extra) if tip < 0 else tip, hang)
         return miss_cache[key] / tip_bound
 
-    def merge_key(r: int, u: int) -> float:
-        """The merge's cost (module docstring): its size times its factor."""
+    def merge_key(r: int, u: int) -> tuple[float, int]:
+        """The merge's cost (module docstring), its size times its factor, and the end of
+        the merged group's main path."""
         old_u = chord_of(u)
         old_r = chord_of(r)
         new_end = main_end(u, r)
@@ -176,7 +177,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         gap = 0.0 if beside else apart(r, u)
         factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
-        return (size[r] if beside else size[r] + size[u]) * factor
+        return (size[r] if beside else size[r] + size[u]) * factor, new_end
 
     from .explicit import is_stalk           # (explicit imports this module)
     stalk = is_stalk(tree)
@@ -198,18 +199,17 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         heap = []
         for r in mergeable:
             u = find(parent[r])
-            heap.append((merge_key(r, u), r))
+            heap.append((merge_key(r, u)[0], r))
         heapq.heapify(heap)
         while heap and len(roots_left) > max(target, 1):
             key, r = heapq.heappop(heap)
             if r not in roots_left:
                 continue
             u = find(parent[r])
-            now = merge_key(r, u)
+            now, new_end = merge_key(r, u)
             if now > key * (1.0 + 1e-12) and heap and now > heap[0][0]:
                 heapq.heappush(heap, (now, r))        # dearer than when pushed: wait its turn
                 continue
-            new_end = main_end(u, r)
             owner[r] = u
             size[u] += size[r]
             end[u] = new_end
@@ -219,7 +219,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
             # the merges into u and of u have new costs: pushed again with them, so that a
             # cheaper one is taken in its turn (older entries stay, checked when popped)
             for c in sorted(hanging[u]) + ([u] if parent[u] >= 0 else []):
-                heapq.heappush(heap, (merge_key(c, find(parent[c])), c))
+                heapq.heappush(heap, (merge_key(c, find(parent[c]))[0], c))
         group_root = np.array([find(i) for i in range(b)], dtype=np.int64)
         roots = np.array(sorted(roots_left), dtype=np.int64)
         number = np.full(b, -1, dtype=np.int64)

@@ -58,8 +58,6 @@ from plantlod.lsys.system import GAIN_KEYS
 from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
-from plantlod.compare.constants import MAJOR_AMPLITUDE_FRACTION
-
 from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMPLIFIED,
                         MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS,
                         MOTION_FIT_STEP, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
@@ -199,8 +197,7 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     ratio = np.where(ok, ax / np.where(ok, ay, 1.0), 1.0)
     weight = np.where(ok, rel ** 2, 0.0)
     # y_old (W, S, c): static own angles carried into W_0; the targets in A_max units
-    own_old = 1000.0 / k_old[None, :, :] * np.einsum("smj,wsj->wsm", gain, force)
-    target = np.einsum("scm,wsm->wsc", carry, own_old) * ratio / scale[:, None, None]
+    target = static_reading(gain, k_old, carry, force) * ratio / scale[:, None, None]
     # design (W, S, c, m, j): C[c, m] 1000 / k_new[m] f_j, in A_max units
     design = (carry[None, :, :, :, None] * (1000.0 / k_new)[None, :, None, :, None]
               * force[:, :, None, None, :]) / scale[:, None, None, None, None]
@@ -214,6 +211,15 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     solved = np.linalg.solve(normal, rhs[:, :, None])[:, :, 0]
     active = weight.sum(axis=(0, 2)) > 0
     return np.where(active[:, None], solved, g0).reshape(-1, 2, 3)
+
+
+def static_reading(gain: np.ndarray, strength: np.ndarray, carry: np.ndarray,
+                   force: np.ndarray) -> np.ndarray:
+    """(W, S, 2) each level branch's static angles read in its group root's frame W_0,
+    y = C diag(1000 / k) G f (model.md 4, 5): gain (S, 2, 3), strength (S, 2) k_bs and k_rs,
+    carry (S, 2, 2), force (W, S, 3) its rest force in its swing frame (`fit_wind_forces`)."""
+    own = 1000.0 / strength[None, :, :] * np.einsum("smj,wsj->wsm", gain, force)
+    return np.einsum("scm,wsm->wsc", carry, own)
 
 
 def improves(rank: tuple, best: tuple) -> bool:
@@ -234,8 +240,7 @@ def swing_amplification(gain: np.ndarray, strength: np.ndarray, carry: np.ndarra
     in each branch's swing frame (`fit_wind_forces`); ay (W, 2, S), a_max (W,) as
     `swing_figures` gives them."""
     ay = np.transpose(ay, (0, 2, 1))                                           # (W, S, c)
-    own = 1000.0 / strength[None] * np.einsum("smj,wsj->wsm", gain, force)
-    static = np.abs(np.einsum("scm,wsm->wsc", carry, own))
+    static = np.abs(static_reading(gain, strength, carry, force))
     counted = (a_max[:, None, None] > 0) & (ay >= COUNTED_AMPLITUDE_FRACTION * a_max[:, None, None])
     ratio = np.where(counted, ay / np.maximum(static, 1e-300), 0.0)
     return ratio.max(axis=(0, 2), initial=0.0)
@@ -256,15 +261,14 @@ def group_scores(reports, level: int, stalk: bool, s_count: int) -> np.ndarray:
         a_max = r.largest_amplitude
         if not a_max > 0:
             continue
-        ax, ay = t.amplitude_original, t.amplitude_simplified
         counted = t.counted
         if stalk:
             amp = np.where(counted, t.amplitude_error, 0.0)
-            timed = counted
+            timed = counted & np.isfinite(t.period_error)
         else:
-            amp = np.where(counted, np.abs(ay - ax) / a_max, 0.0)
-            timed = counted & (ax >= MAJOR_AMPLITUDE_FRACTION * a_max)
-        per = np.where(timed & np.isfinite(t.period_error), t.period_error, 0.0)
+            amp = np.where(counted, t.motion(a_max), 0.0)
+            timed = t.major(a_max)
+        per = np.where(timed, t.period_error, 0.0)
         tips = np.where(np.isfinite(t.tip_error), t.tip_error, 0.0)
         worst = np.maximum.reduce([worst, amp.max(axis=0) / motion, per.max(axis=0) / period,
                                    tips / tip])
@@ -348,7 +352,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             return None
         return form_rank(list(zip(winds, reports)), level, largest, stalk), reports
 
-    force = fit_wind_forces(level_tree, winds) if gains else None
+    force = None                              # `fit_wind_forces`, once a round corrects gains
     best = None                               # (rank, values, round) of the best whole round
     best_score = np.full(s_count, np.inf)     # each level branch's best score so far
     kept = {k: v.copy() for k, v in values.items()}   # each group's values of that round
@@ -367,6 +371,8 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             kept[key][to_group[better]] = values[key][to_group[better]]
         if round_ == MOTION_FIT_ROUNDS or not gained or (rank[0] == 0 and rank[1] <= MOTION_FIT_GOOD):
             break
+        if gains and force is None:
+            force = fit_wind_forces(level_tree, winds)
         values = corrected(values, reports, to_group, carry, dt, force)
     if best is None:
         return first
