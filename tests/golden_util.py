@@ -43,6 +43,21 @@ REGEN_VARIABLE = "PLANTLOD_REGEN_GOLDEN"
 MAX_DIFF_LINES = 40
 
 
+
+def family_tree(kind: str, seed: int):
+    """(system, tree) of the generated family's tree ``kind``-``seed`` (bench/tree_family.py)."""
+    import sys
+
+    from plantlod.lsys.build import build
+    from plantlod.lsys.parse import parse_lsys
+
+    if str(ROOT / "bench") not in sys.path:
+        sys.path.insert(0, str(ROOT / "bench"))
+    import tree_family
+
+    system = parse_lsys(tree_family.generate(kind, seed), f"{kind}-{seed}")
+    return system, build(system).tree
+
 def golden_path(name: str) -> pathlib.Path:
     """Path of the golden file ``tests/golden/<name>`` (``name`` may hold sub-folders)."""
     if not name or pathlib.PurePath(name).is_absolute() or ".." in pathlib.PurePath(name).parts:

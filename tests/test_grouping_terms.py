@@ -109,18 +109,12 @@ def test_a_monopodial_level_keeps_its_tips(tmp_path):
     """Family monopodial-1 at level 1 (bench/tree_family.py): merging trunk segments that carry
     whorls put lateral tips 1.9 % of the height off at 10 m/s; the level's simulated tip error
     (model.md 6, compare's measure) is now within level 1's 1 %."""
-    import sys
-
-    from golden_util import ROOT
+    from golden_util import family_tree
     from plantlod.simplify.evaluate import Runs, WindCase
     from plantlod.simplify.explicit import explicit_system_text, level_header, merge_levels
     from plantlod.simplify.targets import group_map
 
-    sys.path.insert(0, str(ROOT / "bench"))
-    import tree_family
-
-    system = parse_lsys(tree_family.generate("monopodial", 1), "monopodial-1")
-    original = build(system).tree
+    system, original = family_tree("monopodial", 1)
     _, level = explicit_system_text(original, merge_levels(original)[1], name="t",
                                     header=level_header(system), level=1, dt=0.01)
     winds = [WindCase(10.0, 0.0), WindCase(10.0, 90.0)]

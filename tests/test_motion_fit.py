@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from golden_util import family_tree
 from plantlod.compare.groups import carry_matrix, swing_turns
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
@@ -260,19 +261,6 @@ def test_a_round_is_worth_another_only_if_it_gains_a_wind_or_one_per_cent():
     assert not improves((3, 0.5), (2, 1.0))             # a wind more missed
 
 
-def _family(kind: str, seed: int):
-    """(system, original tree) of a generated family tree (bench/tree_family.py)."""
-    import sys
-
-    from golden_util import ROOT
-
-    sys.path.insert(0, str(ROOT / "bench"))
-    import tree_family
-
-    system = parse_lsys(tree_family.generate(kind, seed), f"{kind}-{seed}")
-    return system, build(system).tree
-
-
 @pytest.mark.parametrize("kind, seed", [("sympodial", 245), ("stalk", 0)])
 def test_group_scores_at_their_worst_are_the_bounds_score(kind, seed):
     """A level branch's score (`group_scores`) is its worst figure over the level's bounds; the
@@ -283,7 +271,7 @@ def test_group_scores_at_their_worst_are_the_bounds_score(kind, seed):
     from plantlod.simplify.explicit import is_stalk
     from plantlod.simplify.motion_fit import group_scores
 
-    system, original = _family(kind, seed)
+    system, original = family_tree(kind, seed)
     _, level = explicit_system_text(original, merge_levels(original)[1], name="t",
                                     header=level_header(system), level=1, dt=DT, motion=False)
     winds = [WindCase(s, d) for s in (0.5, 5.0) for d in (0.0, 90.0)]
@@ -330,7 +318,7 @@ def test_a_sympodial_level_keeps_a_branch_its_parent_turns():
     is far above its static angle) the level holds level 1's motion and period bounds."""
     from plantlod.simplify.evaluate import Runs, WindCase
 
-    system, original = _family("sympodial", 380)
+    system, original = family_tree("sympodial", 380)
     _, level = explicit_system_text(original, merge_levels(original)[1], name="t",
                                     header=level_header(system), level=1, dt=DT)
     winds = [WindCase(10.0, d) for d in (0.0, 90.0, 200.0, 37.0)]

@@ -7,12 +7,11 @@ strengths whose period is the one the section-6 measure gives."""
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 import pytest
 
-from golden_util import ROOT, run_cli
+from golden_util import ROOT, family_tree, run_cli
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.explicit import (equivalent_leaves, explicit_system_text, level_header,
@@ -29,14 +28,9 @@ EVAL = ["eval/stochastic.lsys", "eval/twin_draw.lsys", "eval/sympodial.lsys", "e
 def _tree(name):
     """An example file, or ``family/<kind>-<seed>``: a tree of bench/tree_family.py."""
     if name.startswith("family/"):
-        sys.path.insert(0, str(ROOT / "bench"))
-        import tree_family
-
         kind, seed = name[len("family/"):].rsplit("-", 1)
-        text = tree_family.generate(kind, int(seed))
-    else:
-        text = (ROOT / "examples" / name).read_text()
-    system = parse_lsys(text, name)
+        return family_tree(kind, int(seed))
+    system = parse_lsys((ROOT / "examples" / name).read_text(), name)
     return system, build(system).tree
 
 
