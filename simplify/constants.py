@@ -105,6 +105,12 @@ TIP_MISS_WEIGHT = (1.0, 4.0)  # ... and x (1 + this x the tip miss it adds, in t
                               # it 2835/3731 / 2769/3595, with (1, 4) 3002/3832 / 2990/3719; once merges
                               # were re-pushed (grouping.py), (2, 4) 3239/3865 / 3309/3794 against
                               # (1, 4) 3270/3865 / 3320/3790)
+SHARE_SPREAD_WEIGHT = 1000.0  # ... and x (1 + this x the merged group's share spread; `merge_costs.ShareSpread`),
+                              # chains only (stalks of the tuning range, levels 1 / 2, with the motion fit's
+                              # turned winds left out: without it 226 / 206 of 434 / 413 cases; 100 269 / 253,
+                              # 300 279 / 255, 1000 286 / 260 of 436 / 415, 3000 279 / 275 of 433 / 401)
+SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the component swings at least this
+                              # x the group's largest at that speed (0.01: 288 / 259, 0.3: 284 / 251)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
@@ -125,6 +131,8 @@ MOTION_FIT_AMPLIFIED = 8.0    # a level branch swinging more than this x its sta
                               # 3363 at 4; with the fit going on while any group improved: 3316 / 3366 at 8,
                               # 3298 / 3350 at 2 (an earlier form of the keeping), 3269 / 3338 scaling every
                               # branch's rows)
+MOTION_FIT_TURN = SMALL_ANGLE_LIMIT   # rad: fit only winds whose linear statics turn no branch's axis further
+                              # (motion_fit.unturned; 0.2: stalks 286 / 251, 0.3: 279 / 228 in place of 279 / 255)
 MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward the current G, x the
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)

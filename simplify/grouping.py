@@ -6,7 +6,7 @@ connected, nested level in level, and the chain ends with one group per root bra
 (Beaudoin & Keyser 2004 merge from the tips too). A merge of the group rooted at r into the
 group rooted at u costs
 
-    size · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_t Δturn + W_m Δmiss)
+    size · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_s spread + W_t Δturn + W_m Δmiss)
 
 - ``size``: size_r + size_u, smallest first, so groups grow evenly from the tips toward the
   trunk; size_r alone where r goes beside u's main path (u's level branch stays as it was, and
@@ -15,6 +15,17 @@ group rooted at u costs
   land on (one level branch has one period per W_0 component, model.md 6; `PeriodGap`),
   where r joins u's main path; 0 where r goes beside it (its members then leave the
   combined angle, and nothing of theirs is measured);
+- ``spread`` (chains only): how far the merged group's period moves with the wind
+  (`ShareSpread`): its members' shares of its swing change where the leaf force (~v) drives
+  a stalk's top and the drag (~v²) its length, so a group across that change has no one
+  period, however its members' strengths compare. 0 where r goes beside u. A chain has
+  neither turns nor hanging groups, so the periods are all its merges can spoil: W_s =
+  SHARE_SPREAD_WEIGHT outweighs the size term, and its top, where the leaf leads, stays
+  unmerged while the length below merges (family stalk-9 at level 1: the top 13 branches
+  alone, 0 -> 2 of 20 cases; the stalks of the tuning range 209 -> 286 of 437 level-1 and
+  159 -> 260 of 415 level-2 cases, with the motion fit's turned winds left out). On branching
+  trees it cost more than it gave (sympodial level 1, tuning range, 350 -> 297 at W_s = 30
+  while bush3d gained 316 -> 347), so they go without it.
 - ``Δturn``: how much the merge turns level branches against their group roots' frames.
   A level branch's swing frame is fixed by its chord and its parent's chord (model.md 3: x in
   their plane), so a merge that moves u's chord turns u's branch and every group hanging from
@@ -56,8 +67,8 @@ from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
 from .constants import (FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO, MIN_MERGE_FACTOR,
-                        STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
-from .merge_costs import FrameTurns, PeriodGap, TipMisses
+                        SHARE_SPREAD_WEIGHT, STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
+from .merge_costs import FrameTurns, PeriodGap, ShareSpread, TipMisses
 from .static import rest_frames
 
 
@@ -175,7 +186,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         # a group merged beside u's main path leaves the measures (model.md 6 reads main
         # paths): its periods beat against nothing, and u's level branch stays as it was
         gap = 0.0 if beside else apart(r, u)
-        factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap
+        spread = 0.0 if beside or shares is None else shares(u, new_end)
+        factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + SHARE_SPREAD_WEIGHT * spread
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
         return (size[r] if beside else size[r] + size[u]) * factor, new_end
 
@@ -184,6 +196,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     misses = (TipMisses(tree, parent, children, frames)
               if max(TIP_MISS_WEIGHT) > 0 and not stalk else None)
     miss_cache: dict[tuple[int, int, int, int], float] = {}
+    shares = ShareSpread(tree, parent, frames) if stalk else None
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
     while True:

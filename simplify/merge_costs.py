@@ -2,7 +2,8 @@
 
 - `PeriodGap`: how far a merged group's periods are from the W_0 components they land on;
 - `FrameTurns`: how much a merge turns level branches against their group roots' frames;
-- `TipMisses`: how far a group's rigid chord puts the points it carries from the original's.
+- `TipMisses`: how far a group's rigid chord puts the points it carries from the original's;
+- `ShareSpread`: how far a group's period moves with the wind (chains).
 
 Each works on the original tree's rest geometry (and, for the tip misses, its linear statics)
 and on plain Python numbers: `merge_levels` calls them tens of thousands of times.
@@ -16,7 +17,7 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
-from .constants import SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
+from .constants import SHARE_SPREAD_FLOOR, SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
 from .static import RestFrames, horizontal_directions, rest_frames, static_angles_at, static_parts
 
 
@@ -171,3 +172,78 @@ class TipMisses:
             if d > 0.0:
                 worst = max(worst, math.sqrt(d) * (math.dist(self.tip[m], b0) + self.reach[c]))
         return self.scale * (math.sqrt(offset) + worst)
+
+
+class ShareSpread:
+    """How far a group's period moves with the wind: the spread, over wind loadings, of the
+    swing-weighted mean log-strength of its main path in each W_0 component.
+
+    A level branch has one period per W_0 component (model.md 6). Its group's component swings
+    as the sum of its members' (`explicit.dominant_strengths`), each with its own period and a
+    share that is its static angle. Where those shares stay the same whatever the wind, one
+    period (fitted to their sum) serves every wind, however different the members; where they
+    change (the leaf force, ~v, drives the top of a stalk and the drag, ~v², its whole length;
+    another wind direction loads other members), the sum's period moves and one branch cannot
+    follow it. With ω_j(l) the static rotation vector of member j in loading l (world axes) and
+    e_c the root's W_0 axis of component c (y for bend, -x for rotation):
+
+        λ_c(l) = Σ_j (e_c · ω_j(l)) ln k_j / Σ_j e_c · ω_j(l)   over the main path,
+
+    k_j per member component (bend, rotation); spread = max_c (max_l λ_c(l) - min_l λ_c(l))
+    over the loadings where the component's swing is at least SHARE_SPREAD_FLOOR of the
+    group's largest at that speed. Loadings: speeds low, sqrt(low high) and high of
+    SIMPLIFY_WIND_RANGE, four directions (0, 45, 90, 135 deg). Sums along a main path (a root's
+    descendant chain) are differences of running sums from the tree's roots.
+    """
+
+    def __init__(self, tree: Tree, parent: list[int], frames: RestFrames):
+        low, high = SIMPLIFY_WIND_RANGE
+        directions = horizontal_directions(8)[:4]
+        parts = static_parts(tree, directions, frames)
+        k = np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
+                      np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_k = np.where(k > 0, np.log(np.where(k > 0, k, 1.0)), 0.0)        # (B, 2)
+        plain, weighted = [], []
+        for speed in (low, math.sqrt(low * high), high):
+            bend, rot = static_angles_at(tree, parts, speed, frames)             # (D, B)
+            wb = bend[:, :, None] * frames.swing[None, :, :, 1]                   # (D, B, 3)
+            wr = -rot[:, :, None] * frames.swing[None, :, :, 0]
+            plain.append(wb + wr)
+            weighted.append(wb * log_k[None, :, 0, None] + wr * log_k[None, :, 1, None])
+        speeds = len(plain)
+        # (B, S, D, 3) running sums over each branch and its ancestors
+        p0 = np.stack(plain, axis=0).transpose(2, 0, 1, 3).copy()
+        p1 = np.stack(weighted, axis=0).transpose(2, 0, 1, 3).copy()
+        for i, p in enumerate(parent):
+            if p >= 0:
+                p0[i] += p0[p]
+                p1[i] += p1[p]
+        self.p0, self.p1, self.parent = p0, p1, parent
+        self.axes = np.stack([frames.swing[:, :, 1], -frames.swing[:, :, 0]], axis=1)  # (B, c, 3)
+        self.zero = np.zeros(p0.shape[1:])
+        self.speeds = speeds
+        self.cache: dict[tuple[int, int], float] = {}
+
+    def __call__(self, root: int, end: int) -> float:
+        """The spread of the group rooted at ``root`` whose main path ends at ``end``."""
+        key = (root, end)
+        if key in self.cache:
+            return self.cache[key]
+        q = self.parent[root]
+        s0 = self.p0[end] - (self.p0[q] if q >= 0 else self.zero)                # (S, D, 3)
+        s1 = self.p1[end] - (self.p1[q] if q >= 0 else self.zero)
+        e = self.axes[root]                                                       # (c, 3)
+        den = np.einsum("sdk,ck->csd", s0, e)
+        num = np.einsum("sdk,ck->csd", s1, e)
+        size = np.abs(den)
+        floor = SHARE_SPREAD_FLOOR * size.max(axis=(0, 2), keepdims=True)
+        ok = (size >= floor) & (size > 0)
+        worst = 0.0
+        for c in range(2):
+            if ok[c].sum() > 1:
+                lam = num[c][ok[c]] / den[c][ok[c]]
+                worst = max(worst, float(lam.max() - lam.min()))
+        worst = min(worst, 1.0)
+        self.cache[key] = worst
+        return worst

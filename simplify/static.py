@@ -177,3 +177,23 @@ def static_angles_at(tree: Tree, parts: StaticParts, speed: float,
                      frames: RestFrames | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Static (θb, θr) (D, B) at wind speed ``speed`` m/s in the parts' directions."""
     return static_angles(tree, speed * parts.leaf + speed * speed * parts.drag, frames)
+
+
+def turned_most(tree: Tree, directions: np.ndarray, speeds, frames: RestFrames | None = None
+                ) -> np.ndarray:
+    """(W,) the largest static turn, rad, of any branch's axis from its rest direction in each
+    wind (unit world direction (W, 3), speed (W,) m/s): |(Σ_j ω_j) × a_i|, the sum over branch
+    i and its ancestors, ω_j = θb_j y_j - θr_j x_j each one's own static rotation (linear
+    statics, model.md 4) with (x_j, y_j) its rest swing frame's axes, and a_i branch i's rest
+    axis (a turn about the axis itself moves nothing). A chain of many branches turns its top
+    far more than any one branch or group turns."""
+    frames = rest_frames(tree) if frames is None else frames
+    parts = static_parts(tree, np.asarray(directions, dtype=np.float64), frames)
+    v = np.asarray(speeds, dtype=np.float64)[:, None, None]
+    bend, rot = static_angles(tree, v * parts.leaf + v * v * parts.drag, frames)     # (W, B)
+    omega = bend[:, :, None] * frames.swing[None, :, :, 1] - rot[:, :, None] * frames.swing[None, :, :, 0]
+    for i, p in enumerate(np.asarray(tree.parent).tolist()):
+        if p >= 0:
+            omega[:, i] += omega[:, p]
+    axis = frames.swing[:, :, 2]                                                      # (B, 3)
+    return np.linalg.norm(np.cross(omega, axis[None]), axis=2).max(axis=1, initial=0.0)

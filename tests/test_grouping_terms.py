@@ -145,3 +145,89 @@ def test_a_twig_of_other_strengths_merges_beside_the_main_path():
     assert level.group[upper] == level.group[parent]
     path = main_paths(tree, level.group, level.count)[level.group[upper]].tolist()
     assert upper not in path and path == [i for i in trunk if level.group[i] == level.group[parent]]
+
+
+# A chain that rolls and turns, of two strengths pairs, with a leaf at its top.
+CHAIN = """\
+name: rolled chain
+derivation_length: 0
+branching_angle: 20
+rotation_angle: 90
+force_absorbed: 0.01
+force_propagated: 0.8
+drag_coefficient: 0.0015
+branch F: length=0.3 radius=0.02 bend_strength=22 rotation_strength=30
+branch G: length=0.2 radius=0.015 bend_strength=45 rotation_strength=38
+leaf L: area=0.004
+axiom: F /(70) G &(15) F /(40) G F /(25) L
+"""
+
+
+def _literal_spread(tree, path):
+    """ShareSpread's figure the slow way: each member's static angles carried into the path
+    root's frame by compare's carry maps (model.md 5), λ_c(l) = Σ_j Σ_m C_j[c, m] θ_m,j ln k_m,j
+    / Σ_j Σ_m C_j[c, m] θ_m,j per loading, and the spread over the loadings that count."""
+    from plantlod.compare.groups import carry_matrix, path_rotations
+    from plantlod.simplify.constants import SHARE_SPREAD_FLOOR
+
+    frames = rest_frames(tree)
+    carry = carry_matrix(path_rotations(tree, [np.asarray(path)]))            # (m, 2, 2)
+    log_k = np.log(np.stack([tree.bend_strength, tree.rotation_strength], axis=1))[path]
+    low, high = SIMPLIFY_WIND_RANGE
+    parts = static_parts(tree, horizontal_directions(8)[:4], frames)
+    lam = {0: [], 1: []}
+    for speed in (low, np.sqrt(low * high), high):
+        bend, rot = static_angles_at(tree, parts, speed, frames)
+        theta = np.stack([bend[:, path], rot[:, path]], axis=2)              # (D, m, 2)
+        rows = []
+        for d in range(theta.shape[0]):
+            for c in range(2):
+                den = sum(carry[j, c, m] * theta[d, j, m] for j in range(len(path)) for m in range(2))
+                num = sum(carry[j, c, m] * theta[d, j, m] * log_k[j, m]
+                          for j in range(len(path)) for m in range(2))
+                rows.append((c, abs(den), num / den if den else 0.0))
+        top = max(r[1] for r in rows)
+        for c, size, value in rows:
+            if size >= SHARE_SPREAD_FLOOR * top and size > 0:
+                lam[c].append(value)
+    return min(1.0, max(max(v) - min(v) for v in lam.values() if len(v) > 1))
+
+
+def test_the_share_spread_is_the_literal_one_along_a_rolled_chain():
+    from plantlod.simplify.merge_costs import ShareSpread
+
+    tree = build(parse_lsys(CHAIN, "c.lsys")).tree
+    parent = np.asarray(tree.parent).tolist()
+    spreads = ShareSpread(tree, parent, rest_frames(tree))
+    n = tree.n_branches
+    for root in range(n):
+        for end in range(root + 1, n):
+            path = list(range(root, end + 1))
+            assert spreads(root, end) == pytest.approx(_literal_spread(tree, path), abs=1e-9)
+    assert spreads(n - 2, n - 1) > 0.05       # the leaf's top against the drag's length
+
+
+def test_members_of_one_strength_have_no_spread_whatever_loads_them():
+    from plantlod.simplify.merge_costs import ShareSpread
+
+    text = CHAIN.replace("bend_strength=45 rotation_strength=38", "bend_strength=22 rotation_strength=22")
+    text = text.replace("bend_strength=22 rotation_strength=30", "bend_strength=22 rotation_strength=22")
+    tree = build(parse_lsys(text, "c.lsys")).tree
+    spreads = ShareSpread(tree, np.asarray(tree.parent).tolist(), rest_frames(tree))
+    assert all(spreads(r, e) < 1e-12 for r in range(tree.n_branches)
+               for e in range(r + 1, tree.n_branches))
+
+
+def test_a_stalk_level_keeps_the_top_its_leaf_drives_unmerged():
+    """Family stalk-9 (an F G H cycle, a leaf at the top): at level 1 the branches the leaf force
+    leads stay alone while the drag-loaded length below merges (simplify/grouping.py), and no
+    group mixes the leaf's share and the drag's."""
+    from golden_util import family_tree
+    from plantlod.simplify.grouping import merge_levels
+
+    _, tree = family_tree("stalk", 9)
+    level = merge_levels(tree)[1]
+    sizes = np.bincount(level.group)
+    top = level.group[-1]
+    assert sizes[top] == 1 and sizes[level.group[-4]] == 1
+    assert sizes[level.group[0]] >= 3               # the base merges further than the top

@@ -140,6 +140,16 @@ def _rolled_stalk():
     return build(system).tree, header
 
 
+def _pairs(tree):
+    """A level of the chain ``tree`` whose groups are its branches two by two from the base
+    (the rolls' tests fix their groups: which groups a chain's level merges is the grouping's
+    business, tests/test_grouping_terms.py)."""
+    from plantlod.simplify.grouping import Grouping
+
+    group = np.arange(tree.n_branches, dtype=np.int64) // 2
+    return Grouping(group, np.arange(0, tree.n_branches, 2, dtype=np.int64))
+
+
 def test_straight_groups_keep_their_roots_frames_whatever_the_rolls():
     # a straight trunk rolled by 66° between segments (bend and rotation strengths differ):
     # unrolled, every level branch that continues straight on from its parent's group tip
@@ -160,7 +170,7 @@ def test_a_swing_roll_turns_the_branch_reading_by_the_roll():
     # the level's rest pose; at least one roll is chosen on this trunk, the root keeps none,
     # and the text's swing_roll keys read back as the tree's rolls
     original, header = _rolled_stalk()
-    grouping = merge_levels(original)[1]
+    grouping = _pairs(original)
     text, level = explicit_system_text(original, grouping, name="t", header=header, level=1,
                                        dt=DT, refine=False, gains=False, motion=False)
     roll = np.asarray(level.swing_roll)
@@ -182,7 +192,7 @@ def test_a_swing_roll_moves_no_rest_geometry():
     system = parse_lsys(ROLLED_STALK.replace("T /", "T [&(20) L] /"), "leafy.lsys")
     original = build(system).tree
     header = level_header(system)
-    grouping = merge_levels(original)[1]
+    grouping = _pairs(original)
     levels = {roll: explicit_system_text(original, grouping, name="t", header=header, level=1,
                                          dt=DT, refine=False, gains=False, motion=False,
                                          roll=roll)[1] for roll in (False, True)}
@@ -210,7 +220,7 @@ def test_rolls_lower_the_measured_errors_of_a_rolled_trunk():
     winds = [WindCase(1.0, d) for d in (0.0, 37.0, 90.0, 200.0)]
     worst = {}
     for roll in (False, True):
-        _, level = explicit_system_text(original, merge_levels(original)[1], name="t",
+        _, level = explicit_system_text(original, _pairs(original), name="t",
                                         header=header, level=1, dt=DT, roll=roll)
         reports = Runs(original, group_map(original, level), winds, DT, 2000, 4).compare(level)
         worst[roll] = max(max(r.motion_error / 0.05, r.period_error_major / 0.02) for r in reports)
@@ -325,3 +335,45 @@ def test_a_sympodial_level_keeps_a_branch_its_parent_turns():
     reports = Runs(original, group_map(original, level), winds, DT, 2000, 4).compare(level)
     assert max(r.motion_error for r in reports) <= 0.05
     assert max(r.period_error_major for r in reports) <= 0.02
+
+
+def test_the_fit_leaves_out_the_winds_that_turn_a_stalks_top_far():
+    """`motion_fit.unturned` against the kinematics of model.md 3: family stalk-36 posed at its
+    full static angles turns its top by more than MOTION_FIT_TURN in simplify's two fast winds
+    and by less in its two slow ones; the fit keeps exactly the slow ones. A small bush keeps
+    every wind."""
+    from plantlod.sim.kinematics import pose
+    from plantlod.simplify.constants import MOTION_FIT_TURN, SIMPLIFY_WIND_RANGE
+    from plantlod.simplify.evaluate import wind_cases
+    from plantlod.simplify.motion_fit import unturned
+    from plantlod.simplify.static import rest_frames, static_angles_at, static_parts
+
+    class Winds:                                 # what `unturned` reads of a `Runs`
+        def __init__(self, winds):
+            self.winds = winds
+
+        def subset(self, keep):
+            return Winds([self.winds[k] for k in keep])
+
+    winds = wind_cases(*SIMPLIFY_WIND_RANGE)
+    for kind, seed, slow_only in (("stalk", 36, True), ("bush", 3, False)):
+        _, tree = family_tree(kind, seed)
+        frames = rest_frames(tree)
+        rest = pose(tree, np.zeros(tree.n_branches), np.zeros(tree.n_branches))
+        turns = []
+        for w in winds:
+            az = math.radians(w.direction)
+            parts = static_parts(tree, np.array([[math.cos(az), math.sin(az), 0.0]]), frames)
+            bend, rot = static_angles_at(tree, parts, w.speed, frames)
+            posed = pose(tree, bend[0], rot[0])
+            cross = np.cross(rest.frame[:, :, 2], posed.frame[:, :, 2])
+            turns.append(float(np.arcsin(np.clip(np.linalg.norm(cross, axis=1), 0, 1)).max()))
+        kept, largest = unturned(tree, Winds(winds), list(range(len(winds))))
+        if slow_only:
+            slow = [k for k, w in enumerate(winds) if w.speed < 5]
+            assert max(turns[k] for k in slow) < MOTION_FIT_TURN < min(
+                t for k, t in enumerate(turns) if k not in slow)
+            assert largest == slow
+        else:
+            assert max(turns) < MOTION_FIT_TURN and largest == list(range(len(winds)))
+        assert [w for w in kept.winds] == [winds[k] for k in largest]

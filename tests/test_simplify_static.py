@@ -123,3 +123,42 @@ def test_thesis_rules_by_hand(level):
     assert set(params.branch) == {"length", "force_propagated"}
     assert scale == pytest.approx(sum(P ** j for j in range(1, m + 1)) / P ** (level + 1),
                                   rel=1e-9)
+
+
+def test_turned_most_is_the_posed_turn_of_the_most_turned_axis():
+    """`static.turned_most` (linear statics) against model.md 3's kinematics: the tree posed at
+    EPS x its static angles, each branch's axis turned from its rest direction, over EPS."""
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.sim.kinematics import pose
+    from plantlod.simplify.static import rest_frames, turned_most
+
+    text = """\
+name: bent chain with a lateral
+derivation_length: 0
+branching_angle: 30
+rotation_angle: 90
+force_absorbed: 0.01
+force_propagated: 0.8
+drag_coefficient: 0.0015
+branch F: length=0.3 radius=0.02 bend_strength=22 rotation_strength=30
+branch G: length=0.2 radius=0.015 bend_strength=45 rotation_strength=38
+leaf L: area=0.004
+axiom: F /(70) G &(25) F [+(40) G L] /(40) G F /(25) L
+"""
+    tree = build(parse_lsys(text, "t.lsys")).tree
+    frames = rest_frames(tree)
+    az = np.radians([0.0, 37.0, 90.0, 200.0])
+    directions = np.stack([np.cos(az), np.sin(az), np.zeros(4)], axis=1)
+    speeds = [0.5, 3.0, 11.0, 20.0]
+    eps = 1e-6
+    rest = pose(tree, np.zeros(tree.n_branches), np.zeros(tree.n_branches))
+    expected = []
+    for d, v in zip(directions, speeds):
+        parts = static_parts(tree, d[None], frames)
+        bend, rot = static_angles_at(tree, parts, v, frames)
+        posed = pose(tree, eps * bend[0], eps * rot[0])
+        axis0 = rest.frame[:, :, 2]
+        axis1 = posed.frame[:, :, 2]
+        turn = np.linalg.norm(np.cross(axis0, axis1), axis=1) / eps
+        expected.append(turn.max())
+    assert turned_most(tree, directions, speeds) == pytest.approx(expected, rel=1e-4)
