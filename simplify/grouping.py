@@ -15,17 +15,15 @@ group rooted at u costs
   land on (one level branch has one period per W_0 component, model.md 6; `PeriodGap`),
   where r joins u's main path; 0 where r goes beside it (its members then leave the
   combined angle, and nothing of theirs is measured);
-- ``spread`` (chains only): how far the merged group's period moves with the wind
-  (`ShareSpread`): its members' shares of its swing change where the leaf force (~v) drives
-  a stalk's top and the drag (~v²) its length, so a group across that change has no one
-  period, however its members' strengths compare. 0 where r goes beside u. A chain has
-  neither turns nor hanging groups, so the periods are all its merges can spoil: W_s =
-  SHARE_SPREAD_WEIGHT outweighs the size term, and its top, where the leaf leads, stays
-  unmerged while the length below merges (family stalk-9 at level 1: the top 13 branches
-  alone, 0 -> 2 of 20 cases; the stalks of the tuning range 209 -> 286 of 437 level-1 and
-  159 -> 260 of 415 level-2 cases, with the motion fit's turned winds left out). On branching
-  trees it cost more than it gave (sympodial level 1, tuning range, 350 -> 297 at W_s = 30
-  while bush3d gained 316 -> 347), so they go without it.
+- ``spread``: how far the merged group's period moves with the wind (`ShareSpread`): its
+  members' shares of its swing change where the leaf force (~v) drives a stalk's top and
+  the drag (~v²) its length, or where another wind direction loads other members, so a
+  group across that change has no one period, however its members' strengths compare. 0
+  where r goes beside u. A chain has neither turns nor hanging groups, so the periods are
+  all its merges can spoil: W_s = SHARE_SPREAD_WEIGHT outweighs the size term, and its top,
+  where the leaf leads, stays unmerged while the length below merges (family stalk-9 at
+  level 1: the top 13 branches alone). A branching tree weighs it with
+  SHARE_SPREAD_BRANCHING_WEIGHT, while level 1 is merged only (docs/simplify.md, "Groups").
 - ``Δturn``: how much the merge turns level branches against their group roots' frames.
   A level branch's swing frame is fixed by its chord and its parent's chord (model.md 3: x in
   their plane), so a merge that moves u's chord turns u's branch and every group hanging from
@@ -67,7 +65,8 @@ from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
 from .constants import (FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO, MIN_MERGE_FACTOR,
-                        SHARE_SPREAD_WEIGHT, STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
+                        SHARE_SPREAD_BRANCHING_WEIGHT, SHARE_SPREAD_WEIGHT, STRENGTH_MISMATCH_WEIGHT,
+                        TIP_MISS_WEIGHT)
 from .merge_costs import FrameTurns, PeriodGap, ShareSpread, TipMisses
 from .static import rest_frames
 
@@ -186,8 +185,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         # a group merged beside u's main path leaves the measures (model.md 6 reads main
         # paths): its periods beat against nothing, and u's level branch stays as it was
         gap = 0.0 if beside else apart(r, u)
-        spread = 0.0 if beside or shares is None else shares(u, new_end)
-        factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + SHARE_SPREAD_WEIGHT * spread
+        spread = 0.0 if beside or share_weight == 0 else shares(u, new_end)
+        factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + share_weight * spread
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
         return (size[r] if beside else size[r] + size[u]) * factor, new_end
 
@@ -196,7 +195,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     misses = (TipMisses(tree, parent, children, frames)
               if max(TIP_MISS_WEIGHT) > 0 and not stalk else None)
     miss_cache: dict[tuple[int, int, int, int], float] = {}
-    shares = ShareSpread(tree, parent, frames) if stalk else None
+    shares = ShareSpread(tree, parent, frames)
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
     while True:
@@ -204,6 +203,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         tip_weight = (0.0 if misses is None
                       else TIP_MISS_WEIGHT[min(len(levels), len(TIP_MISS_WEIGHT)) - 1])
         weight = STRENGTH_MISMATCH_WEIGHT[min(len(levels), len(STRENGTH_MISMATCH_WEIGHT)) - 1]
+        share_weight = (SHARE_SPREAD_WEIGHT if stalk else
+                        SHARE_SPREAD_BRANCHING_WEIGHT[min(len(levels), len(SHARE_SPREAD_BRANCHING_WEIGHT)) - 1])
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = sorted(r for r in roots_left if parent[r] >= 0)

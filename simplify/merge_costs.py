@@ -179,21 +179,24 @@ class ShareSpread:
     swing-weighted mean log-strength of its main path in each W_0 component.
 
     A level branch has one period per W_0 component (model.md 6). Its group's component swings
-    as the sum of its members' (`explicit.dominant_strengths`), each with its own period and a
-    share that is its static angle. Where those shares stay the same whatever the wind, one
-    period (fitted to their sum) serves every wind, however different the members; where they
-    change (the leaf force, ~v, drives the top of a stalk and the drag, ~v², its whole length;
-    another wind direction loads other members), the sum's period moves and one branch cannot
-    follow it. With ω_j(l) the static rotation vector of member j in loading l (world axes) and
-    e_c the root's W_0 axis of component c (y for bend, -x for rotation):
+    as the sum of its members' parts (`explicit.dominant_strengths`), each with its own period
+    and a size that is its static angle carried into W_0. Where those shares stay the same
+    whatever the wind, one period (fitted to their sum) serves every wind, however different
+    the members; where they change (the leaf force, ~v, drives the top of a stalk and the
+    drag, ~v², its whole length; another wind direction loads other members), the sum's
+    period moves and one branch cannot follow it. With θ_m,j(l) member j's static angles in
+    loading l (m: bend, rotation), C_j its carry map into the root's frame W_0 (model.md 5)
+    and k_m,j its strengths:
 
-        λ_c(l) = Σ_j (e_c · ω_j(l)) ln k_j / Σ_j e_c · ω_j(l)   over the main path,
+        λ_c(l) = Σ_j Σ_m |C_j[c, m] θ_m,j(l)| ln k_m,j / Σ_j Σ_m |C_j[c, m] θ_m,j(l)|
 
-    k_j per member component (bend, rotation); spread = max_c (max_l λ_c(l) - min_l λ_c(l))
-    over the loadings where the component's swing is at least SHARE_SPREAD_FLOOR of the
-    group's largest at that speed. Loadings: speeds low, sqrt(low high) and high of
-    SIMPLIFY_WIND_RANGE, four directions (0, 45, 90, 135 deg). Sums along a main path (a root's
-    descendant chain) are differences of running sums from the tree's roots.
+    over the main path (a weighted mean: it stays within the members' strengths, whatever
+    signs their parts have); spread = max_c (max_l λ_c(l) - min_l λ_c(l)) over the loadings
+    where the component's summed parts are at least SHARE_SPREAD_FLOOR of the group's
+    largest at that speed. Loadings: speeds low, sqrt(low high) and high of
+    SIMPLIFY_WIND_RANGE, four directions (0, 45, 90, 135 deg). C_j[c, m] θ_m,j = e_c · ω_m,j
+    with ω_b,j = θb_j y_j and ω_r,j = -θr_j x_j (world axes) and e_b = y_0, e_r = -x_0 the
+    root's axes, so each member's parts are kept as world vectors and read per root.
     """
 
     def __init__(self, tree: Tree, parent: list[int], frames: RestFrames):
@@ -203,47 +206,36 @@ class ShareSpread:
         k = np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
                       np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            log_k = np.where(k > 0, np.log(np.where(k > 0, k, 1.0)), 0.0)        # (B, 2)
-        plain, weighted = [], []
+            self.log_k = np.where(k > 0, np.log(np.where(k > 0, k, 1.0)), 0.0)   # (B, 2)
+        vectors = []
         for speed in (low, math.sqrt(low * high), high):
             bend, rot = static_angles_at(tree, parts, speed, frames)             # (D, B)
-            wb = bend[:, :, None] * frames.swing[None, :, :, 1]                   # (D, B, 3)
-            wr = -rot[:, :, None] * frames.swing[None, :, :, 0]
-            plain.append(wb + wr)
-            weighted.append(wb * log_k[None, :, 0, None] + wr * log_k[None, :, 1, None])
-        speeds = len(plain)
-        # (B, S, D, 3) running sums over each branch and its ancestors
-        p0 = np.stack(plain, axis=0).transpose(2, 0, 1, 3).copy()
-        p1 = np.stack(weighted, axis=0).transpose(2, 0, 1, 3).copy()
-        for i, p in enumerate(parent):
-            if p >= 0:
-                p0[i] += p0[p]
-                p1[i] += p1[p]
-        self.p0, self.p1, self.parent = p0, p1, parent
+            vectors.append(np.stack([bend[:, :, None] * frames.swing[None, :, :, 1],
+                                     -rot[:, :, None] * frames.swing[None, :, :, 0]], axis=2))
+        # (B, S, D, m, 3): each member's bend and rotation parts, world vectors
+        self.parts = np.stack(vectors, axis=0).transpose(2, 0, 1, 3, 4).copy()
+        self.parent = parent
         self.axes = np.stack([frames.swing[:, :, 1], -frames.swing[:, :, 0]], axis=1)  # (B, c, 3)
-        self.zero = np.zeros(p0.shape[1:])
-        self.speeds = speeds
         self.cache: dict[tuple[int, int], float] = {}
 
     def __call__(self, root: int, end: int) -> float:
-        """The spread of the group rooted at ``root`` whose main path ends at ``end``."""
+        """The spread of the group rooted at ``root`` whose main path ends at ``end`` (the
+        path: ``end`` and its ancestors up to ``root``)."""
         key = (root, end)
         if key in self.cache:
             return self.cache[key]
-        q = self.parent[root]
-        s0 = self.p0[end] - (self.p0[q] if q >= 0 else self.zero)                # (S, D, 3)
-        s1 = self.p1[end] - (self.p1[q] if q >= 0 else self.zero)
-        e = self.axes[root]                                                       # (c, 3)
-        den = np.einsum("sdk,ck->csd", s0, e)
-        num = np.einsum("sdk,ck->csd", s1, e)
-        size = np.abs(den)
-        floor = SHARE_SPREAD_FLOOR * size.max(axis=(0, 2), keepdims=True)
-        ok = (size >= floor) & (size > 0)
+        path = [end]
+        while path[-1] != root:
+            path.append(self.parent[path[-1]])
+        size = np.abs(np.einsum("jsdmk,ck->jcsdm", self.parts[path], self.axes[root]))
+        den = size.sum(axis=(0, 4))                                               # (c, S, D)
+        num = np.einsum("jcsdm,jm->csd", size, self.log_k[path])
+        floor = SHARE_SPREAD_FLOOR * den.max(axis=(0, 2), keepdims=True)
+        ok = (den >= floor) & (den > 0)
         worst = 0.0
         for c in range(2):
             if ok[c].sum() > 1:
                 lam = num[c][ok[c]] / den[c][ok[c]]
                 worst = max(worst, float(lam.max() - lam.min()))
-        worst = min(worst, 1.0)
         self.cache[key] = worst
         return worst

@@ -165,8 +165,8 @@ axiom: F /(70) G &(15) F /(40) G F /(25) L
 
 def _literal_spread(tree, path):
     """ShareSpread's figure the slow way: each member's static angles carried into the path
-    root's frame by compare's carry maps (model.md 5), λ_c(l) = Σ_j Σ_m C_j[c, m] θ_m,j ln k_m,j
-    / Σ_j Σ_m C_j[c, m] θ_m,j per loading, and the spread over the loadings that count."""
+    root's frame by compare's carry maps (model.md 5), λ_c(l) = Σ_j Σ_m |C_j[c, m] θ_m,j| ln k_m,j
+    / Σ_j Σ_m |C_j[c, m] θ_m,j| per loading, and the spread over the loadings that count."""
     from plantlod.compare.groups import carry_matrix, path_rotations
     from plantlod.simplify.constants import SHARE_SPREAD_FLOOR
 
@@ -182,15 +182,16 @@ def _literal_spread(tree, path):
         rows = []
         for d in range(theta.shape[0]):
             for c in range(2):
-                den = sum(carry[j, c, m] * theta[d, j, m] for j in range(len(path)) for m in range(2))
-                num = sum(carry[j, c, m] * theta[d, j, m] * log_k[j, m]
+                den = sum(abs(carry[j, c, m] * theta[d, j, m]) for j in range(len(path))
+                          for m in range(2))
+                num = sum(abs(carry[j, c, m] * theta[d, j, m]) * log_k[j, m]
                           for j in range(len(path)) for m in range(2))
-                rows.append((c, abs(den), num / den if den else 0.0))
+                rows.append((c, den, num / den if den else 0.0))
         top = max(r[1] for r in rows)
         for c, size, value in rows:
             if size >= SHARE_SPREAD_FLOOR * top and size > 0:
                 lam[c].append(value)
-    return min(1.0, max(max(v) - min(v) for v in lam.values() if len(v) > 1))
+    return max(max(v) - min(v) for v in lam.values() if len(v) > 1)
 
 
 def test_the_share_spread_is_the_literal_one_along_a_rolled_chain():
@@ -231,3 +232,25 @@ def test_a_stalk_level_keeps_the_top_its_leaf_drives_unmerged():
     top = level.group[-1]
     assert sizes[top] == 1 and sizes[level.group[-4]] == 1
     assert sizes[level.group[0]] >= 3               # the base merges further than the top
+
+
+def test_a_spread_stays_within_its_members_strengths_where_their_parts_cancel():
+    """λ is a weighted mean of the members' log-strengths, so no spread passes the path's range
+    of ln k, even in zig-zag sympodial paths whose members' parts have opposite signs (family
+    sympodial-38: the signed form reached 0.18 for strengths 0.087 apart)."""
+    from golden_util import family_tree
+    from plantlod.simplify.merge_costs import ShareSpread
+
+    _, tree = family_tree("sympodial", 38)
+    parent = np.asarray(tree.parent).tolist()
+    spreads = ShareSpread(tree, parent, rest_frames(tree))
+    log_k = np.log(np.stack([tree.bend_strength, tree.rotation_strength], axis=1))
+    checked = 0
+    for end in range(tree.n_branches):
+        path = [end]
+        while parent[path[-1]] >= 0 and len(path) < 4:
+            path.append(parent[path[-1]])
+            span = log_k[path].max() - log_k[path].min()
+            assert spreads(path[-1], end) <= span + 1e-12
+            checked += 1
+    assert checked > 100
