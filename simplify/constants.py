@@ -138,6 +138,9 @@ MOTION_FIT_AMPLIFIED = 8.0    # a level branch swinging more than this x its sta
                               # branch's rows)
 MOTION_FIT_TURN = SMALL_ANGLE_LIMIT   # rad: fit only winds whose linear statics turn no branch's axis further
                               # (motion_fit.unturned; 0.2: stalks 286 / 251, 0.3: 279 / 228 in place of 279 / 255)
+MOTION_FIT_BOTH_WAYS = 0.8    # a chain's periods are corrected toward the mean of its upward and downward
+                              # crossings' where that leaves each within this x the level's period bound
+                              # (motion_fit.both_ways)
 MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward the current G, x the
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)

@@ -76,6 +76,22 @@ class OriginalRun:
         """(K, G, 3) m, float64."""
         return self.rest_tips[None] + self.tip_moves
 
+    def downward_periods(self) -> np.ndarray:
+        """(2, G) `downward_periods` of the combined angles, computed once."""
+        if "_down" not in self.__dict__:
+            self.__dict__["_down"] = downward_periods(self.times, self.combined_b, self.combined_r)
+        return self.__dict__["_down"]
+
+
+def downward_periods(times: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """(2, G) model.md 6's period of -Θb and -Θr (K, G): the mean spacing of their signals'
+    downward crossings of the mean. In the linear regime the opposite wind's response is the
+    negative, so this is the period compare reads in the opposite wind; for a sum of members
+    of different periods, over a window of a few periods, it differs from the upward one."""
+    from plantlod.compare.measures import period
+
+    return np.stack([np.atleast_1d(period(times, -bend)), np.atleast_1d(period(times, -rot))])
+
 
 class Runs:
     """The original's runs over a set of winds, and comparisons of simplified trees with them.
@@ -101,6 +117,7 @@ class Runs:
         self.height = rest_height(original)
         self.winds = list(winds)
         self._reports: dict[bytes, dict[int, Report]] = {}    # tree digest -> run id -> report
+        self.downward_crossings = False     # `compare` also reads downward crossings' periods
         self.runs = []
         want = gmap.tips
         for k, (wind, times, bend, rot) in enumerate(self._simulated(original) if simulated is None
@@ -139,7 +156,8 @@ class Runs:
         self._reports[key] = known                   # the most recent last
         for stale in list(self._reports)[:-REPORTS_KEPT]:
             del self._reports[stale]
-        todo = [run for run in self.runs if id(run) not in known]
+        todo = [run for run in self.runs if id(run) not in known
+                or (self.downward_crossings and ("down", id(run)) not in known)]
         if todo:
             turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
             every_branch = np.arange(simplified.n_branches)
@@ -153,10 +171,20 @@ class Runs:
                     known[id(run)] = compare_groups(run.times, run.combined_b, run.combined_r,
                                                     bend, rot, run.tips, tips, self.height,
                                                     simplified.address, run.figures)
+                    if self.downward_crossings:
+                        known[("down", id(run))] = (run.downward_periods(),
+                                                    downward_periods(run.times, bend, rot))
             except RunFailure as exc:
                 raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
                                  simplified.source or None) from None
         return [known[id(run)] for run in self.runs]
+
+    def downward(self, simplified: Tree) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per wind, (original, simplified) periods (2, G) of the downward crossings of each
+        group's components (`downward_periods`), for a tree `compare` has just compared with
+        ``downward_crossings`` set."""
+        known = self._reports[tree_digest(simplified)]
+        return [known[("down", id(run))] for run in self.runs]
 
     def subset(self, keep: list[int]) -> "Runs":
         """The same runs for winds ``keep`` only (indices into ``winds``); shares the data."""

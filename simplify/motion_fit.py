@@ -61,7 +61,7 @@ from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
 from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMPLIFIED,
-                        MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS,
+                        MOTION_FIT_BOTH_WAYS, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS,
                         MOTION_FIT_STEP, MOTION_FIT_TURN, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
 from .evaluate import Runs, WindCase
 
@@ -304,15 +304,41 @@ def group_scores(reports, level: int, stalk: bool, s_count: int) -> np.ndarray:
     return worst
 
 
+def both_ways(px: np.ndarray, py: np.ndarray, down: list, bound: float
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The periods (W, 2, S) a round corrects toward, where the opposite winds count too.
+
+    In the linear regime a wind from the opposite side gives the negative response, whose
+    upward crossings are this wind's downward ones (`evaluate.downward_periods`); a group
+    whose components sum members of several periods crosses its mean at another pace
+    downward than upward over a window of a few periods (family stalk-63: 3.598 s and
+    3.509 s), while its level branch, nearly one oscillator, crosses at one pace. Where the
+    group's two paces lie within 2 MOTION_FIT_BOTH_WAYS bounds of each other, both are held
+    by the geometric means of the group's and of the branch's two paces; elsewhere the upward
+    one alone (a branch between them would miss both). ``down``: per wind, (original,
+    level) downward periods (2, S); bound: the level's period bound."""
+    pxd = np.stack([d[0] for d in down])
+    pyd = np.stack([d[1] for d in down])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gap = np.abs(np.log(px / pxd))
+        both = np.isfinite(gap) & (gap <= 2.0 * MOTION_FIT_BOTH_WAYS * bound) \
+            & np.isfinite(pyd) & (pyd > 0)
+        return (np.where(both, np.sqrt(px * pxd), px), np.where(both, np.sqrt(py * pyd), py))
+
+
 def corrected(values: dict[str, np.ndarray], reports, to_group: np.ndarray, carry: np.ndarray,
-              dt: float, force: np.ndarray | None) -> dict[str, np.ndarray]:
+              dt: float, force: np.ndarray | None, down: list | None = None,
+              bound: float = 0.0) -> dict[str, np.ndarray]:
     """``values`` after one round of corrections (module docstring) from ``reports``, the
     level's runs with ``values`` in the fit winds; ``force`` (`fit_wind_forces`) for a level
-    with gain matrices, None for one with k_FA."""
+    with gain matrices, None for one with k_FA; ``down`` (`evaluate.Runs.downward`) where the
+    periods are corrected both ways (`both_ways`, ``bound`` the level's period bound)."""
     from .explicit import period_of_strength, strength_of_period
 
     values = {k: v.copy() for k, v in values.items()}
     ax, ay, px, py, a_max = swing_figures(reports)
+    if down is not None:
+        px, py = both_ways(px, py, down, bound)
     kb = values["bend_strength"][to_group]
     kr = values["rotation_strength"][to_group]
     d_period, d_gain = own_corrections(ax, ay, px, py, a_max, carry, kb == kr)
@@ -361,6 +387,10 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         runs = runs.subset(small)
         largest = [largest[k] for k in small]
     runs, largest = unturned(original, runs, largest)
+    if stalk:                                 # its periods are corrected both ways (`both_ways`)
+        runs = runs.subset(list(range(len(runs.winds))))
+        runs.downward_crossings = True
+    period_bound = STALK_BOUNDS[min(level, max(STALK_BOUNDS))][1]
     winds = runs.winds
     gains = all(k in values for k in GAIN_KEYS)
     s_count = len(to_group)
@@ -403,7 +433,8 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             break
         if gains and force is None:
             force = fit_wind_forces(level_tree, winds)
-        values = corrected(values, reports, to_group, carry, dt, force)
+        values = corrected(values, reports, to_group, carry, dt, force,
+                           runs.downward(tree_of(values)) if stalk else None, period_bound)
     if best is None:
         return first
     if best[0][0] > 0 and any(not np.array_equal(kept[k], best[1][k]) for k in kept):

@@ -377,3 +377,46 @@ def test_the_fit_leaves_out_the_winds_that_turn_a_stalks_top_far():
         else:
             assert max(turns) < MOTION_FIT_TURN and largest == list(range(len(winds)))
         assert [w for w in kept.winds] == [winds[k] for k in largest]
+
+
+def test_downward_crossings_are_the_opposite_winds_upward_ones():
+    """`evaluate.downward_periods` of a stalk's groups in a slow wind is what compare reads in
+    the opposite wind (the linear response is the negative), to a sample's rounding; and a
+    beating group's two paces differ (family stalk-180's level-1 groups)."""
+    from plantlod.simplify.evaluate import Runs, WindCase
+
+    _, original = family_tree("stalk", 180)
+    grouping = merge_levels(original)[1]
+    from plantlod.compare.groups import main_paths
+    from plantlod.simplify.targets import GroupMap
+
+    paths = main_paths(original, grouping.group, grouping.count)
+    gmap = GroupMap(grouping.group, paths)
+    winds = [WindCase(0.5, 20.0), WindCase(0.5, 200.0)]
+    runs = Runs(original, gmap, winds, DT, 2000, 4)
+    down = runs.runs[0].downward_periods()
+    up_opposite = runs.runs[1].figures[1]
+    ok = np.isfinite(down) & np.isfinite(up_opposite)
+    assert ok.sum() > 20
+    np.testing.assert_allclose(down[ok], up_opposite[ok], rtol=1e-3)
+    up = runs.runs[0].figures[1]
+    assert np.nanmax(np.abs(np.log(up[ok] / down[ok]))) > 0.05
+
+
+def test_both_ways_holds_the_mean_pace_only_where_one_branch_can_keep_both():
+    from plantlod.simplify.constants import MOTION_FIT_BOTH_WAYS
+    from plantlod.simplify.motion_fit import both_ways
+
+    bound = 0.01
+    near = math.exp(2 * MOTION_FIT_BOTH_WAYS * bound * 0.9)       # within reach of one branch
+    far = math.exp(2 * MOTION_FIT_BOTH_WAYS * bound * 1.1)
+    px = np.full((1, 2, 2), 4.0)
+    py = np.full((1, 2, 2), 3.9)
+    pxd = np.array([[[4.0 * near, 4.0 * far], [4.0, np.nan]]])
+    pyd = np.full((1, 2, 2), 3.95)
+    tx, ty = both_ways(px, py, [(pxd[0], pyd[0])], bound)
+    assert tx[0, 0, 0] == pytest.approx(math.sqrt(4.0 * 4.0 * near))
+    assert ty[0, 0, 0] == pytest.approx(math.sqrt(3.9 * 3.95))
+    assert tx[0, 0, 1] == 4.0 and ty[0, 0, 1] == 3.9              # too far apart: upward alone
+    assert tx[0, 1, 0] == pytest.approx(4.0) and ty[0, 1, 0] == pytest.approx(math.sqrt(3.9 * 3.95))
+    assert tx[0, 1, 1] == 4.0 and ty[0, 1, 1] == 3.9              # no downward pace
