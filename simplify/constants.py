@@ -112,7 +112,8 @@ SHARE_SPREAD_WEIGHT = 1000.0  # ... and x (1 + this x the merged group's share s
 SHARE_SPREAD_BRANCHING_WEIGHT = (10.0, 0.0)  # ... the same for branching trees, while level 1 is merged and
                               # after (family, levels 1 / 2, branching kinds: tuning range 3087 / 3206 -> 3135 / 3204
                               # cases; 5: 3111 / 3206; 30: 3114 / 3187, sympodial level 1 -28; at every level, 10
-                              # lost 31 level-2 cases (before the shares were absolute); seeds 200-399, sympodial,
+                              # lost 31 level-2 cases (before the shares were absolute; absolute, (10, 5): level 2
+                              # 3204 -> 3203); seeds 200-399, sympodial,
                               # bush3d, monopodial and mixed: 1356 / 1360 -> 1438 / 1359)
 SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the component swings at least this
                               # x the group's largest at that speed (0.01: 288 / 259, 0.3: 284 / 251)
