@@ -203,8 +203,9 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         tip_weight = (0.0 if misses is None
                       else TIP_MISS_WEIGHT[min(len(levels), len(TIP_MISS_WEIGHT)) - 1])
         weight = STRENGTH_MISMATCH_WEIGHT[min(len(levels), len(STRENGTH_MISMATCH_WEIGHT)) - 1]
-        share_weight = (SHARE_SPREAD_WEIGHT if stalk else
-                        SHARE_SPREAD_BRANCHING_WEIGHT[min(len(levels), len(SHARE_SPREAD_BRANCHING_WEIGHT)) - 1])
+        branching = SHARE_SPREAD_BRANCHING_WEIGHT
+        share_weight = (SHARE_SPREAD_WEIGHT if stalk
+                        else branching[min(len(levels), len(branching)) - 1])
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = sorted(r for r in roots_left if parent[r] >= 0)

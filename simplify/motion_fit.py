@@ -35,7 +35,9 @@ scales it by exp of the mean of the two rows' ρ_A, clipped as above.
 Only the winds where the original stays within SMALL_ANGLE_LIMIT are run (the bounds hold
 only there; all of them where none does), and of those only the ones where its linear statics
 turn no branch's axis by more than MOTION_FIT_TURN (`unturned`: a chain turns its top far
-while every group stays small, and its periods then leave their small-angle values). Each round is scored group by group
+while every group stays small, and its periods then leave their small-angle values). A
+chain's periods are corrected both ways (`both_ways`: toward the mean of the upward and
+downward crossings' paces where one branch can hold both). Each round is scored group by group
 (`group_scores`: each level branch's worst figure over the level's bounds), and each group
 keeps the values of its best round; the corrections go on from the latest round (a group
 that got worse may get better again). At most MOTION_FIT_ROUNDS rounds; the fit stops at the
@@ -61,8 +63,9 @@ from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
 from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMPLIFIED,
-                        MOTION_FIT_BOTH_WAYS, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD, MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS,
-                        MOTION_FIT_STEP, MOTION_FIT_TURN, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
+                        MOTION_FIT_BOTH_WAYS, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD,
+                        MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS, MOTION_FIT_STEP, MOTION_FIT_TURN,
+                        SMALL_ANGLE_LIMIT, STALK_BOUNDS)
 from .evaluate import Runs, WindCase
 
 

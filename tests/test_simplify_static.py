@@ -132,19 +132,10 @@ def test_turned_most_is_the_posed_turn_of_the_most_turned_axis():
     from plantlod.sim.kinematics import pose
     from plantlod.simplify.static import rest_frames, turned_most
 
-    text = """\
-name: bent chain with a lateral
-derivation_length: 0
-branching_angle: 30
-rotation_angle: 90
-force_absorbed: 0.01
-force_propagated: 0.8
-drag_coefficient: 0.0015
-branch F: length=0.3 radius=0.02 bend_strength=22 rotation_strength=30
-branch G: length=0.2 radius=0.015 bend_strength=45 rotation_strength=38
-leaf L: area=0.004
-axiom: F /(70) G &(25) F [+(40) G L] /(40) G F /(25) L
-"""
+    from test_grouping_terms import CHAIN
+
+    text = CHAIN.replace("&(15) F /(40) G", "&(25) F [+(40) G L] /(40) G")   # a lateral too
+    assert text != CHAIN
     tree = build(parse_lsys(text, "t.lsys")).tree
     frames = rest_frames(tree)
     az = np.radians([0.0, 37.0, 90.0, 200.0])
