@@ -115,7 +115,7 @@ SHARE_SPREAD_BRANCHING_WEIGHT = (10.0, 0.0)  # ... the same for branching trees,
                               # lost 31 level-2 cases (before the shares were absolute; absolute, (10, 5): level 2
                               # 3204 -> 3203); seeds 200-399, sympodial,
                               # bush3d, monopodial and mixed: 1356 / 1360 -> 1438 / 1359)
-SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the component swings at least this
+SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the component's parts, summed in size, reach this
                               # x the group's largest at that speed (0.01: 288 / 259, 0.3: 284 / 251)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
@@ -138,7 +138,8 @@ MOTION_FIT_AMPLIFIED = 8.0    # a level branch swinging more than this x its sta
                               # 3298 / 3350 at 2 (an earlier form of the keeping), 3269 / 3338 scaling every
                               # branch's rows)
 MOTION_FIT_TURN = SMALL_ANGLE_LIMIT   # rad: fit only winds whose linear statics turn no branch's axis further
-                              # (motion_fit.unturned; 0.2: stalks 286 / 251, 0.3: 279 / 228 in place of 279 / 255)
+                              # (motion_fit.unturned; stalks of the tuning range, levels 1 / 2, with the share spread
+                              # weighed 300: 0.1 rad 279 / 255, 0.2 286 / 251, 0.3 279 / 228)
 MOTION_FIT_BOTH_WAYS = 0.8    # a chain's periods are corrected toward the mean of its upward and downward
                               # crossings' where that leaves each within this x the level's period bound
                               # (motion_fit.both_ways)

@@ -192,8 +192,10 @@ class ShareSpread:
 
     over the main path (a weighted mean: it stays within the members' strengths, whatever
     signs their parts have); spread = max_c (max_l λ_c(l) - min_l λ_c(l)) over the loadings
-    where the component's summed parts are at least SHARE_SPREAD_FLOOR of the group's
-    largest at that speed. Loadings: speeds low, sqrt(low high) and high of
+    where the component's parts, summed in size (Σ_j Σ_m |C_j[c, m] θ_m,j(l)|, the weights
+    above), are at least SHARE_SPREAD_FLOOR of the group's largest such sum at that speed.
+    (Where parts cancel, that sum is larger than the component's static swing: a period
+    mix counts even where the static angles sum to little, since the parts swing apart.) Loadings: speeds low, sqrt(low high) and high of
     SIMPLIFY_WIND_RANGE, four directions (0, 45, 90, 135 deg). C_j[c, m] θ_m,j = e_c · ω_m,j
     with ω_b,j = θb_j y_j and ω_r,j = -θr_j x_j (world axes) and e_b = y_0, e_r = -x_0 the
     root's axes, so each member's parts are kept as world vectors and read per root.
@@ -226,7 +228,10 @@ class ShareSpread:
             return self.cache[key]
         path = [end]
         while path[-1] != root:
-            path.append(self.parent[path[-1]])
+            up = self.parent[path[-1]]
+            if up < 0:
+                raise ValueError(f"branch {end} does not descend from branch {root}")
+            path.append(up)
         size = np.abs(np.einsum("jsdmk,ck->jcsdm", self.parts[path], self.axes[root]))
         den = size.sum(axis=(0, 4))                                               # (c, S, D)
         num = np.einsum("jcsdm,jm->csd", size, self.log_k[path])

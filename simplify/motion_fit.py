@@ -122,9 +122,8 @@ def unturned(original: Tree, runs: Runs, largest: list[float]) -> tuple[Runs, li
     members' forces then follow their turned frames, the chain couples, and its periods leave
     their small-angle values (family stalk-36: one group's 4.48 s at 0.5 m/s, 3.06 s at
     20 m/s); a level's strengths corrected toward those periods miss every slow wind. Family
-    tuning range, levels 1 / 2: the stalks 209 -> 236 / 159 -> 206 of 437 / 413 cases (winds
-    of at most 4 m/s; with 15 m/s added, 233 / 218 with the share spread of simplify/grouping.py);
-    the branching kinds 3088 / 3208 -> 3087 / 3206."""
+    tuning range, levels 1 / 2: the stalks 209 / 159 -> 226 / 206 of 434 / 413 cases (a cut at
+    4 m/s instead, 236 / 206); the branching kinds 3088 / 3208 -> 3087 / 3206."""
     from .static import turned_most
 
     az = np.radians([w.direction for w in runs.winds])

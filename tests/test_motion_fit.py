@@ -420,3 +420,33 @@ def test_both_ways_holds_the_mean_pace_only_where_one_branch_can_keep_both():
     assert tx[0, 0, 1] == 4.0 and ty[0, 0, 1] == 3.9              # too far apart: upward alone
     assert tx[0, 1, 0] == pytest.approx(4.0) and ty[0, 1, 0] == pytest.approx(math.sqrt(3.9 * 3.95))
     assert tx[0, 1, 1] == 4.0 and ty[0, 1, 1] == 3.9              # no downward pace
+
+
+def test_a_tree_compared_with_itself_reads_its_own_downward_paces():
+    """`Runs.downward` after `compare` with ``downward_crossings`` set: a tree read as its own
+    level (every branch its own group) has the original's downward paces, wind by wind."""
+    from plantlod.simplify.evaluate import Runs, WindCase
+
+    _, original = family_tree("stalk", 180)
+    winds = [WindCase(0.5, 20.0), WindCase(2.0, 90.0)]
+    runs = Runs(original, group_map(original, original), winds, DT, 2000, 4)
+    runs.downward_crossings = True
+    runs.compare(original)
+    pairs = runs.downward(original)
+    assert len(pairs) == len(winds)
+    for (orig, level), run in zip(pairs, runs.runs):
+        assert orig.shape == (2, original.n_branches)
+        np.testing.assert_array_equal(orig, run.downward_periods())
+        np.testing.assert_allclose(level, orig, rtol=1e-12, equal_nan=True)
+
+
+def test_a_share_spread_refuses_a_path_that_is_not_one():
+    from plantlod.simplify.merge_costs import ShareSpread
+    from plantlod.simplify.static import rest_frames
+
+    _, tree = family_tree("bush", 3)
+    parent = np.asarray(tree.parent).tolist()
+    spreads = ShareSpread(tree, parent, rest_frames(tree))
+    leaf_branches = [i for i in range(tree.n_branches) if i not in parent]
+    with pytest.raises(ValueError, match="does not descend"):
+        spreads(leaf_branches[0], leaf_branches[1])
