@@ -116,7 +116,9 @@ SHARE_SPREAD_BRANCHING_WEIGHT = (10.0, 0.0)  # ... the same for branching trees,
                               # 3204 -> 3203); seeds 200-399, sympodial,
                               # bush3d, monopodial and mixed: 1356 / 1360 -> 1438 / 1359)
 SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the component's parts, summed in size, reach this
-                              # x the group's largest at that speed (0.01: 288 / 259, 0.3: 284 / 251)
+                              # x the group's largest at that speed (0.01: 288 / 259, 0.3: 284 / 251; the floor on the
+                              # component's static swing, |Σ parts|, in place of Σ |parts|: every kind, levels 1 / 2,
+                              # 3407 / 3472 against 3430 / 3473, bush3d level 1 343 -> 323)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
