@@ -144,7 +144,8 @@ MOTION_FIT_TURN = SMALL_ANGLE_LIMIT   # rad: fit only winds whose linear statics
                               # weighed 300: 0.1 rad 279 / 255, 0.2 286 / 251, 0.3 279 / 228)
 MOTION_FIT_BOTH_WAYS = 0.8    # a chain's periods are corrected toward the mean of its upward and downward
                               # crossings' where that leaves each within this x the level's period bound
-                              # (motion_fit.both_ways)
+                              # (motion_fit.both_ways; stalks of the tuning range, levels 1 / 2: 0.6 286 / 267,
+                              # 0.8 295 / 269, 1.0 297 / 269 (the mean then at the bound), 1.3 260 / 235)
 MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward the current G, x the
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)
