@@ -24,7 +24,7 @@ from plantlod.sim.wind import wind_from_speed
 from plantlod.compare.runs import tip_series
 from .targets import GroupMap
 from plantlod.compare.groups import combined_angles
-from plantlod.compare.measures import Report, compare_groups, component_figures
+from plantlod.compare.measures import Report, compare_groups, component_figures, period
 
 
 
@@ -88,8 +88,6 @@ def downward_periods(times: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> np
     downward crossings of the mean. In the linear regime the opposite wind's response is the
     negative, so this is the period compare reads in the opposite wind; for a sum of members
     of different periods, over a window of a few periods, it differs from the upward one."""
-    from plantlod.compare.measures import period
-
     return np.stack([np.atleast_1d(period(times, -bend)), np.atleast_1d(period(times, -rot))])
 
 
@@ -117,7 +115,6 @@ class Runs:
         self.height = rest_height(original)
         self.winds = list(winds)
         self._reports: dict[bytes, dict[int, Report]] = {}    # tree digest -> run id -> report
-        self.downward_crossings = False     # `compare` also reads downward crossings' periods
         self.runs = []
         want = gmap.tips
         for k, (wind, times, bend, rot) in enumerate(self._simulated(original) if simulated is None
@@ -142,8 +139,9 @@ class Runs:
         return simulate_runs(tree, self.winds if winds is None else winds, self.dt, self.steps,
                              self.every, self.damping)
 
-    def compare(self, simplified: Tree) -> list[Report]:
+    def compare(self, simplified: Tree, downward: bool = False) -> list[Report]:
         """One section-6 report per wind. Raises InputError when the simplified run diverges.
+        ``downward``: also read the downward crossings' periods of both trees (`downward`).
 
         The reports of the last few trees compared are kept, per tree (a digest of every
         array the runs read) and original run, and shared with `subset`s: a level that the
@@ -157,7 +155,7 @@ class Runs:
         for stale in list(self._reports)[:-REPORTS_KEPT]:
             del self._reports[stale]
         todo = [run for run in self.runs if id(run) not in known
-                or (self.downward_crossings and ("down", id(run)) not in known)]
+                or (downward and ("down", id(run)) not in known)]
         if todo:
             turn = swing_turns(self.original, simplified, self.gmap.paths)    # W_0, either form
             every_branch = np.arange(simplified.n_branches)
@@ -171,7 +169,7 @@ class Runs:
                     known[id(run)] = compare_groups(run.times, run.combined_b, run.combined_r,
                                                     bend, rot, run.tips, tips, self.height,
                                                     simplified.address, run.figures)
-                    if self.downward_crossings:
+                    if downward:
                         known[("down", id(run))] = (run.downward_periods(),
                                                     downward_periods(run.times, bend, rot))
             except RunFailure as exc:
@@ -182,7 +180,7 @@ class Runs:
     def downward(self, simplified: Tree) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per wind, (original, simplified) periods (2, G) of the downward crossings of each
         group's components (`downward_periods`), for a tree `compare` has just compared with
-        ``downward_crossings`` set."""
+        ``downward`` set."""
         known = self._reports[tree_digest(simplified)]
         return [known[("down", id(run))] for run in self.runs]
 

@@ -198,14 +198,16 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     shares = ShareSpread(tree, parent, frames)
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
+    def at_level(weights: tuple) -> float:
+        """The entry of a per-level weight (level 1's, then the levels after it) for the level
+        being merged."""
+        return weights[min(len(levels), len(weights)) - 1]
+
     while True:
         tip_bound = LEVEL_BOUNDS[min(len(levels), max(LEVEL_BOUNDS))][2]
-        tip_weight = (0.0 if misses is None
-                      else TIP_MISS_WEIGHT[min(len(levels), len(TIP_MISS_WEIGHT)) - 1])
-        weight = STRENGTH_MISMATCH_WEIGHT[min(len(levels), len(STRENGTH_MISMATCH_WEIGHT)) - 1]
-        branching = SHARE_SPREAD_BRANCHING_WEIGHT
-        share_weight = (SHARE_SPREAD_WEIGHT if stalk
-                        else branching[min(len(levels), len(branching)) - 1])
+        tip_weight = 0.0 if misses is None else at_level(TIP_MISS_WEIGHT)
+        weight = at_level(STRENGTH_MISMATCH_WEIGHT)
+        share_weight = SHARE_SPREAD_WEIGHT if stalk else at_level(SHARE_SPREAD_BRANCHING_WEIGHT)
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = sorted(r for r in roots_left if parent[r] >= 0)

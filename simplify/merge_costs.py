@@ -18,7 +18,8 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 from .constants import SHARE_SPREAD_FLOOR, SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
-from .static import RestFrames, horizontal_directions, rest_frames, static_angles_at, static_parts
+from .static import (RestFrames, ancestor_sums, horizontal_directions, rest_frames, rotation_parts,
+                     static_angles_at, static_parts)
 
 
 def _dot(a, b) -> float:
@@ -118,17 +119,12 @@ class TipMisses:
         directions = horizontal_directions(4)[:2]                        # toward x and y
         bend, rot = static_angles_at(tree, static_parts(tree, directions, frames),
                                      SIMPLIFY_WIND_RANGE[1], frames)     # (2, B)
-        omega = (bend[:, :, None] * frames.swing[None, :, :, 1]
-                 - rot[:, :, None] * frames.swing[None, :, :, 0])        # (2, B, 3)
+        omega = rotation_parts(bend, rot, frames).sum(axis=-2)          # (2, B, 3)
         # running sums from the root down, per wind: A_i = Σ ω_j and X_i = Σ ω_j × base_j over
         # i and its ancestors, so that sums along a group's chains are differences
         base = frames.base
-        turned = omega.copy()
-        crossed = np.cross(omega, base[None])
-        for i, p in enumerate(parent):
-            if p >= 0:
-                turned[:, i] += turned[:, p]
-                crossed[:, i] += crossed[:, p]
+        turned = ancestor_sums(parent, omega)
+        crossed = ancestor_sums(parent, np.cross(omega, base[None]))
         most = float(np.sqrt((turned ** 2).sum(axis=2)).max(initial=0.0))
         self.turned = turned.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
         self.crossed = crossed.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
@@ -209,11 +205,8 @@ class ShareSpread:
                       np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             self.log_k = np.where(k > 0, np.log(np.where(k > 0, k, 1.0)), 0.0)   # (B, 2)
-        vectors = []
-        for speed in (low, math.sqrt(low * high), high):
-            bend, rot = static_angles_at(tree, parts, speed, frames)             # (D, B)
-            vectors.append(np.stack([bend[:, :, None] * frames.swing[None, :, :, 1],
-                                     -rot[:, :, None] * frames.swing[None, :, :, 0]], axis=2))
+        vectors = [rotation_parts(*static_angles_at(tree, parts, speed, frames), frames)
+                   for speed in (low, math.sqrt(low * high), high)]               # (D, B, m, 3)
         # (B, S, D, m, 3): each member's bend and rotation parts, world vectors
         self.parts = np.stack(vectors, axis=0).transpose(2, 0, 1, 3, 4).copy()
         self.parent = parent

@@ -126,9 +126,7 @@ def unturned(original: Tree, runs: Runs, largest: list[float]) -> tuple[Runs, li
     4 m/s instead, 236 / 206); the branching kinds 3088 / 3208 -> 3087 / 3206."""
     from .static import turned_most
 
-    az = np.radians([w.direction for w in runs.winds])
-    directions = np.stack([np.cos(az), np.sin(az), np.zeros_like(az)], axis=1)
-    turned = turned_most(original, directions, [w.speed for w in runs.winds])
+    turned = turned_most(original, wind_directions(runs.winds), [w.speed for w in runs.winds])
     keep = [k for k, t in enumerate(turned) if t <= MOTION_FIT_TURN]
     if not keep:
         slowest = min(w.speed for w in runs.winds)
@@ -138,20 +136,22 @@ def unturned(original: Tree, runs: Runs, largest: list[float]) -> tuple[Runs, li
     return runs.subset(keep), [largest[k] for k in keep]
 
 
+def wind_directions(winds: list[WindCase]) -> np.ndarray:
+    """(W, 3) unit horizontal directions of ``winds``: cos and sin of the azimuth. The runs blow
+    `sim.wind.wind_from_speed`'s exact axis vectors; using those moves the fitted gains in
+    their last digits (every level file's bytes), so it waits for a change that re-measures
+    the family."""
+    az = np.radians([w.direction for w in winds])
+    return np.stack([np.cos(az), np.sin(az), np.zeros(len(winds))], axis=1)
+
+
 def fit_wind_forces(tree: Tree, winds: list[WindCase]) -> np.ndarray:
     """(W, S, 3) N: each branch's total rest force in its rest swing frame in each wind
-    (model.md 4 at rest: v F^L + v² F^D, `static.static_parts`). The directions are cos and
-    sin of the azimuth, where the runs blow `sim.wind.wind_from_speed`'s exact axis vectors;
-    using those moves the fitted gains in their last digits (every level file's bytes), so it
-    waits for a change that re-measures the family."""
-    from .static import rest_frames, static_parts
+    (model.md 4 at rest: v F^L + v² F^D, `static.wind_forces`)."""
+    from .static import rest_frames, wind_forces
 
     frames = rest_frames(tree)
-    az = np.radians([w.direction for w in winds])
-    directions = np.stack([np.cos(az), np.sin(az), np.zeros(len(winds))], axis=1)
-    parts = static_parts(tree, directions, frames)
-    v = np.array([w.speed for w in winds], dtype=np.float64)[:, None, None]
-    world = v * parts.leaf + v * v * parts.drag                               # (W, S, 3)
+    world = wind_forces(tree, wind_directions(winds), [w.speed for w in winds], frames)
     return np.einsum("sji,wsj->wsi", frames.swing, world)
 
 
@@ -389,10 +389,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         runs = runs.subset(small)
         largest = [largest[k] for k in small]
     runs, largest = unturned(original, runs, largest)
-    if stalk:                                 # its periods are corrected both ways (`both_ways`)
-        runs = runs.subset(list(range(len(runs.winds))))
-        runs.downward_crossings = True
-    period_bound = STALK_BOUNDS[min(level, max(STALK_BOUNDS))][1]
+    period_bound = STALK_BOUNDS[min(level, max(STALK_BOUNDS))][1]   # (a chain's, `both_ways`)
     winds = runs.winds
     gains = all(k in values for k in GAIN_KEYS)
     s_count = len(to_group)
@@ -407,12 +404,16 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         return replace(level_tree, **changed)
 
     def rank_of(v: dict[str, np.ndarray]):
-        """(form_rank, reports) of the level with values ``v``; None where it diverges."""
+        """(form_rank, reports, downward) of the level with values ``v``, downward the
+        `Runs.downward` periods of a chain (its periods are corrected both ways, `both_ways`),
+        None for another tree; None where the level diverges."""
+        tree = tree_of(v)
         try:
-            reports = runs.compare(tree_of(v))
+            reports = runs.compare(tree, downward=stalk)
         except InputError:
             return None
-        return form_rank(list(zip(winds, reports)), level, largest, stalk), reports
+        down = runs.downward(tree) if stalk else None
+        return form_rank(list(zip(winds, reports)), level, largest, stalk), reports, down
 
     force = None                              # `fit_wind_forces`, once a round corrects gains
     best = None                               # (rank, values, round) of the best whole round
@@ -422,7 +423,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         ranked = rank_of(values)
         if ranked is None:                    # the corrected level diverges: keep the best
             break
-        rank, reports = ranked
+        rank, reports, down = ranked
         gained = best is None or improves(rank, best[0])
         if best is None or rank < best[0]:
             best = (rank, {k: v.copy() for k, v in values.items()}, round_)
@@ -435,8 +436,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
             break
         if gains and force is None:
             force = fit_wind_forces(level_tree, winds)
-        values = corrected(values, reports, to_group, carry, dt, force,
-                           runs.downward(tree_of(values)) if stalk else None, period_bound)
+        values = corrected(values, reports, to_group, carry, dt, force, down, period_bound)
     if best is None:
         return first
     if best[0][0] > 0 and any(not np.array_equal(kept[k], best[1][k]) for k in kept):

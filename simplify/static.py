@@ -179,6 +179,35 @@ def static_angles_at(tree: Tree, parts: StaticParts, speed: float,
     return static_angles(tree, speed * parts.leaf + speed * speed * parts.drag, frames)
 
 
+def wind_forces(tree: Tree, directions: np.ndarray, speeds, frames: RestFrames | None = None
+                ) -> np.ndarray:
+    """(W, B, 3) N: every branch's total force at rest (world axes) in W winds, each its own
+    unit direction (W, 3) and speed (W,) m/s: v F^L + v² F^D (model.md 4, `static_parts`)."""
+    frames = rest_frames(tree) if frames is None else frames
+    parts = static_parts(tree, np.asarray(directions, dtype=np.float64), frames)
+    v = np.asarray(speeds, dtype=np.float64)[:, None, None]
+    return v * parts.leaf + v * v * parts.drag
+
+
+def rotation_parts(bend: np.ndarray, rot: np.ndarray, frames: RestFrames) -> np.ndarray:
+    """(..., B, 2, 3) each branch's rotation vector in world axes split into its bend part
+    θb y and its rotation part -θr x, with (x, y) its rest swing frame's axes: model.md 3's
+    ω = (-θr, θb, 0) in that frame is their sum. bend, rot (..., B) rad."""
+    return np.stack([bend[..., None] * frames.swing[:, :, 1],
+                     -rot[..., None] * frames.swing[:, :, 0]], axis=-2)
+
+
+def ancestor_sums(parent, values: np.ndarray) -> np.ndarray:
+    """A copy of ``values`` (..., B, k) in which each branch's row is summed with its
+    ancestors' (parents come before their children), so that a sum along a descendant chain
+    is a difference of two rows."""
+    out = values.copy()
+    for i, p in enumerate(np.asarray(parent).tolist()):
+        if p >= 0:
+            out[..., i, :] += out[..., p, :]
+    return out
+
+
 def turned_most(tree: Tree, directions: np.ndarray, speeds, frames: RestFrames | None = None
                 ) -> np.ndarray:
     """(W,) the largest static turn, rad, of any branch's axis from its rest direction in each
@@ -188,12 +217,7 @@ def turned_most(tree: Tree, directions: np.ndarray, speeds, frames: RestFrames |
     axis (a turn about the axis itself moves nothing). A chain of many branches turns its top
     far more than any one branch or group turns."""
     frames = rest_frames(tree) if frames is None else frames
-    parts = static_parts(tree, np.asarray(directions, dtype=np.float64), frames)
-    v = np.asarray(speeds, dtype=np.float64)[:, None, None]
-    bend, rot = static_angles(tree, v * parts.leaf + v * v * parts.drag, frames)     # (W, B)
-    omega = bend[:, :, None] * frames.swing[None, :, :, 1] - rot[:, :, None] * frames.swing[None, :, :, 0]
-    for i, p in enumerate(np.asarray(tree.parent).tolist()):
-        if p >= 0:
-            omega[:, i] += omega[:, p]
+    bend, rot = static_angles(tree, wind_forces(tree, directions, speeds, frames), frames)  # (W, B)
+    omega = ancestor_sums(tree.parent, rotation_parts(bend, rot, frames).sum(axis=-2))
     axis = frames.swing[:, :, 2]                                                      # (B, 3)
     return np.linalg.norm(np.cross(omega, axis[None]), axis=2).max(axis=1, initial=0.0)

@@ -423,15 +423,14 @@ def test_both_ways_holds_the_mean_pace_only_where_one_branch_can_keep_both():
 
 
 def test_a_tree_compared_with_itself_reads_its_own_downward_paces():
-    """`Runs.downward` after `compare` with ``downward_crossings`` set: a tree read as its own
+    """`Runs.downward` after `compare` with ``downward`` set: a tree read as its own
     level (every branch its own group) has the original's downward paces, wind by wind."""
     from plantlod.simplify.evaluate import Runs, WindCase
 
     _, original = family_tree("stalk", 180)
     winds = [WindCase(0.5, 20.0), WindCase(2.0, 90.0)]
     runs = Runs(original, group_map(original, original), winds, DT, 2000, 4)
-    runs.downward_crossings = True
-    runs.compare(original)
+    runs.compare(original, downward=True)
     pairs = runs.downward(original)
     assert len(pairs) == len(winds)
     for (orig, level), run in zip(pairs, runs.runs):
