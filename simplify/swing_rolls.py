@@ -14,9 +14,9 @@ roll (`member_rolls`) lies at least ROLL_MIN away from the branch's own, β is c
 ROLL_CANDIDATES (a quarter turn: a quarter turn more swings the same with the two strengths
 swapped) and the members' mean roll itself, by the cost of `explicit.searched_strengths`
 (the group's swing model in every direction, model.md 6's measures against level 1's
-bounds); β = 0 is kept unless another costs less by ROLL_GAIN. Root groups are left unrolled:
-the swing model superposes members that each swing from rest, which is weakest for a trunk
-that carries the whole crown, and rolled trunks lost whole trees (docs/simplify.md).
+bounds); β = 0 is kept unless another costs less by ROLL_GAIN. Root groups are rolled too
+(the three rolled shoots of a bush that has no trunk): session 10 left them unrolled, when
+rolled trunks lost whole trees; since the motion fit they lose none (docs/simplify.md).
 """
 
 from __future__ import annotations
@@ -71,9 +71,7 @@ def swing_rolls(original: Tree, paths: list[np.ndarray], turn: np.ndarray, swing
     swinging = (swing.amplitudes > 0) & np.isfinite(swing.periods)          # (S, 2, D)
     longest = np.where(swinging, swing.periods, -np.inf).max(axis=(1, 2))
     shortest = np.where(swinging, swing.periods, np.inf).min(axis=(1, 2))
-    rooted = np.array([original.parent[int(p[0])] < 0 for p in paths], dtype=bool)
-    mixed = np.flatnonzero(swinging.any(axis=(1, 2)) & (longest > ROLL_MIXED_PERIODS * shortest)
-                           & ~rooted)
+    mixed = np.flatnonzero(swinging.any(axis=(1, 2)) & (longest > ROLL_MIXED_PERIODS * shortest))
     if not len(mixed):
         return out
     # the members' mean roll against the branch's own (the roll of W_0ᵀ W' about z), mod 180°
