@@ -12,6 +12,9 @@ MATCH_TILTED_DIRECTIONS = 8   # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION
 FIT_ELEVATION = 0.2           # rad
 MIN_LENGTH_FRACTION = 0.05    # no simplified branch shorter than this x its group's path length
 SPLIT_REGULARISATION = 1e-2   # weight of the transmitted-force objective when splitting leaf force
+SPLIT_COLUMN_FLOOR = 0.1      # ... and each leaf's pull at least this x the largest column's (`leaf_split`;
+                              # tuning range, levels 1 / 2: none 3457 / 3508, 0.03 3538 / 3534, 0.1 3540 / 3534,
+                              # 0.3 3544 / 3532 of 3862 / 3796; seeds 200-299 at 0.1: 1707 / 1664 -> 1737 / 1670)
 # Global static refinement of the derived parameters (simplify/refine.py):
 REFINE_DIRECTIONS = 8        # horizontal wind directions of the refinement
 REFINE_TILTED_DIRECTIONS = 4  # azimuths at +FIT_ELEVATION and at -FIT_ELEVATION in the refinement

@@ -22,7 +22,7 @@ from scipy.optimize import nnls
 
 from plantlod.lsys.tree import Tree
 
-from .constants import SPLIT_REGULARISATION
+from .constants import SPLIT_COLUMN_FLOOR, SPLIT_REGULARISATION
 from .static import RestFrames, own_leaf_forces
 from .targets import StaticTargets
 
@@ -102,7 +102,12 @@ def leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target: 
     leaves push the same way), the fit is pulled, with a small weight
     (`SPLIT_REGULARISATION`, relative to the column norms), toward the natural
     split: children passed through and leaves at their natural areas, in the
-    ratio 1 : A_k, scaled to fit.
+    ratio 1 : A_k, scaled to fit. Each pull is at least SPLIT_COLUMN_FLOOR of the largest:
+    a leaf whose force the group's own angles barely see (one along the branch's axis, a
+    basis leaf's normal along the chord) keeps its natural share instead of fitting the
+    targets' misfit through its vanishing column with an area thousands of times its own,
+    whose force along the branch then turns across it as the branch swings (family
+    bent_leafy-123's level 1 swung a group 26x the tree's largest swing at 20 m/s).
     """
     basis = np.concatenate([incoming[:, None, :], own], axis=1)            # (D, 1+K, 3)
     a = np.einsum("ij,dkj->dik", gain, basis).reshape(-1, basis.shape[1])   # (2D, 1+K)
@@ -111,7 +116,10 @@ def leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target: 
     guess = a @ shape
     gg = float(guess @ guess)
     x0 = shape * max(0.0, float(guess @ b) / gg) if gg > 0 else np.zeros_like(shape)
-    reg = SPLIT_REGULARISATION * np.diag(np.linalg.norm(a, axis=0))
+    norms = np.linalg.norm(a, axis=0)
+    if len(norms):
+        norms = np.maximum(norms, SPLIT_COLUMN_FLOOR * float(norms.max()))
+    reg = SPLIT_REGULARISATION * np.diag(norms)
     a_reg, b_reg = np.vstack([a, reg]), np.concatenate([b, reg @ x0])
     sol = nnls(a_reg, b_reg)[0] if np.any(a_reg) else np.zeros(a_reg.shape[1])
     return float(sol[0]), sol[1:]
