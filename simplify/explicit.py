@@ -39,7 +39,7 @@ from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
-from .constants import (BASIS_LEAF_FLOOR, BASIS_LEAF_TRY,
+from .constants import (BASIS_LEAF_ALWAYS, BASIS_LEAF_FLOOR, BASIS_LEAF_TRY,
                         GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, MIXED_CARRY,
                         STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
 from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
@@ -668,10 +668,11 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
                         carry, skeleton)
 
     # the eigen-leaves, unless the basis leaves fit the statics better (a lower static error;
-    # without the refinement there is none to compare); they are only tried where the
-    # eigen-leaves miss the statics by more than BASIS_LEAF_TRY (a second fit costs as much)
+    # without the refinement there is none to compare); a level of more than
+    # BASIS_LEAF_ALWAYS branches tries them only where the eigen-leaves miss the statics by
+    # more than BASIS_LEAF_TRY (a second fit costs as much as the first)
     best = fit("eigen")
-    if refine and best.static_error > BASIS_LEAF_TRY:
+    if refine and (grouping.count <= BASIS_LEAF_ALWAYS or best.static_error > BASIS_LEAF_TRY):
         basis = fit("basis")
         if basis.static_error < best.static_error:
             best = basis
