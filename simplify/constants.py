@@ -81,8 +81,8 @@ BASIS_LEAF_ALWAYS = 300       # ... except in levels of at most this many branch
                               # with `sequential_fit.leaf_split`'s column floor the basis leaves lost their axial
                               # blow-ups; family tuning range, every kind but stalks, levels 1 / 2: 0.1 3245 / 3265,
                               # both always 3282 / 3278 (bent_leafy 407 -> 429, weeping 413 -> 425); trying both at
-                              # every size took abop_1_24a level 1 to 12.1 s and abop_1_24c's chain to 39.1 s, up to 600 branches
-                              # the chain to 31.6 s; the family's level-1 trees have at most 252)
+                              # every size took abop_1_24a level 1 to 12.1 s and abop_1_24c's chain to 39.1 s; up to
+                              # 600 branches, the chain to 31.6 s; the family's level-1 trees have at most 252)
 BASIS_LEAF_FLOOR = 1e-3       # a basis leaf starts at least at this x the group's leaf area
 KAPPA_RANGE = 100.0           # explicit form: k_FA' stays within this factor of its group's mean k_FA
 
