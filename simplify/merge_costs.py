@@ -18,8 +18,8 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 from .constants import SHARE_SPREAD_FLOOR, SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
-from .static import (RestFrames, ancestor_sums, horizontal_directions, rest_frames, rotation_parts,
-                     static_angles_at, static_parts)
+from .static import (RestFrames, horizontal_directions, rest_frames, rotation_parts, static_angles_at,
+                     static_parts)
 
 
 def _dot(a, b) -> float:
@@ -122,9 +122,13 @@ class TipMisses:
         omega = rotation_parts(bend, rot, frames).sum(axis=-2)          # (2, B, 3)
         # running sums from the root down, per wind: A_i = Σ ω_j and X_i = Σ ω_j × base_j over
         # i and its ancestors, so that sums along a group's chains are differences
+        from .tree_sums import TreeSums
+
         base = frames.base
-        turned = ancestor_sums(parent, omega)
-        crossed = ancestor_sums(parent, np.cross(omega, base[None]))
+        down = TreeSums(np.asarray(parent, dtype=np.int64))
+        ones = np.ones(len(parent))
+        turned = down.down(ones, omega)
+        crossed = down.down(ones, np.cross(omega, base[None]))
         most = float(np.sqrt((turned ** 2).sum(axis=2)).max(initial=0.0))
         self.turned = turned.transpose(1, 0, 2).reshape(len(parent), 6).tolist()
         self.crossed = crossed.transpose(1, 0, 2).reshape(len(parent), 6).tolist()

@@ -116,10 +116,8 @@ def leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target: 
     guess = a @ shape
     gg = float(guess @ guess)
     x0 = shape * max(0.0, float(guess @ b) / gg) if gg > 0 else np.zeros_like(shape)
-    norms = np.linalg.norm(a, axis=0)
-    if len(norms):
-        norms = np.maximum(norms, SPLIT_COLUMN_FLOOR * float(norms.max()))
-    reg = SPLIT_REGULARISATION * np.diag(norms)
+    norms = np.linalg.norm(a, axis=0)                  # (1+K,): never empty
+    reg = SPLIT_REGULARISATION * np.diag(np.maximum(norms, SPLIT_COLUMN_FLOOR * norms.max()))
     a_reg, b_reg = np.vstack([a, reg]), np.concatenate([b, reg @ x0])
     sol = nnls(a_reg, b_reg)[0] if np.any(a_reg) else np.zeros(a_reg.shape[1])
     return float(sol[0]), sol[1:]

@@ -197,17 +197,6 @@ def rotation_parts(bend: np.ndarray, rot: np.ndarray, frames: RestFrames) -> np.
                      -rot[..., None] * frames.swing[:, :, 0]], axis=-2)
 
 
-def ancestor_sums(parent, values: np.ndarray) -> np.ndarray:
-    """A copy of ``values`` (..., B, k) in which each branch's row is summed with its
-    ancestors' (parents come before their children), so that a sum along a descendant chain
-    is a difference of two rows."""
-    out = values.copy()
-    for i, p in enumerate(np.asarray(parent).tolist()):
-        if p >= 0:
-            out[..., i, :] += out[..., p, :]
-    return out
-
-
 def turned_most(tree: Tree, directions: np.ndarray, speeds, frames: RestFrames | None = None
                 ) -> np.ndarray:
     """(W,) the largest static turn, rad, of any branch's axis from its rest direction in each
@@ -216,8 +205,11 @@ def turned_most(tree: Tree, directions: np.ndarray, speeds, frames: RestFrames |
     statics, model.md 4) with (x_j, y_j) its rest swing frame's axes, and a_i branch i's rest
     axis (a turn about the axis itself moves nothing). A chain of many branches turns its top
     far more than any one branch or group turns."""
+    from .tree_sums import TreeSums
+
     frames = rest_frames(tree) if frames is None else frames
     bend, rot = static_angles(tree, wind_forces(tree, directions, speeds, frames), frames)  # (W, B)
-    omega = ancestor_sums(tree.parent, rotation_parts(bend, rot, frames).sum(axis=-2))
+    omega = rotation_parts(bend, rot, frames).sum(axis=-2)                            # (W, B, 3)
+    omega = TreeSums(tree.parent).down(np.ones(tree.n_branches), omega)    # + its ancestors'
     axis = frames.swing[:, :, 2]                                                      # (B, 3)
     return np.linalg.norm(np.cross(omega, axis[None]), axis=2).max(axis=1, initial=0.0)
