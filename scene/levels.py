@@ -22,6 +22,7 @@ import numpy as np
 
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
+from plantlod.sim.blas_threads import with_one_blas_thread
 from plantlod.lsys.tree import Tree
 
 from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS
@@ -149,6 +150,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
     return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips, damping_ratio)
 
 
+@with_one_blas_thread
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
                   damping_ratio: float = 0.0, progress=None):
     """Every explicit level's text and tip error (max, m) in the scene's wind; the original

@@ -28,6 +28,7 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
+from plantlod.sim.blas_threads import with_one_blas_thread
 from plantlod.sim.stability import check_stability
 
 from .bounds import bounds_score, form_rank
@@ -132,6 +133,7 @@ def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, so
                          source)
 
 
+@with_one_blas_thread
 def simplify(system: LSystem, options: Options,
              progress: Callable[[str, float], None] | None = None) -> Result:
     """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input."""
@@ -289,6 +291,7 @@ class ChainShare:
         return self.runs.result()
 
 
+@with_one_blas_thread
 def chain_share(system: LSystem, options: Options, groupings_checked=None,
                 built: tuple[Tree, list] | None = None) -> ChainShare:
     """Build, check, group and simulate the original of ``system`` once (`ChainShare`; the

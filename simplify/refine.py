@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 from scipy.sparse.linalg import LinearOperator
 
 from plantlod.lsys.tree import Tree
+from plantlod.sim.blas_threads import one_blas_thread
 
 from .constants import (REFINE_EVALUATIONS, REFINE_FLOOR, REFINE_LOG_RANGE,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SCALE_PROBES, REFINE_SKIP,
@@ -191,7 +192,8 @@ class StaticModel:
         if self.target.size == 0 or self.worst(x0) < REFINE_SKIP:
             return None
         try:
-            with np.errstate(over="ignore", invalid="ignore"):
+            # lsmr's norms of long residuals: on one BLAS thread, the same bits on any machine
+            with np.errstate(over="ignore", invalid="ignore"), one_blas_thread():
                 fit = least_squares(self.residual, x0, jac=self.jacobian, method="trf",
                                     bounds=(x0 - REFINE_LOG_RANGE, x0 + REFINE_LOG_RANGE),
                                     x_scale=self.column_scale(x0), max_nfev=evaluations,

@@ -95,7 +95,8 @@ def test_simplify_stalk8_golden(level, method):
 @pytest.mark.parametrize("example", sorted(ABOP_LEVEL1_BRANCHES))
 def test_simplify_abop_level1_golden(example):
     # The least-squares refinement stops where scipy's trust-region iterations stop;
-    # their last digits (about 1e-7 relative) differ between scipy/BLAS builds, and a
+    # their last digits (about 1e-7 relative) differ between scipy/BLAS builds (BLAS thread
+    # counts no longer: sim/blas_threads.py, tests/test_blas_threads.py), and a
     # length of 0.0999999999997 is written as an override where 0.1 is not. So the
     # pinned file is compared as what it means: its header (numbers within
     # OPTIMISER_REL) and the tree it derives, array by array.
