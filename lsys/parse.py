@@ -66,6 +66,10 @@ _NUMBER_TAIL = re.compile(r"[A-Za-z0-9_.]+")       # glued to a number: a bad nu
 # a whole expression that is one plain number: what follows it can end an expression but not
 # continue it (',' ')' the end of the line, or a name after white space, as in key=value lists)
 _PLAIN_NUMBER = re.compile(r"\s*(" + _NUMBER + r")(?=\s*[,)]|\s*$|\s+[A-Za-z_])")
+# one key=number pair of a key=value list, the number signed or not and nothing glued to it:
+# most lines of a written level are only these, and `_key_values` reads them without the
+# expression parser (the same floats: -x negates exactly)
+_KEY_NUMBER = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)=(-?" + _NUMBER + r")(?=\s|$)")
 _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
@@ -819,6 +823,9 @@ class _FileParser:
     def _key_values(self, cur: _Cursor, keys: dict[str, bool], what: str,
                     pattern: re.Pattern | None = None) -> dict[str, float]:
         """``key=EXPR key=EXPR ...`` to the end of the line; keys from ``keys`` or matching ``pattern``."""
+        plain = self._plain_key_values(cur, keys, pattern)
+        if plain is not None:
+            return plain
         out: dict[str, float] = {}
         while True:
             tok = _token(cur)
@@ -844,6 +851,36 @@ class _FileParser:
             out[tok.text] = _constant(cur, self.defines)[1]
             key = "area" if pattern and pattern.fullmatch(tok.text) else tok.text
             _check_not_negative(cur, key, out[tok.text], value_start)
+
+    def _plain_key_values(self, cur: _Cursor, keys: dict[str, bool],
+                          pattern: re.Pattern | None) -> dict[str, float] | None:
+        """`_key_values` of a line that is only ``key=NUMBER`` pairs (signed numbers, known
+        keys, each once, finite), read with one regular expression a pair; None for any other
+        line, which the expression parser then reads (and reports, where it is wrong)."""
+        text, i = cur.text, cur.i
+        out: dict[str, float] = {}
+        found = []
+        while True:
+            m = _KEY_NUMBER.match(text, i)
+            if m is None:
+                break
+            key = m.group(1)
+            if key in out or not (key in keys or (pattern and pattern.fullmatch(key))):
+                return None
+            value = float(m.group(2))
+            if not math.isfinite(value):
+                return None
+            out[key] = value
+            found.append((key, value, m.start(2)))
+            i = m.end()
+        if not found or text[i:].strip():
+            return None
+        for key, value, at in found:
+            _check_not_negative(cur, "area" if pattern and pattern.fullmatch(key) else key,
+                                value, at)
+        cur.i = i
+        _token(cur)                     # at the end of the line, as the expression parser leaves it
+        return out
 
     def _axiom(self, cur: _Cursor, after: int) -> None:
         if self.axiom is not None or self.axiom_lines is not None:

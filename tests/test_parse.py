@@ -485,3 +485,40 @@ def test_parse_expr_rejects_trailing_text():
     with pytest.raises(InputError) as info:
         parse_expr("1 + 2 )", line=3, col=5)
     assert (info.value.line, info.value.col) == (3, 11)
+
+
+# --- key=value lines read without the expression parser (lsys/parse.py, _KEY_NUMBER) -------
+
+_VALUE = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False, width=64).map(repr),
+    st.integers(-10**6, 10**6).map(str),
+    st.sampled_from(["-0", "-.5", ".5", "1e400", "-1e-400", "2*3", "(1)", "+1", "1.2.3", "1e",
+                     "x", "- 1", "1 ", "nan", "inf", "0x10"]))
+_KEY = st.sampled_from(["length", "radius", "bend_strength", "g_bx", "g_rz", "area", "area_0",
+                        "area_12", "force_absorbed", "swing_roll", "bogus", "area_01"])
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(_KEY, _VALUE, st.sampled_from(["=", "=", " = ", "= "]),
+                          st.sampled_from([" ", " ", "  ", "\t"])), min_size=1, max_size=6))
+def test_plain_key_values_read_as_the_expression_parser_reads_them(pairs):
+    """An override line read by the one-regex path and by the expression parser: the same
+    values, or the same error (the regex path hands every line it does not fully own over)."""
+    from plantlod.lsys import parse as P
+
+    line = "".join(f"{k}{eq}{v}{sp}" for k, v, eq, sp in pairs).rstrip()
+    text = ("derivation_length: 0\nbranch F: length=1 radius=0.1 bend_strength=20 "
+            "rotation_strength=20\nleaf L: area=1\naxiom: F L\n\noverrides:\n  0: " + line + "\n")
+
+    def read(fast: bool):
+        saved = P._FileParser._plain_key_values
+        if not fast:
+            P._FileParser._plain_key_values = lambda self, cur, keys, pattern: None
+        try:
+            return P.parse_lsys(text, "t.lsys")
+        except InputError as exc:
+            return str(exc)
+        finally:
+            P._FileParser._plain_key_values = saved
+
+    assert read(True) == read(False)
