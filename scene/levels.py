@@ -7,6 +7,12 @@ is measured against the original in the scene's wind speed, the worst over
 `TIP_ERROR_DIRECTIONS` (so it holds for any heading). The level files and the errors
 are kept in the cache folder under a key of the tree file's bytes, the program
 version and the wind and time settings, so a second run of a scene simplifies nothing.
+
+Beside each entry's JSON (the level texts, the source of truth) the levels' trees are kept
+built, one `.npz` tree archive a level in an uncompressed zip (`KEY.trees.zip`,
+`plantlod.formats.npz`): reading five chains' 40 levels from their texts took 0.34 s, from
+the archives 0.07 s. A missing or unreadable archive is only slower: the texts are read,
+and the archive written again.
 """
 
 from __future__ import annotations
@@ -116,16 +122,64 @@ def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
     entry = None if cache is None else cache / f"{key}.json"
     if entry is not None and entry.is_file():
         stored = json.loads(entry.read_text(encoding="utf-8"))
-        return _chain(path, data, stored["levels"], np.array(stored["tip_error_m"]),
-                      damping_ratio), True
+        built = _read_built(entry.with_suffix(".trees.zip"), len(stored["levels"]))
+        chain = _chain(path, data, stored["levels"], np.array(stored["tip_error_m"]),
+                       damping_ratio, built)
+        if built is None:
+            _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
+        return chain, True
     texts, errors = _simplify_all(path, data, speed, dt, duration, damping_ratio, progress)
+    chain = _chain(path, data, texts, np.asarray(errors), damping_ratio)
     if entry is not None:
         entry.parent.mkdir(parents=True, exist_ok=True)
         tmp = entry.with_suffix(".tmp")
         tmp.write_text(json.dumps({"file": str(path), "levels": texts,
                                    "tip_error_m": [float(e) for e in errors]}), encoding="utf-8")
         os.replace(tmp, entry)
-    return _chain(path, data, texts, np.asarray(errors), damping_ratio), False
+        _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
+    return chain, False
+
+
+def _write_built(path: pathlib.Path, trees: list[Tree]) -> None:
+    """The levels' trees as one `.npz` archive each (`formats.npz.tree_bytes`) in an
+    uncompressed zip, written whole or not at all (a cache: a failure to write is ignored)."""
+    import io
+    import zipfile
+
+    from plantlod.formats.npz import tree_bytes
+
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as archive:
+        for k, tree in enumerate(trees, start=1):
+            archive.writestr(f"level{k}.npz", tree_bytes(tree))
+    from plantlod.formats.atomic import atomic_path, write_whole
+
+    try:
+        with atomic_path(str(path)) as tmp:        # a temporary a signal handler removes
+            write_whole(tmp, out.getvalue())
+    except OSError:
+        pass
+
+
+def _read_built(path: pathlib.Path, count: int) -> list[Tree] | None:
+    """The ``count`` level trees `_write_built` kept at ``path``, every one checked as a tree
+    archive is (`formats.npz.read_tree_bytes`); None where the file is missing, unreadable
+    or holds anything else."""
+    import zipfile
+
+    from plantlod.formats.npz import read_tree_bytes
+    from plantlod.lsys.errors import InputError
+
+    if not path.is_file():
+        return None
+    try:
+        with zipfile.ZipFile(path) as archive:
+            if archive.namelist() != [f"level{k}.npz" for k in range(1, count + 1)]:
+                return None
+            return [read_tree_bytes(archive.read(f"level{k}.npz"), str(path))
+                    for k in range(1, count + 1)]
+    except (OSError, zipfile.BadZipFile, InputError, ValueError, KeyError, EOFError):
+        return None
 
 
 def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray,
@@ -136,13 +190,16 @@ def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray,
 
 
 def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
-           damping_ratio: float = 0.0) -> Chain:
+           damping_ratio: float = 0.0, built: list[Tree] | None = None) -> Chain:
+    """The chain of the original ``data`` and its level ``texts``; ``built``: the levels'
+    trees where the cache kept them (`_read_built`), else each text is read and built."""
     from plantlod.compare.groups import assign_groups, main_paths
 
     original = build(parse_lsys(data.decode("utf-8"), str(path))).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
     for k, text in enumerate(texts, start=1):
-        tree = build(parse_lsys(text, f"{path.name} level {k}")).tree
+        tree = (built[k - 1] if built is not None
+                else build(parse_lsys(text, f"{path.name} level {k}")).tree)
         g = assign_groups(original, tree)
         trees.append(tree)
         groups.append(g)

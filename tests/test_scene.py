@@ -449,3 +449,36 @@ def test_a_chain_cache_key_changes_with_the_fitting_code(monkeypatch, module):
         monkeypatch.undo()
         levels.fit_code_digest.cache_clear()
     assert levels.cache_key(b"tree", 5.0, 0.01, 20.0) == before
+
+
+def test_a_cached_chain_reads_its_built_levels_as_its_texts_give_them(tmp_path):
+    """The levels kept built in the cache (KEY.trees.zip) are the trees the level texts
+    build, field by field; a damaged archive is read past (the texts again) and rewritten."""
+    import dataclasses
+
+    from plantlod.scene.levels import level_chain
+
+    cache = tmp_path / "cache"
+    first, hit = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 1.0, cache)
+    assert not hit
+    (archive,) = cache.glob("*.trees.zip")
+    again, hit = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 1.0, cache)
+    assert hit and len(again.trees) == len(first.trees) > 2
+
+    def same(a, b) -> bool:
+        for f in dataclasses.fields(a):
+            x, y = getattr(a, f.name), getattr(b, f.name)
+            if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+                if x is None or y is None or not np.array_equal(x, y):
+                    return False
+            elif x != y:
+                return False
+        return True
+
+    assert all(same(a, b) for a, b in zip(first.trees, again.trees))
+    assert all(np.array_equal(a, b) for a, b in zip(first.groups, again.groups))
+    archive.write_bytes(archive.read_bytes()[:100])            # damaged
+    third, hit = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 1.0, cache)
+    assert hit and all(same(a, b) for a, b in zip(first.trees, third.trees))
+    assert len(archive.read_bytes()) > 100                     # written again
+    assert not [p for p in cache.iterdir() if p.name.startswith(".plantlod-")]
