@@ -321,6 +321,7 @@ def chain_share(system: LSystem, options: Options, groupings_checked=None,
     return ChainShare(original, groupings, InBackground(runs))
 
 
+@with_one_blas_thread
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
                       grouping: int | None = None, shared: ChainShare | None = None) -> Result:
@@ -389,6 +390,7 @@ def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
             f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
 
 
+@with_one_blas_thread
 def simplify_grammar(system: LSystem, options: Options,
                      progress: Callable[[str, float], None] | None = None) -> Result:
     """The grammar form: the same productions, derivation length N - n, new parameters."""
