@@ -18,3 +18,4 @@ STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
+WORKER_CHAINS = 16              # level chains a process (a Dask worker) keeps read, one per tree file

@@ -31,7 +31,7 @@ from plantlod.lsys.parse import parse_lsys
 from plantlod.sim.blas_threads import with_one_blas_thread
 from plantlod.lsys.tree import Tree
 
-from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS
+from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS, WORKER_CHAINS
 
 
 @dataclass
@@ -184,9 +184,19 @@ def _read_built(path: pathlib.Path, count: int) -> list[Tree] | None:
 
 def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray,
                      damping_ratio: float = 0.0) -> Chain:
-    """A chain rebuilt from its level texts (level 0 the original's), as a worker does."""
-    return _chain(pathlib.Path(source), texts[0].encode("utf-8"), texts[1:], tip_error_m,
-                  damping_ratio)
+    """A chain rebuilt from its level texts (level 0 the original's), as a worker does: once
+    per process and chain (`_remembered_chain`). A worker runs many batches of one file, and
+    reading the chain (0.1 s for a forest's tree) took longer than simulating a batch of it
+    (about 0.07 s for examples/forest.toml's 18 batches). Callers only read the chain."""
+    return _remembered_chain(source, tuple(texts), tuple(float(e) for e in tip_error_m),
+                             float(damping_ratio))
+
+
+@functools.lru_cache(maxsize=WORKER_CHAINS)
+def _remembered_chain(source: str, texts: tuple[str, ...], tip_error_m: tuple[float, ...],
+                      damping_ratio: float) -> Chain:
+    return _chain(pathlib.Path(source), texts[0].encode("utf-8"), list(texts[1:]),
+                  np.asarray(tip_error_m), damping_ratio)
 
 
 def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,

@@ -482,3 +482,21 @@ def test_a_cached_chain_reads_its_built_levels_as_its_texts_give_them(tmp_path):
     assert hit and all(same(a, b) for a, b in zip(first.trees, third.trees))
     assert len(archive.read_bytes()) > 100                     # written again
     assert not [p for p in cache.iterdir() if p.name.startswith(".plantlod-")]
+
+
+def test_a_worker_reads_each_chain_once(tmp_path, chains):
+    """`chain_from_texts` (what a Dask worker's batch calls) reads a chain once per process:
+    the second batch of the same file gets the same chain, equal to the one read from the
+    cache; another file's texts get their own."""
+    from plantlod.scene.levels import _remembered_chain, chain_from_texts, level_chain
+
+    chain, _ = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 2.0, chains)
+    _remembered_chain.cache_clear()
+    first = chain_from_texts(TWIN, chain.texts, chain.tip_error_m)
+    again = chain_from_texts(TWIN, list(chain.texts), chain.tip_error_m.tolist())
+    assert again is first and _remembered_chain.cache_info().hits == 1
+    assert [t.n_branches for t in first.trees] == [t.n_branches for t in chain.trees]
+    for a, b in zip(first.groups, chain.groups):
+        np.testing.assert_array_equal(a, b)
+    other = chain_from_texts(TWIN, chain.texts[:-1], chain.tip_error_m[:-1])
+    assert other is not first and len(other.trees) == len(first.trees) - 1
