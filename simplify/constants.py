@@ -128,6 +128,10 @@ SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the 
                               # x the group's largest at that speed (0.01: 288 / 259, 0.3: 284 / 251; the floor on the
                               # component's static swing, |Σ parts|, in place of Σ |parts|: every kind, levels 1 / 2,
                               # 3407 / 3472 against 3430 / 3473, bush3d level 1 343 -> 323)
+MODE_MISFIT_WEIGHT = (0.0, 150.0)  # ... and x (1 + this x the merged group's mode misfit; `merge_costs.ModeMisfit`),
+                              # level 1's merges, then the later levels' (family, every kind but stalks, level 2:
+                              # tuning range 3278 -> 3285 / 3297 / 3299 / 3292 of ~3385 cases with 20 / 60 / 150 / 400,
+                              # seeds 200-299 1527 -> 1533 / 1581 / 1607 / 1624; at level 1, 20 lost 34 cases)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------

@@ -6,7 +6,8 @@ connected, nested level in level, and the chain ends with one group per root bra
 (Beaudoin & Keyser 2004 merge from the tips too). A merge of the group rooted at r into the
 group rooted at u costs
 
-    size · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_s spread + W_t Δturn + W_m Δmiss)
+    size · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_s spread + W_t Δturn + W_m Δmiss
+                                  + W_f misfit)
 
 - ``size``: size_r + size_u, smallest first, so groups grow evenly from the tips toward the
   trunk; size_r alone where r goes beside u's main path (u's level branch stays as it was, and
@@ -41,7 +42,14 @@ group rooted at u costs
   error at 10 m/s without this term, 0.1 % with it). Stalks (chains) have no hanging groups
   and are held to relative bounds; they go without it.
 
-The three terms are computed in simplify/merge_costs.py.
+- ``misfit``: how far the best single branch misses the merged group's swing split between
+  its two periods (`ModeMisfit`): a lateral rolled and pitched against its parent whose
+  bend and rotation parts cancel across the periods answers with a matrix of rank 2 per
+  period, and a level branch with one of rank 1. 0 where r goes beside u. Weighed only
+  after level 1 (W_f = MODE_MISFIT_WEIGHT): at level 1 it formed other groups that missed
+  for other reasons (docs/simplify.md, "Groups").
+
+The terms are computed in simplify/merge_costs.py.
 W = STRENGTH_MISMATCH_WEIGHT (one weight while level 1 is merged and a larger one for the
 levels after it, as measured on the generated family; constants.py), W_t = FRAME_TURN_WEIGHT,
 W_m = TIP_MISS_WEIGHT (likewise a pair).
@@ -65,9 +73,9 @@ from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
 from .constants import (FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO, MIN_MERGE_FACTOR,
-                        SHARE_SPREAD_BRANCHING_WEIGHT, SHARE_SPREAD_WEIGHT, STRENGTH_MISMATCH_WEIGHT,
-                        TIP_MISS_WEIGHT)
-from .merge_costs import FrameTurns, PeriodGap, ShareSpread, TipMisses
+                        MODE_MISFIT_WEIGHT, SHARE_SPREAD_BRANCHING_WEIGHT, SHARE_SPREAD_WEIGHT,
+                        STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
+from .merge_costs import FrameTurns, ModeMisfit, PeriodGap, ShareSpread, TipMisses
 from .static import rest_frames
 
 
@@ -186,7 +194,9 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         # paths): its periods beat against nothing, and u's level branch stays as it was
         gap = 0.0 if beside else apart(r, u)
         spread = 0.0 if beside or share_weight == 0 else shares(u, new_end)
+        misfit = 0.0 if beside or misfit_weight == 0 else modes(u, new_end)
         factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + share_weight * spread
+                     + misfit_weight * misfit
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
         return (size[r] if beside else size[r] + size[u]) * factor, new_end
 
@@ -196,6 +206,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
               if max(TIP_MISS_WEIGHT) > 0 and not stalk else None)
     miss_cache: dict[tuple[int, int, int, int], float] = {}
     shares = ShareSpread(tree, parent, frames)
+    modes = ModeMisfit(shares, parent)
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
     def at_level(weights: tuple) -> float:
@@ -208,6 +219,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         tip_weight = 0.0 if misses is None else at_level(TIP_MISS_WEIGHT)
         weight = at_level(STRENGTH_MISMATCH_WEIGHT)
         share_weight = SHARE_SPREAD_WEIGHT if stalk else at_level(SHARE_SPREAD_BRANCHING_WEIGHT)
+        misfit_weight = at_level(MODE_MISFIT_WEIGHT)
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = sorted(r for r in roots_left if parent[r] >= 0)

@@ -3,7 +3,8 @@
 - `PeriodGap`: how far a merged group's periods are from the W_0 components they land on;
 - `FrameTurns`: how much a merge turns level branches against their group roots' frames;
 - `TipMisses`: how far a group's rigid chord puts the points it carries from the original's;
-- `ShareSpread`: how far a group's period moves with the wind (chains).
+- `ShareSpread`: how far a group's period moves with the wind (chains);
+- `ModeMisfit`: how far one branch falls short of a group whose members' parts cancel.
 
 Each works on the original tree's rest geometry (and, for the tip misses, its linear statics)
 and on plain Python numbers: `merge_levels` calls them tens of thousands of times.
@@ -241,3 +242,67 @@ class ShareSpread:
                 worst = max(worst, float(lam.max() - lam.min()))
         self.cache[key] = worst
         return worst
+
+
+class ModeMisfit:
+    """How far the best single branch misses a group's swing split between its two periods.
+
+    In the linear regime each main-path member j swings from rest with its bend strength's
+    period in its bend part and its rotation strength's in its rotation part (ShareSpread's
+    parts: ω_b,j = θb_j y_j and ω_r,j = -θr_j x_j, world vectors, read on the root's axes
+    e_b = y_0, e_r = -x_0). Summed over the path per loading l, the group answers with
+    M_b (2 × L) at the bend period and M_r at the rotation period. A level branch answers
+    with u_b g_bᵀ and u_r g_rᵀ: one readout direction per period, u_b ⊥ u_r (its swing axes
+    read in W_0, turned together by a roll), each of rank 1, and its statics S = M_b + M_r
+    fitted; so at best P_b = u uᵀ S, and the misfit ‖u uᵀ S - M_b‖ (= ‖P_r - M_r‖) is least
+    for u the eigenvector of the least eigenvalue λ of A = S Sᵀ - S M_bᵀ - M_b Sᵀ:
+
+        misfit² = λ_min(A) + ‖M_b‖²,  per speed, over the loadings of ShareSpread's winds.
+
+    A member alone, or members whose parts line up (a straight stalk's bend and rotation),
+    give 0; a lateral rolled and pitched against its parent whose parts cancel across the
+    two periods does not (family sympodial-209's pair [38, 40]: 36 % of its static swing,
+    docs/simplify.md, "Limits"). The cost is the largest over speeds of misfit / the tree's
+    largest static turn at that speed (ShareSpread's turn of any branch's axis, so it reads
+    against what a viewer sees), times the path's largest |ln(k_bs / k_rs)|: where the two
+    periods are one, how a swing splits between them does not matter.
+    """
+
+    def __init__(self, shares: ShareSpread, parent: list[int]):
+        from .tree_sums import TreeSums
+
+        self.shares = shares
+        self.parent = parent
+        total = shares.parts.sum(axis=3)                                           # (B, S, D, 3)
+        b, s, d = total.shape[:3]
+        turns = TreeSums(np.asarray(parent, dtype=np.int64)).down(
+            np.ones(b), total.reshape(b, s * d, 3).transpose(1, 0, 2))           # (S·D, B, 3)
+        self.largest = np.sqrt((turns ** 2).sum(axis=2)).reshape(s, d, b).max(axis=(1, 2))
+        gap = np.abs(shares.log_k[:, 0] - shares.log_k[:, 1])
+        self.gap = np.where(np.isfinite(gap), gap, 0.0)                           # (B,)
+        self.cache: dict[tuple[int, int], float] = {}
+
+    def __call__(self, root: int, end: int) -> float:
+        """The cost of the group rooted at ``root`` whose main path ends at ``end``."""
+        key = (root, end)
+        if key in self.cache:
+            return self.cache[key]
+        path = [end]
+        while path[-1] != root:
+            path.append(self.parent[path[-1]])
+        gap = float(self.gap[path].max())
+        worst = 0.0
+        if gap > 0.0 and len(path) > 1:
+            m = np.einsum("jsdmk,ck->scdm", self.shares.parts[path],
+                          self.shares.axes[root])                                 # (S, c, D, m)
+            for s in range(m.shape[0]):
+                if self.largest[s] <= 0:
+                    continue
+                bend = m[s, :, :, 0]
+                total = bend + m[s, :, :, 1]
+                a = total @ total.T - total @ bend.T - bend @ total.T
+                squared = float(np.linalg.eigvalsh(a)[0] + (bend * bend).sum())
+                worst = max(worst, math.sqrt(max(squared, 0.0)) / self.largest[s])
+        self.cache[key] = worst * gap
+        return self.cache[key]
+

@@ -254,3 +254,70 @@ def test_a_spread_stays_within_its_members_strengths_where_their_parts_cancel():
             assert spreads(path[-1], end) <= span + 1e-12
             checked += 1
     assert checked > 100
+
+
+def _literal_misfit(tree, path, largest):
+    """ModeMisfit's figure the slow way: the members' bend-only and rotation-only static angles
+    carried into the path root's frame by compare's `combined_angles` (model.md 5), and the
+    best readout direction found by trying every roll 0.01° apart, per speed."""
+    from plantlod.compare.groups import combined_angles
+
+    frames = rest_frames(tree)
+    low, high = SIMPLIFY_WIND_RANGE
+    parts = static_parts(tree, horizontal_directions(8)[:4], frames)
+    gap = float(np.abs(np.log(tree.bend_strength[path] / tree.rotation_strength[path])).max())
+    rolls = np.radians(np.arange(0.0, 180.0, 0.01))
+    u = np.stack([np.cos(rolls), np.sin(rolls)], axis=1)                        # (R, 2)
+    worst = 0.0
+    for s, speed in enumerate((low, np.sqrt(low * high), high)):
+        bend, rot = static_angles_at(tree, parts, speed, frames)
+        zero = np.zeros_like(bend)
+        mb = np.stack(combined_angles(tree, [np.asarray(path)], bend, zero), axis=0)[:, :, 0]
+        mr = np.stack(combined_angles(tree, [np.asarray(path)], zero, rot), axis=0)[:, :, 0]
+        total = mb + mr                                                         # (2, D)
+        fitted = u[:, :, None] * (u @ total)[:, None, :]                        # (R, 2, D)
+        miss = np.sqrt(((fitted - mb[None]) ** 2).sum(axis=(1, 2))).min()
+        worst = max(worst, miss / largest[s])
+    return worst * gap
+
+
+def test_the_mode_misfit_is_the_best_roll_tried_one_by_one():
+    """`ModeMisfit` (closed form: the least eigenvalue) against every readout direction tried
+    0.01° apart, on the parent-lateral pairs and three-member paths of family sympodial-209,
+    whose laterals are rolled 166° and 282° and pitched about 31° (k_bs 50, k_rs 60)."""
+    from golden_util import family_tree
+    from plantlod.simplify.merge_costs import ModeMisfit, ShareSpread
+
+    _, tree = family_tree("sympodial", 209)
+    parent = np.asarray(tree.parent).tolist()
+    modes = ModeMisfit(ShareSpread(tree, parent, rest_frames(tree)), parent)
+    checked = []
+    for end in range(1, 24):
+        path = [end]
+        while path[-1] >= 0 and len(path) < 3:
+            path.append(parent[path[-1]])
+        path = [b for b in path if b >= 0][::-1]
+        if len(path) < 2:
+            continue
+        got = modes(path[0], path[-1])
+        want = _literal_misfit(tree, path, modes.largest)
+        assert got == pytest.approx(want, rel=1e-4, abs=1e-12)
+        checked.append(got)
+    assert len(checked) > 10 and max(checked) > 0.01     # some pairs' parts do cancel
+
+
+def test_a_lone_branch_or_one_period_has_no_mode_misfit():
+    """A member alone answers with its own two readout directions, and where k_bs = k_rs the
+    two periods are one: either way one branch holds the group (0)."""
+    from golden_util import family_tree
+    from plantlod.simplify.merge_costs import ModeMisfit, ShareSpread
+
+    _, tree = family_tree("sympodial", 209)
+    parent = np.asarray(tree.parent).tolist()
+    modes = ModeMisfit(ShareSpread(tree, parent, rest_frames(tree)), parent)
+    assert all(modes(b, b) == 0.0 for b in range(tree.n_branches))
+    same = build(parse_lsys(TREE.replace("bend_strength=20 rotation_strength=26",
+                                         "bend_strength=26 rotation_strength=26"), "t.lsys")).tree
+    p = np.asarray(same.parent).tolist()
+    flat = ModeMisfit(ShareSpread(same, p, rest_frames(same)), p)
+    assert all(flat(0, end) == 0.0 for end in range(same.n_branches))   # every branch is 0's

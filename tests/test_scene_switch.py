@@ -21,10 +21,12 @@ def chains(tmp_path_factory):
     for name in ("stalk8.lsys", "eval/twin_draw.lsys"):
         chain, _ = level_chain(ROOT / "examples" / name, 5.0, 0.01, 2.0, cache)
         out[name] = (chain, Transfer(chain.trees, chain.groups))
-    # a trunk rolled between segments, a leaf on each: its levels carry swing rolls
-    # (docs/model.md; which level does is the grouping's choice)
+    # a trunk rolled 45° between segments, a leaf on each: its levels carry swing rolls
+    # (docs/model.md; which level does is the grouping's choice: rolled 66°, since the mode
+    # misfit weighs level 2's merges, none of its levels does)
     rolled = cache / "rolled.lsys"
-    rolled.write_text(ROLLED_STALK.replace("T /", "T [&(20) L] /"))
+    rolled.write_text(ROLLED_STALK.replace("T /", "T [&(20) L] /")
+                      .replace("rotation_angle: 66", "rotation_angle: 45"))
     chain, _ = level_chain(rolled, 5.0, 0.01, 20.0, cache)      # periods need the time
     assert any(t.swing_roll is not None for t in chain.trees[1:])
     out["rolled"] = (chain, Transfer(chain.trees, chain.groups))
