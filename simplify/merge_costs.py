@@ -35,6 +35,18 @@ def _carry_mixing(x0, y0, xs, ys) -> float:
     return min(max(abs(m11), abs(m00)), max(abs(m10), abs(m01)))
 
 
+def path_up(parent: list[int], root: int, end: int) -> list[int]:
+    """The branches from ``end`` up to ``root`` (both included), ``end`` first: a main path
+    from its tip. ValueError where ``end`` does not descend from ``root``."""
+    path = [end]
+    while path[-1] != root:
+        up = parent[path[-1]]
+        if up < 0:
+            raise ValueError(f"branch {end} does not descend from branch {root}")
+        path.append(up)
+    return path
+
+
 class PeriodGap:
     """apart(r, u) = max_c Σ_m |C[c, m]| |ln(k_m,r / k_c,u)| / Σ_m |C[c, m]|, with C the carry
     map of r's rest swing frame into u's and k_m the bend and rotation strengths of the roots:
@@ -224,12 +236,7 @@ class ShareSpread:
         key = (root, end)
         if key in self.cache:
             return self.cache[key]
-        path = [end]
-        while path[-1] != root:
-            up = self.parent[path[-1]]
-            if up < 0:
-                raise ValueError(f"branch {end} does not descend from branch {root}")
-            path.append(up)
+        path = path_up(self.parent, root, end)
         size = np.abs(np.einsum("jsdmk,ck->jcsdm", self.parts[path], self.axes[root]))
         den = size.sum(axis=(0, 4))                                               # (c, S, D)
         num = np.einsum("jcsdm,jm->csd", size, self.log_k[path])
@@ -263,9 +270,9 @@ class ModeMisfit:
     give 0; a lateral rolled and pitched against its parent whose parts cancel across the
     two periods does not (family sympodial-209's pair [38, 40]: 36 % of its static swing,
     docs/simplify.md, "Limits"). The cost is the largest over speeds of misfit / the tree's
-    largest static turn at that speed (ShareSpread's turn of any branch's axis, so it reads
-    against what a viewer sees), times the path's largest |ln(k_bs / k_rs)|: where the two
-    periods are one, how a swing splits between them does not matter.
+    largest static turn at that speed (|Σ ω| from the root to any branch, over the loadings:
+    it reads against what a viewer sees), times the path's largest |ln(k_bs / k_rs)|: where
+    the two periods are one, how a swing splits between them does not matter.
     """
 
     def __init__(self, shares: ShareSpread, parent: list[int]):
@@ -287,9 +294,7 @@ class ModeMisfit:
         key = (root, end)
         if key in self.cache:
             return self.cache[key]
-        path = [end]
-        while path[-1] != root:
-            path.append(self.parent[path[-1]])
+        path = path_up(self.parent, root, end)
         gap = float(self.gap[path].max())
         worst = 0.0
         if gap > 0.0 and len(path) > 1:
