@@ -131,7 +131,8 @@ SHARE_SPREAD_FLOOR = 0.1      # the loadings a share spread compares: where the 
 MODE_MISFIT_WEIGHT = (0.0, 150.0)  # ... and x (1 + this x the merged group's mode misfit; `merge_costs.ModeMisfit`),
                               # level 1's merges, then the later levels' (family, every kind but stalks, level 2:
                               # tuning range 3278 -> 3285 / 3297 / 3299 / 3292 of ~3385 cases with 20 / 60 / 150 / 400,
-                              # seeds 200-299 1527 -> 1533 / 1581 / 1607 / 1624; at level 1, 20 lost 34 cases)
+                              # seeds 200-299 1527 -> 1533 / 1581 / 1607 / 1624; at level 1 of 3282 cases, 3: the same,
+                              # 8: -6, 20: -34)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
