@@ -28,7 +28,6 @@ import numpy as np
 
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
-from plantlod.sim.blas_threads import with_one_blas_thread
 from plantlod.lsys.tree import Tree
 
 from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS, WORKER_CHAINS
@@ -132,17 +131,24 @@ def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
     chain = _chain(path, data, texts, np.asarray(errors), damping_ratio)
     if entry is not None:
         entry.parent.mkdir(parents=True, exist_ok=True)
-        tmp = entry.with_suffix(".tmp")
-        tmp.write_text(json.dumps({"file": str(path), "levels": texts,
-                                   "tip_error_m": [float(e) for e in errors]}), encoding="utf-8")
-        os.replace(tmp, entry)
+        _store(entry, json.dumps({"file": str(path), "levels": texts,
+                                  "tip_error_m": [float(e) for e in errors]}).encode("utf-8"))
         _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
     return chain, False
 
 
+def _store(path: pathlib.Path, data: bytes) -> None:
+    """``data`` at ``path``, written whole or not at all: through a temporary beside it that
+    a signal handler removes (`formats.atomic.atomic_path`)."""
+    from plantlod.formats.atomic import atomic_path, write_whole
+
+    with atomic_path(str(path)) as tmp:
+        write_whole(tmp, data)
+
+
 def _write_built(path: pathlib.Path, trees: list[Tree]) -> None:
     """The levels' trees as one `.npz` archive each (`formats.npz.tree_bytes`) in an
-    uncompressed zip, written whole or not at all (a cache: a failure to write is ignored)."""
+    uncompressed zip (`_store`; a cache: a failure to write is ignored)."""
     import io
     import zipfile
 
@@ -152,11 +158,8 @@ def _write_built(path: pathlib.Path, trees: list[Tree]) -> None:
     with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as archive:
         for k, tree in enumerate(trees, start=1):
             archive.writestr(f"level{k}.npz", tree_bytes(tree))
-    from plantlod.formats.atomic import atomic_path, write_whole
-
     try:
-        with atomic_path(str(path)) as tmp:        # a temporary a signal handler removes
-            write_whole(tmp, out.getvalue())
+        _store(path, out.getvalue())
     except OSError:
         pass
 
@@ -217,7 +220,6 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
     return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips, damping_ratio)
 
 
-@with_one_blas_thread
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
                   damping_ratio: float = 0.0, progress=None):
     """Every explicit level's text and tip error (max, m) in the scene's wind; the original

@@ -28,7 +28,6 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
-from plantlod.sim.blas_threads import with_one_blas_thread
 from plantlod.sim.stability import check_stability
 
 from .bounds import bounds_score, form_rank
@@ -133,7 +132,6 @@ def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, so
                          source)
 
 
-@with_one_blas_thread
 def simplify(system: LSystem, options: Options,
              progress: Callable[[str, float], None] | None = None) -> Result:
     """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input."""
@@ -291,7 +289,6 @@ class ChainShare:
         return self.runs.result()
 
 
-@with_one_blas_thread
 def chain_share(system: LSystem, options: Options, groupings_checked=None,
                 built: tuple[Tree, list] | None = None) -> ChainShare:
     """Build, check, group and simulate the original of ``system`` once (`ChainShare`; the
@@ -321,7 +318,6 @@ def chain_share(system: LSystem, options: Options, groupings_checked=None,
     return ChainShare(original, groupings, InBackground(runs))
 
 
-@with_one_blas_thread
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
                       grouping: int | None = None, shared: ChainShare | None = None) -> Result:
@@ -390,7 +386,6 @@ def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
             f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
 
 
-@with_one_blas_thread
 def simplify_grammar(system: LSystem, options: Options,
                      progress: Callable[[str, float], None] | None = None) -> Result:
     """The grammar form: the same productions, derivation length N - n, new parameters."""
