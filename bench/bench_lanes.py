@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 
+import plantlod  # noqa: F401  (before numpy: pins OpenBLAS's kernels, plantlod/blas_kernels.py)
 import numpy as np
 
 STEPS = 600

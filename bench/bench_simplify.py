@@ -21,6 +21,7 @@ import pathlib
 import sys
 import time
 
+import plantlod  # noqa: F401  (before numpy: pins OpenBLAS's kernels, plantlod/blas_kernels.py)
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

@@ -16,6 +16,7 @@ import re
 import sys
 import tempfile
 
+import plantlod  # noqa: F401  (before numpy: pins OpenBLAS's kernels, plantlod/blas_kernels.py)
 import numpy as np
 
 from peak_memory import run_with_peak

@@ -20,6 +20,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from plantlod.blas_kernels import pin_openblas_kernels
+
+pin_openblas_kernels()          # before numpy loads OpenBLAS: the same bits on any x86-64 CPU
+
 __all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "RunFailure", "Tree",
            "__version__", "compare", "derive", "export_animation", "read_angles", "read_lsystem",
            "read_tree", "simplify", "simulate", "write_angles", "write_lsystem", "write_tree",

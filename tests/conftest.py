@@ -6,6 +6,8 @@ import pathlib
 
 import pytest
 
+import plantlod  # noqa: F401  (first, before numpy: it pins OpenBLAS's kernels, plantlod/blas_kernels.py)
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 
