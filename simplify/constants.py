@@ -133,6 +133,12 @@ MODE_MISFIT_WEIGHT = (0.0, 150.0)  # ... and x (1 + this x the merged group's mo
                               # tuning range 3278 -> 3285 / 3297 / 3299 / 3292 of ~3385 cases with 20 / 60 / 150 / 400,
                               # seeds 200-299 1527 -> 1533 / 1581 / 1607 / 1624; at level 1 of 3282 cases, 3: the same,
                               # 8: -6, 20: -34)
+CROSSING_SKEW_WEIGHT = (300.0, 300.0)  # ... and a chain's x (1 + this x the merged group's crossing skew;
+                              # `merge_costs.CrossingSkew`), level 1's merges, then the later levels'
+                              # (family stalks, levels 1 / 2 against none: tuning range +13 / +19 with 100,
+                              # +21 / +34 with 300, +18 / +36 with 1000 of ~430 cases each; seeds 200-399
+                              # +26 / +12 with 300, +28 / +8 with 1000. Branching trees, where only major
+                              # components' periods are held, to 2 %: 100 gave +5 / -19, so they go without)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------

@@ -7,7 +7,7 @@ connected, nested level in level, and the chain ends with one group per root bra
 group rooted at u costs
 
     size · max(MIN_MERGE_FACTOR, 1 + W apart(r, u) + W_s spread + W_t Δturn + W_m Δmiss
-                                  + W_f misfit)
+                                  + W_f misfit + W_k skew)
 
 - ``size``: size_r + size_u, smallest first, so groups grow evenly from the tips toward the
   trunk; size_r alone where r goes beside u's main path (u's level branch stays as it was, and
@@ -49,6 +49,13 @@ group rooted at u costs
   after level 1 (W_f = MODE_MISFIT_WEIGHT): at level 1 it formed other groups that missed
   for other reasons (docs/simplify.md, "Groups").
 
+- ``skew`` (chains only): how far apart the merged group's upward and downward crossings pace
+  over simplify's measurement window (`CrossingSkew`): members of other periods beat, and a
+  wind from the other side reads the downward pace (model.md 6 reads upward crossings, and
+  turns a linear response over), which one branch's single period cannot also hold within a
+  stalk's 1 % (family stalk-0: a pair of k_rs 48.4 and 56.4 paced 2.81 s and 2.96 s). 0 where
+  r goes beside u. W_k = CROSSING_SKEW_WEIGHT.
+
 The terms are computed in simplify/merge_costs.py.
 W = STRENGTH_MISMATCH_WEIGHT (one weight while level 1 is merged and a larger one for the
 levels after it, as measured on the generated family; constants.py), W_t = FRAME_TURN_WEIGHT,
@@ -72,10 +79,10 @@ import numpy as np
 from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
-from .constants import (FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO, MIN_MERGE_FACTOR,
-                        MODE_MISFIT_WEIGHT, SHARE_SPREAD_BRANCHING_WEIGHT, SHARE_SPREAD_WEIGHT,
-                        STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
-from .merge_costs import FrameTurns, ModeMisfit, PeriodGap, ShareSpread, TipMisses
+from .constants import (CROSSING_SKEW_WEIGHT, FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO,
+                        MIN_MERGE_FACTOR, MODE_MISFIT_WEIGHT, SHARE_SPREAD_BRANCHING_WEIGHT,
+                        SHARE_SPREAD_WEIGHT, STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
+from .merge_costs import CrossingSkew, FrameTurns, ModeMisfit, PeriodGap, ShareSpread, TipMisses
 from .static import rest_frames
 
 
@@ -195,8 +202,9 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         gap = 0.0 if beside else apart(r, u)
         spread = 0.0 if beside or share_weight == 0 else shares(u, new_end)
         misfit = 0.0 if beside or misfit_weight == 0 else modes(u, new_end)
+        skew = 0.0 if beside or skews is None else skews(u, new_end)
         factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + share_weight * spread
-                     + misfit_weight * misfit
+                     + misfit_weight * misfit + skew_weight * skew
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
         return (size[r] if beside else size[r] + size[u]) * factor, new_end
 
@@ -207,6 +215,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
     miss_cache: dict[tuple[int, int, int, int], float] = {}
     shares = ShareSpread(tree, parent, frames)
     modes = ModeMisfit(shares, parent)
+    skews = CrossingSkew(shares, tree, parent) if stalk and max(CROSSING_SKEW_WEIGHT) > 0 else None
     version = [0] * b                            # bumped when a group changes
     roots_left = set(range(b))
     def at_level(weights: tuple) -> float:
@@ -220,6 +229,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         weight = at_level(STRENGTH_MISMATCH_WEIGHT)
         share_weight = SHARE_SPREAD_WEIGHT if stalk else at_level(SHARE_SPREAD_BRANCHING_WEIGHT)
         misfit_weight = at_level(MODE_MISFIT_WEIGHT)
+        skew_weight = at_level(CROSSING_SKEW_WEIGHT)
         count = len(roots_left)
         target = math.floor(ratio * count)
         mergeable = sorted(r for r in roots_left if parent[r] >= 0)

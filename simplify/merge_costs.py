@@ -4,9 +4,11 @@
 - `FrameTurns`: how much a merge turns level branches against their group roots' frames;
 - `TipMisses`: how far a group's rigid chord puts the points it carries from the original's;
 - `ShareSpread`: how far a group's period moves with the wind (chains);
-- `ModeMisfit`: how far one branch falls short of a group whose members' parts cancel.
+- `ModeMisfit`: how far one branch falls short of a group whose members' parts cancel;
+- `CrossingSkew`: how far apart a group's upward and downward crossings pace (chains).
 
-Each works on the original tree's rest geometry (and, for the tip misses, its linear statics)
+Each works on the original tree's rest geometry (and, for the tip misses and the skew, its
+linear statics; the skew also on each strength's response from rest)
 and on plain Python numbers: `merge_levels` calls them tens of thousands of times.
 """
 
@@ -311,3 +313,75 @@ class ModeMisfit:
         self.cache[key] = worst * gap
         return self.cache[key]
 
+
+
+class CrossingSkew:
+    """How far apart a group's upward and downward crossings pace: the least period error one
+    branch can have both ways.
+
+    model.md 6 reads a period from the upward crossings of the mean; a wind from the opposite
+    side turns a linear response over, so it reads the downward ones. A level branch swings
+    with one period per component, the same both ways; a group whose members have other
+    periods swings as their sum, a beat, whose crossings bunch where its members fall out of
+    step, so over a window of a few periods its two paces differ (family stalk-0, members of
+    k_rs 48.4 and 56.4: 2.81 s upward, 2.96 s downward). No strength serves both within the
+    stalks' 1 % then. In the linear regime member j swings from rest as its static part times
+    the unit response of its strength (`explicit.unit_response`), so the group's component c
+    in loading l is
+
+        x_c(t; l) = Σ_j Σ_m (e_c · ω_m,j(l)) u(t; k_m,j)
+
+    (ShareSpread's parts and axes), and the skew is |P_up - P_down| / (P_up + P_down) of it,
+    the largest over the loadings whose parts reach SHARE_SPREAD_FLOOR of the group's largest
+    (as in ShareSpread). Window and step: simplify's measurement runs (SIMPLIFY_DURATION,
+    SIMPLIFY_DT, read every SIMPLIFY_EVERY-th step). A lone branch, or members of one
+    strength, give 0.
+    """
+
+    def __init__(self, shares: ShareSpread, tree: Tree, parent: list[int]):
+        from .constants import SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_EVERY
+        from .explicit import unit_response          # (explicit imports grouping, which imports this)
+
+        self.shares = shares
+        self.parent = parent
+        steps = int(round(SIMPLIFY_DURATION / SIMPLIFY_DT))
+        k = np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
+                      np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)   # (B, m)
+        values, index = np.unique(k, return_inverse=True)
+        response = unit_response(values, SIMPLIFY_DT, steps)[::SIMPLIFY_EVERY]          # (K, U)
+        self.times = np.arange(response.shape[0]) * (SIMPLIFY_DT * SIMPLIFY_EVERY)
+        self.response = response
+        self.index = index.reshape(k.shape)                                            # (B, m)
+        self.cache: dict[tuple[int, int], float] = {}
+
+    def __call__(self, root: int, end: int) -> float:
+        """The skew of the group rooted at ``root`` whose main path ends at ``end``: the
+        largest of `skews` over the loadings that count (0 where none does)."""
+        key = (root, end)
+        if key not in self.cache:
+            skew = self.skews(root, end)
+            skew = skew[np.isfinite(skew)]
+            self.cache[key] = float(skew.max()) if skew.size else 0.0
+        return self.cache[key]
+
+    def skews(self, root: int, end: int) -> np.ndarray:
+        """(c, S, D) |P_up - P_down| / (P_up + P_down) of the group's component c (bend,
+        rotation) in each loading (ShareSpread's speeds S and directions D); NaN where the
+        component's parts do not reach the floor, or a period is undefined."""
+        from plantlod.compare.measures import period
+
+        path = path_up(self.parent, root, end)
+        part = np.einsum("jsdmk,ck->csdjm", self.shares.parts[path], self.shares.axes[root])
+        out = np.full(part.shape[:3], np.nan)
+        if len(set(self.index[path].ravel().tolist())) < 2:
+            out[:] = 0.0                              # one strength: one period, both ways
+            return out
+        size = np.abs(part).sum(axis=(3, 4))                                          # (c, S, D)
+        ok = (size >= SHARE_SPREAD_FLOOR * size.max(axis=(0, 2), keepdims=True)) & (size > 0)
+        if ok.any():
+            u = self.response[:, self.index[path].ravel()]                            # (K, j·m)
+            x = u @ part[ok].reshape(-1, len(path) * 2).T                             # (K, L)
+            with np.errstate(invalid="ignore"):
+                up, down = period(self.times, x), period(self.times, -x)
+                out[ok] = np.abs(up - down) / (up + down)
+        return out

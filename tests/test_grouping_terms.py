@@ -321,3 +321,55 @@ def test_a_lone_branch_or_one_period_has_no_mode_misfit():
     p = np.asarray(same.parent).tolist()
     flat = ModeMisfit(ShareSpread(same, p, rest_frames(same)), p)
     assert all(flat(0, end) == 0.0 for end in range(same.n_branches))   # every branch is 0's
+
+
+# --- CrossingSkew: the two paces of a beat, against the simulator ---------------------------
+
+SKEW_STALK = """name: skew
+derivation_length: 0
+branching_angle: 30
+rotation_angle: 90
+force_absorbed: 0.006
+force_propagated: 0.76
+drag_coefficient: 0.0015
+branch F: length=0.25 radius=0.02 bend_strength=48.4 rotation_strength=48.4
+branch G: length=0.25 radius=0.02 bend_strength=56.4 rotation_strength=56.4
+leaf L: area=0.003
+axiom: F G F G L
+"""
+
+
+def _skews(text):
+    from plantlod.simplify.merge_costs import CrossingSkew, ShareSpread
+
+    tree = build(parse_lsys(text, "skew.lsys")).tree
+    parent = np.asarray(tree.parent).tolist()
+    return tree, CrossingSkew(ShareSpread(tree, parent, rest_frames(tree)), tree, parent)
+
+
+def test_the_crossing_skew_is_the_simulated_one_in_the_linear_regime():
+    # members 1 and 2 (k 56.4 and 48.4: family stalk-0's pair) simulated by the engine at the
+    # lowest loading, 0.5 m/s toward 0 deg, where the angles are ~1e-5 rad: their summed bend
+    # angle's upward and downward paces, read as compare reads them, are what the cost
+    # predicts from static parts and unit responses
+    from plantlod.compare.measures import period
+    from plantlod.simplify.constants import SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_EVERY
+    from plantlod.simplify.evaluate import WindCase, simulate_runs
+
+    tree, skews = _skews(SKEW_STALK)
+    steps = int(round(SIMPLIFY_DURATION / SIMPLIFY_DT))
+    ((_, t, bend, _rot),) = simulate_runs(tree, [WindCase(SIMPLIFY_WIND_RANGE[0], 0.0)],
+                                          SIMPLIFY_DT, steps, SIMPLIFY_EVERY)
+    x = bend[:, 1] + bend[:, 2]
+    up, down = period(t, x), period(t, -x)
+    simulated = abs(up - down) / (up + down)
+    assert simulated > 0.002                                   # a beat: the paces differ
+    predicted = skews.skews(1, 2)[0, 0, 0]                     # bend, lowest speed, 0 deg
+    assert predicted == pytest.approx(simulated, rel=1e-3)     # (7.6146e-3 against 7.6147e-3)
+    assert skews(1, 2) >= predicted                            # the cost: the worst loading
+
+
+def test_members_of_one_strength_have_no_crossing_skew():
+    tree, skews = _skews(SKEW_STALK.replace("56.4", "48.4"))
+    assert skews(0, 3) == 0.0 and skews(1, 2) == 0.0
+    assert np.all(skews.skews(0, 3) == 0.0)
