@@ -20,7 +20,8 @@ import numpy as np
 
 from plantlod.lsys.tree import Tree
 
-from .constants import SHARE_SPREAD_FLOOR, SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT
+from .constants import (SHARE_SPREAD_FLOOR, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_EVERY,
+                        SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT)
 from .static import (RestFrames, horizontal_directions, rest_frames, rotation_parts, static_angles_at,
                      static_parts)
 
@@ -314,7 +315,6 @@ class ModeMisfit:
         return self.cache[key]
 
 
-
 class CrossingSkew:
     """How far apart a group's upward and downward crossings pace: the least period error one
     branch can have both ways.
@@ -334,12 +334,11 @@ class CrossingSkew:
     (ShareSpread's parts and axes), and the skew is |P_up - P_down| / (P_up + P_down) of it,
     the largest over the loadings whose parts reach SHARE_SPREAD_FLOOR of the group's largest
     (as in ShareSpread). Window and step: simplify's measurement runs (SIMPLIFY_DURATION,
-    SIMPLIFY_DT, read every SIMPLIFY_EVERY-th step). A lone branch, or members of one
-    strength, give 0.
+    SIMPLIFY_DT, read every SIMPLIFY_EVERY-th step; undamped). A lone branch, or members of
+    one strength, give 0.
     """
 
     def __init__(self, shares: ShareSpread, tree: Tree, parent: list[int]):
-        from .constants import SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_EVERY
         from .explicit import unit_response          # (explicit imports grouping, which imports this)
 
         self.shares = shares
