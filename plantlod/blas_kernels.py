@@ -17,7 +17,6 @@ are the other half of the same rule (`plantlod.sim.blas_threads`).
 from __future__ import annotations
 
 import os
-import platform
 import sys
 
 CORE_TYPE = "Haswell"                       # AVX2 + FMA kernels: every x86-64 CPU since 2013
@@ -36,21 +35,37 @@ def cpu_flags(path: str = "/proc/cpuinfo") -> set[str]:
     return set()
 
 
+def this_machine() -> str:
+    """The CPU architecture as uname names it ('x86_64', 'aarch64'); `os.uname` where there is
+    one, so that ``import plantlod`` does not import the platform module (2-3 ms) for it."""
+    uname = getattr(os, "uname", None)
+    if uname is not None:
+        return uname().machine
+    import platform                             # (Windows: no os.uname)
+
+    return platform.machine()
+
+
+def runs_core_type(machine: str | None = None, flags: set[str] | None = None) -> bool:
+    """Whether a CPU runs CORE_TYPE's kernels: x86-64 with NEEDED_FLAGS. ``machine``,
+    ``flags``: this machine's (`this_machine`, `cpu_flags`) unless given."""
+    if (machine or this_machine()).lower() not in ("x86_64", "amd64"):
+        return False
+    return set(NEEDED_FLAGS) <= (cpu_flags() if flags is None else flags)
+
+
 def pin_openblas_kernels(environ=os.environ, machine: str | None = None,
                          flags: set[str] | None = None, numpy_loaded: bool | None = None
                          ) -> str | None:
     """Set OPENBLAS_CORETYPE to CORE_TYPE where it applies; the core type in force (None:
     OpenBLAS chooses). Does nothing where the user set the variable, where numpy is loaded
     already (too late to matter), or on a CPU that cannot run those kernels. ``machine``,
-    ``flags``, ``numpy_loaded``: this machine's (`platform.machine`, `cpu_flags`, numpy in
-    sys.modules) unless given."""
+    ``flags``: as `runs_core_type`; ``numpy_loaded``: numpy in sys.modules unless given."""
     if "OPENBLAS_CORETYPE" in environ:
         return environ["OPENBLAS_CORETYPE"]
     if ("numpy" in sys.modules) if numpy_loaded is None else numpy_loaded:
         return None
-    if (machine or platform.machine()).lower() not in ("x86_64", "amd64"):
-        return None
-    if not set(NEEDED_FLAGS) <= (cpu_flags() if flags is None else flags):
+    if not runs_core_type(machine, flags):
         return None
     environ["OPENBLAS_CORETYPE"] = CORE_TYPE
     return CORE_TYPE

@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from plantlod.compare.measures import period
 from plantlod.lsys.tree import Tree
 
 from .constants import (SHARE_SPREAD_FLOOR, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_EVERY,
@@ -367,8 +368,6 @@ class CrossingSkew:
         """(c, S, D) |P_up - P_down| / (P_up + P_down) of the group's component c (bend,
         rotation) in each loading (ShareSpread's speeds S and directions D); NaN where the
         component's parts do not reach the floor, or a period is undefined."""
-        from plantlod.compare.measures import period
-
         path = path_up(self.parent, root, end)
         part = np.einsum("jsdmk,ck->csdjm", self.shares.parts[path], self.shares.axes[root])
         out = np.full(part.shape[:3], np.nan)

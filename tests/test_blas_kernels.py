@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from plantlod.blas_kernels import CORE_TYPE, NEEDED_FLAGS, cpu_flags, pin_openblas_kernels
+from plantlod.blas_kernels import CORE_TYPE, cpu_flags, pin_openblas_kernels, runs_core_type
 
 AVX2 = {"sse2", "avx", "avx2", "fma"}
 
@@ -44,12 +44,7 @@ def test_cpu_flags_reads_the_first_flags_line(tmp_path):
     assert cpu_flags(str(tmp_path / "missing")) == set()
 
 
-def _runs_haswell() -> bool:
-    import platform
-    return platform.machine().lower() in ("x86_64", "amd64") and set(NEEDED_FLAGS) <= cpu_flags()
-
-
-@pytest.mark.skipif(not _runs_haswell(), reason="not an x86-64 CPU with AVX2 and FMA")
+@pytest.mark.skipif(not runs_core_type(), reason="not an x86-64 CPU with AVX2 and FMA")
 def test_this_test_process_and_a_fresh_one_are_pinned():
     # the test session itself (conftest imports plantlod before numpy; zarr's pytest plugin,
     # which would load numpy first, is switched off in pyproject.toml) ...
