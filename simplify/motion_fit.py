@@ -74,16 +74,17 @@ def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, ev
                 tip_cache: dict | None = None) -> Callable[[Tree], Runs]:
     """runs_for(tree): the original's `Runs` in ``winds`` (its runs ``simulated``, an
     `evaluate.simulate_runs` list, or a function giving it when first needed) read with
-    ``tree``'s groups, made once per set of level branch addresses, so that a level's fit
-    and its measurement share it; ``tip_cache`` (a dict, `Runs`) is shared by a chain's
-    levels."""
+    ``tree``'s groups, made once per set of level branch addresses and group roots (two
+    groupings of one shape, as a chain's regrouped level 1, have the same addresses), so
+    that a level's fit and its measurement share it; ``tip_cache`` (a dict, `Runs`) is
+    shared by a chain's levels."""
     from .targets import group_map
 
     made: dict[tuple[str, ...], Runs] = {}
     tips = {} if tip_cache is None else tip_cache   # the original's group tips (`Runs`)
 
     def runs_for(tree: Tree) -> Runs:
-        key = tuple(tree.address)
+        key = (tuple(tree.address), tuple(tree.group_root))
         if key not in made:
             made.clear()
             made[key] = Runs(original, group_map(original, tree), winds, dt, steps, every, damping,
