@@ -229,6 +229,7 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
     from plantlod.simplify.explicit import explicit_system_text, level_header, merge_levels
     from plantlod.simplify.motion_fit import measurement_runs_for
+    from plantlod.simplify.regroup import regrouped
 
     system = parse_lsys(data.decode("utf-8"), str(path))
     original = build(system).tree
@@ -241,12 +242,18 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     simulated = list(simulate_runs(original, winds, dt, steps, 1, damping))
     # the motion fit's runs of the original (simplify's winds), also once for the chain
     runs_for = measurement_runs_for(original, dt, duration, damping_ratio)
+
+    def fit(k: int, groups) -> tuple[str, object]:
+        return explicit_system_text(original, groups, name=system.name or path.stem,
+                                    header=header, level=k, dt=dt, duration=duration,
+                                    damping_ratio=damping_ratio, runs_for=runs_for)
+
+    # level 1's groups chosen by its fitted level, as `simplify --levels` chooses them
+    levels, level_one = regrouped(original, levels, lambda groups: fit(1, groups), runs_for)
     for k in range(1, len(levels)):
         if progress is not None:
             progress(k, len(levels) - 1)
-        text, tree = explicit_system_text(original, levels[k], name=system.name or path.stem,
-                                          header=header, level=k, dt=dt, duration=duration,
-                                          damping_ratio=damping_ratio, runs_for=runs_for)
+        text, tree = level_one if k == 1 and level_one is not None else fit(k, levels[k])
         runs = Runs(original, group_map(original, tree), winds, dt, steps, every=1,
                     damping=damping, simulated=simulated)
         worst = max(r.tip_error_max_m for r in runs.compare(tree))

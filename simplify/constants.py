@@ -141,6 +141,11 @@ CROSSING_SKEW_WEIGHT = (300.0, 300.0)  # ... and a chain's x (1 + this x the mer
                               # components' periods are held, to 2 %: 100 gave +5 / -19, so they go without)
 MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists frames is cheaper, never free)
 
+# --- level 1 regrouped where its fitted level misses (simplify/regroup.py, session 18) ---
+REGROUP_ATTEMPTS = 3          # level-1 fits at most: the first grouping, then groups kept apart where it missed
+REGROUP_MAX_BRANCHES = 1000   # ... for trees of at most this many branches (each attempt is a level-1 fit)
+KEPT_APART_COST = 1e12        # added to the cost of a merge kept apart: level 1 takes it after every other
+
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
 # (in simplify's measurement winds: on family seeds 0-35 they did as well as 32 winds round
 # the compass, 299 against 289 of 665 level-1 cases, and share the original's runs)

@@ -79,9 +79,10 @@ import numpy as np
 from plantlod.compare.groups import pick_main_member, parse_address
 from plantlod.lsys.tree import Tree
 
-from .constants import (CROSSING_SKEW_WEIGHT, FRAME_TURN_WEIGHT, LEVEL_BOUNDS, LEVEL_RATIO,
-                        MIN_MERGE_FACTOR, MODE_MISFIT_WEIGHT, SHARE_SPREAD_BRANCHING_WEIGHT,
-                        SHARE_SPREAD_WEIGHT, STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
+from .constants import (CROSSING_SKEW_WEIGHT, FRAME_TURN_WEIGHT, KEPT_APART_COST, LEVEL_BOUNDS,
+                        LEVEL_RATIO, MIN_MERGE_FACTOR, MODE_MISFIT_WEIGHT,
+                        SHARE_SPREAD_BRANCHING_WEIGHT, SHARE_SPREAD_WEIGHT,
+                        STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
 from .merge_costs import CrossingSkew, FrameTurns, ModeMisfit, PeriodGap, ShareSpread, TipMisses
 from .static import rest_frames
 
@@ -99,11 +100,15 @@ class Grouping:
         return int(self.root.shape[0])
 
 
-def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
+def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
+                 kept_apart: frozenset[int] = frozenset()) -> list[Grouping]:
     """Level 0 (every branch alone) to the last level (one group per root branch).
 
     Each level has at most ``ratio`` times the groups of the level before it,
     except that a tree of several root branches ends with one group per root.
+    kept_apart: branches whose merge into their parent's group level 1 takes last, after
+    every other merge (`regroup`: the main paths of level-1 groups whose fit missed); the
+    count of every level stays the same.
     """
     b = tree.n_branches
     parent = np.asarray(tree.parent, dtype=np.int64).tolist()
@@ -206,7 +211,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO) -> list[Grouping]:
         factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + share_weight * spread
                      + misfit_weight * misfit + skew_weight * skew
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
-        return (size[r] if beside else size[r] + size[u]) * factor, new_end
+        last = KEPT_APART_COST if len(levels) == 1 and r in kept_apart else 0.0
+        return last + (size[r] if beside else size[r] + size[u]) * factor, new_end
 
     from .explicit import is_stalk           # (explicit imports this module)
     stalk = is_stalk(tree)

@@ -283,6 +283,8 @@ class ChainShare:
     groupings: list
     runs: InBackground
     tips: dict = field(default_factory=dict)   # the original's group tips per run (`evaluate.Runs`)
+    regrouped: bool = False        # level 1's grouping chosen by its fitted level (`regroup`)
+    level_one: tuple | None = None  # ... and that level's (text, tree), where it was fitted
 
     @property
     def measure(self) -> list:
@@ -329,7 +331,9 @@ def simplify_explicit(system: LSystem, options: Options,
     chain shares them.
     """
     from .explicit import explicit_system_text, level_header
+    from .grouping import Grouping
     from .motion_fit import shared_runs
+    from .regroup import regrouped
 
     source = system.source or None
     if options.method != "derived" or options.calibrate:
@@ -354,13 +358,23 @@ def simplify_explicit(system: LSystem, options: Options,
     if progress:
         progress("fitting the explicit form", 0.0)
     header = level_header(system)
-    text, tree = explicit_system_text(original, levels[options.level if grouping is None
-                                                      else min(grouping, last)],
-                                      name=system.name or "tree",
-                                      header=header, level=options.level, dt=options.dt,
-                                      duration=options.duration,
-                                      damping_ratio=options.damping_ratio,
-                                      runs_for=runs_for)
+
+    def fit(groups: Grouping, level: int) -> tuple[str, Tree]:
+        return explicit_system_text(original, groups, name=system.name or "tree",
+                                    header=header, level=level, dt=options.dt,
+                                    duration=options.duration,
+                                    damping_ratio=options.damping_ratio, runs_for=runs_for)
+
+    if not shared.regrouped:      # level 1's groups, chosen by its fitted level (the chain's too)
+        shared.groupings, shared.level_one = regrouped(original, levels,
+                                                       lambda g: fit(g, 1), runs_for)
+        shared.regrouped = True
+        levels = shared.groupings
+    index = options.level if grouping is None else min(grouping, last)
+    if index == options.level == 1 and shared.level_one is not None:
+        text, tree = shared.level_one
+    else:
+        text, tree = fit(levels[index], options.level)
     check_stability(tree, options.dt)
     if progress:
         progress("measuring", 0.5)

@@ -1,0 +1,90 @@
+"""Level 1 regrouped where its fitted level misses: groups chosen by how the level moves.
+
+The grouping (`grouping.merge_levels`) prices each merge from the original's statics and its
+members' swing models, before any level exists; what it cannot price shows only once the
+level is fitted and run (a member's bend turning its child's frame, forces a parent level
+branch passes on, periods that beat; docs/simplify.md, "Limits"). So level 1 is fitted
+(statics and motion, `explicit.explicit_system_text`), and its runs in simplify's
+measurement winds, those where the original stays within 0.1 rad, score every level branch
+against level 1's bounds (`motion_fit.group_scores`, the worst of its motion, period and tip
+figures over their bounds). Where branches miss, the main paths of their groups are kept
+apart: level 1 merges those members into their parents' groups last, after every other merge
+(`merge_levels`' kept_apart, `KEPT_APART_COST`; the count of every level stays the same, so
+model.md 5's 60 % holds and the chain's counts do not change), and level 1 is fitted again.
+The kept-apart set grows with each attempt's missing groups; of the `REGROUP_ATTEMPTS` fits,
+the level that ranks best in the same winds (`bounds.form_rank`: the winds it misses, then
+its worst ratio; the first attempt on a tie) is kept, with the levels above it grouped on
+it (nested as before). Trees of more than `REGROUP_MAX_BRANCHES` branches are grouped as
+they are (each attempt costs a level-1 fit).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError
+from plantlod.lsys.tree import Tree
+
+from .bounds import form_rank
+from .constants import REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES, SMALL_ANGLE_LIMIT
+from .evaluate import Runs
+from .grouping import Grouping, merge_levels
+from .motion_fit import group_scores
+from .targets import group_map
+
+LevelText = tuple[str, Tree]
+
+
+def missing_paths(original: Tree, tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]:
+    """The level's rank (`bounds.form_rank` at level 1, in ``runs``' winds) and the members
+    of the main paths of its missing groups, their roots left out: (rank, branches), each
+    branch's merge into its parent's group being one its group needed.
+
+    runs: the original's `Runs` read with ``tree``'s groups; a branch misses where its
+    `group_scores` (over the winds where the original stays within SMALL_ANGLE_LIMIT) pass 1.
+    """
+    reports = runs.compare(tree)
+    largest = runs.largest_combined_angle()
+    rank = form_rank(list(zip(runs.winds, reports)), 1, largest, stalk)
+    counted = [r for r, a in zip(reports, largest) if a <= SMALL_ANGLE_LIMIT]
+    scores = group_scores(counted, 1, stalk, tree.n_branches)
+    paths = group_map(original, tree).paths
+    return rank, {int(m) for s in np.flatnonzero(scores > 1.0) for m in paths[s][1:]}
+
+
+def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping], LevelText],
+              runs_for: Callable[[Tree], Runs]) -> tuple[list[Grouping], LevelText | None]:
+    """Every level's grouping with level 1's chosen by its fitted level (module docstring),
+    and level 1's (text, tree) for it; (``groupings``, None) where nothing was fitted here
+    (a tree of one level or of more than REGROUP_MAX_BRANCHES branches).
+
+    groupings: `merge_levels(original)`; fit(grouping): level 1 fitted with ``grouping``
+    (text, tree); runs_for(tree): the original's `Runs` in the measurement winds read with
+    ``tree``'s groups (`motion_fit.shared_runs`). InputError from the first fit is raised;
+    a later attempt that fails (a level that diverges) ends the attempts.
+    """
+    from .explicit import is_stalk                # (explicit imports grouping)
+
+    if len(groupings) < 2 or original.n_branches > REGROUP_MAX_BRANCHES:
+        return groupings, None
+    stalk = is_stalk(original)
+    kept_apart: set[int] = set()
+    best = None                                   # (rank, groupings, level)
+    for attempt in range(REGROUP_ATTEMPTS):
+        if attempt:
+            groupings = merge_levels(original, kept_apart=frozenset(kept_apart))
+        try:
+            level = fit(groupings[1])
+            rank, missing = missing_paths(original, level[1], runs_for(level[1]), stalk)
+        except InputError:
+            if best is None:
+                raise
+            break
+        if best is None or rank < best[0]:
+            best = (rank, groupings, level)
+        if not missing - kept_apart:              # nothing missing, or nothing new to keep apart
+            break
+        kept_apart |= missing
+    return best[1], best[2]

@@ -1,0 +1,131 @@
+"""Level 1 regrouped where its fitted level misses (simplify/regroup.py, issue 21).
+
+`merge_levels`' kept_apart keeps every level's count (model.md 5's 60 %) and merges the
+kept-apart branches last; `missing_paths` names the members of the groups a level misses in
+(a level branch made to miss by hand); `regrouped` keeps the attempt whose level ranks best
+(the ranks recomputed here with `bounds.form_rank`), and the pipeline groups the levels above
+level 1 on the grouping it chose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from golden_util import family_tree
+
+from plantlod.simplify.bounds import form_rank
+from plantlod.simplify.explicit import explicit_system_text, is_stalk, level_header
+from plantlod.simplify.grouping import merge_levels
+from plantlod.simplify.motion_fit import measurement_runs_for
+from plantlod.simplify.regroup import missing_paths, regrouped
+from plantlod.simplify.targets import group_map
+
+DT, DURATION = 0.01, 20.0
+
+
+def _nested_and_connected(tree, levels) -> None:
+    parent = np.asarray(tree.parent)
+    for before, level in zip(levels, levels[1:]):
+        g = level.group
+        inside = (parent >= 0) & (g[np.maximum(parent, 0)] == g)
+        assert np.array_equal(np.sort(np.flatnonzero(~inside)), np.sort(level.root))
+        for k in range(before.count):
+            assert len(set(g[before.group == k].tolist())) == 1
+
+
+def test_kept_apart_branches_merge_last_and_every_count_stays():
+    _, tree = family_tree("sympodial", 2)
+    plain = merge_levels(tree)
+    parent = np.asarray(tree.parent)
+    g1 = plain[1].group
+    # the members of level 1's first three merged groups, roots left out
+    merged = [b for b in range(tree.n_branches) if parent[b] >= 0 and g1[parent[b]] == g1[b]]
+    apart = frozenset(merged[: max(3, len(merged) // 5)])
+    levels = merge_levels(tree, kept_apart=apart)
+    assert [lv.count for lv in levels] == [lv.count for lv in plain]
+    g = levels[1].group
+    # level 1 had other merges enough: no kept-apart branch is in its parent's group
+    assert all(g[b] != g[parent[b]] for b in apart)
+    assert not np.array_equal(g, g1)
+    _nested_and_connected(tree, levels)
+    # later levels may merge them: the set is level 1's only
+    assert any(levels[-1].group[b] == levels[-1].group[parent[b]] for b in apart)
+
+
+def _level_one(kind: str, seed: int):
+    system, tree = family_tree(kind, seed)
+    runs_for = measurement_runs_for(tree, DT, DURATION)
+
+    def fit(grouping):
+        return explicit_system_text(tree, grouping, name="t", header=level_header(system),
+                                    level=1, dt=DT, duration=DURATION, runs_for=runs_for)
+    return tree, fit, runs_for
+
+
+def _rank(tree, level, runs_for):
+    runs = runs_for(level)
+    return form_rank(list(zip(runs.winds, runs.compare(level))), 1,
+                     runs.largest_combined_angle(), is_stalk(tree))
+
+
+def test_a_group_made_to_miss_is_named_by_its_path():
+    tree, fit, runs_for = _level_one("sympodial", 2)
+    _, level = fit(merge_levels(tree)[1])
+    gmap = group_map(tree, level)
+    rank, missing = missing_paths(tree, level, runs_for(level), False)
+    assert rank == _rank(tree, level, runs_for)
+    # a level branch with no level branch hanging from it, of a group of 2+ on its path
+    parents = set(np.asarray(level.parent).tolist())
+    s = next(s for s in range(level.n_branches)
+             if s not in parents and len(gmap.paths[s]) >= 2 and gmap.paths[s][1] not in missing)
+    # its periods 20 % longer: past level 1's 2 % in every wind where it counts
+    slow = replace(level, bend_strength=np.where(np.arange(level.n_branches) == s,
+                                                 level.bend_strength / 1.44, level.bend_strength),
+                   rotation_strength=np.where(np.arange(level.n_branches) == s,
+                                              level.rotation_strength / 1.44,
+                                              level.rotation_strength))
+    worse, now_missing = missing_paths(tree, slow, runs_for(slow), False)
+    assert set(gmap.paths[s][1:].tolist()) <= now_missing
+    assert int(gmap.paths[s][0]) not in now_missing            # its root hangs where it did
+    assert worse > rank
+
+
+@pytest.mark.slow
+def test_regrouping_keeps_the_level_that_ranks_best():
+    # family monopodial-19: its first level-1 grouping misses level 1's bounds in 4 of the
+    # measurement winds; the groups of a regrouped attempt hold them
+    tree, fit, runs_for = _level_one("monopodial", 19)
+    plain = merge_levels(tree)
+    first = fit(plain[1])
+    levels, (text, level) = regrouped(tree, plain, fit, runs_for)
+    assert [lv.count for lv in levels] == [lv.count for lv in plain]
+    assert not np.array_equal(levels[1].group, plain[1].group)
+    assert _rank(tree, level, runs_for) < _rank(tree, first[1], runs_for)
+    assert fit(levels[1])[0] == text                          # the same level, refitted
+    _nested_and_connected(tree, levels)
+
+
+def test_runs_of_two_groupings_of_one_shape_are_their_own():
+    # a stalk's regrouped level 1 is a chain of as many branches as the first: the same
+    # addresses, other groups; the fit and the measure must read it with its own groups
+    from plantlod.lsys.parse import parse_lsys
+    from golden_util import ROOT
+    from plantlod.lsys.build import build
+
+    system = parse_lsys((ROOT / "examples" / "stalk8.lsys").read_text(), "stalk8.lsys")
+    tree = build(system).tree
+    runs_for = measurement_runs_for(tree, DT, 2.0)
+    plain = merge_levels(tree)
+    other = merge_levels(tree, kept_apart=frozenset(
+        int(b) for b in range(1, tree.n_branches) if plain[1].group[b] == plain[1].group[b - 1]))
+    assert other[1].count == plain[1].count and not np.array_equal(other[1].group, plain[1].group)
+    levels = [explicit_system_text(tree, g[1], name="t", header=level_header(system), level=1,
+                                   dt=DT, duration=2.0, refine=False, motion=False,
+                                   runs_for=runs_for)[1] for g in (plain, other)]
+    assert levels[0].address == levels[1].address
+    for level in levels:
+        want = group_map(tree, level).paths
+        got = runs_for(level).gmap.paths
+        assert [p.tolist() for p in got] == [p.tolist() for p in want]
