@@ -56,7 +56,9 @@ group rooted at u costs
   stalk's 1 % (family stalk-0: a pair of k_rs 48.4 and 56.4 paced 2.81 s and 2.96 s). 0 where
   r goes beside u. W_k = CROSSING_SKEW_WEIGHT.
 
-The terms are computed in simplify/merge_costs.py.
+The terms are computed in simplify/merge_costs.py. Once level 1 is fitted, the members of
+groups whose level branch missed its bounds can be kept apart (`merge_levels`' kept_apart:
+level 1 takes their merges last) and the levels grouped again (simplify/regroup.py).
 W = STRENGTH_MISMATCH_WEIGHT (one weight while level 1 is merged and a larger one for the
 levels after it, as measured on the generated family; constants.py), W_t = FRAME_TURN_WEIGHT,
 W_m = TIP_MISS_WEIGHT (likewise a pair).
