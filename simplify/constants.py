@@ -143,8 +143,8 @@ MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists fr
 
 # --- level 1 regrouped where its fitted level misses (simplify/regroup.py, session 18) ---
 REGROUP_ATTEMPTS = 3          # level-1 fits at most: the first grouping, then groups kept apart where it missed
-                              # (family level 1: tuning range +41 cases, held out +69; 5 attempts on the 45 tuning
-                              # trees whose third still missed: 4 cases fewer than 3)
+                              # (family level 1: tuning range +41 cases, held out +69; 5 attempts on 45 tuning
+                              # trees that still missed after 3: +9, stalks -3; within noise, for 2 more fits)
 REGROUP_MAX_BRANCHES = 1000   # ... for trees of at most this many branches (each attempt is a level-1 fit)
 KEPT_APART_COST = 1e12        # added to the cost of a merge kept apart: level 1 takes it after every other
 
