@@ -32,12 +32,11 @@ from .constants import REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES, SMALL_ANGLE_LIMIT
 from .evaluate import Runs
 from .grouping import Grouping, merge_levels
 from .motion_fit import group_scores
-from .targets import group_map
 
 LevelText = tuple[str, Tree]
 
 
-def missing_paths(original: Tree, tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]:
+def missing_paths(tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]:
     """The level's rank (`bounds.form_rank` at level 1, in ``runs``' winds) and the members
     of the main paths of its missing groups, their roots left out: (rank, branches), each
     branch's merge into its parent's group being one its group needed.
@@ -50,7 +49,7 @@ def missing_paths(original: Tree, tree: Tree, runs: Runs, stalk: bool) -> tuple[
     rank = form_rank(list(zip(runs.winds, reports)), 1, largest, stalk)
     counted = [r for r, a in zip(reports, largest) if a <= SMALL_ANGLE_LIMIT]
     scores = group_scores(counted, 1, stalk, tree.n_branches)
-    paths = group_map(original, tree).paths
+    paths = runs.gmap.paths                       # ``tree``'s groups, as the runs read them
     return rank, {int(m) for s in np.flatnonzero(scores > 1.0) for m in paths[s][1:]}
 
 
@@ -77,7 +76,7 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
             groupings = merge_levels(original, kept_apart=frozenset(kept_apart))
         try:
             level = fit(groupings[1])
-            rank, missing = missing_paths(original, level[1], runs_for(level[1]), stalk)
+            rank, missing = missing_paths(level[1], runs_for(level[1]), stalk)
         except InputError:
             if best is None:
                 raise

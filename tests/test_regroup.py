@@ -13,8 +13,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from golden_util import family_tree
+from golden_util import ROOT, family_tree
 
+from plantlod.lsys.build import build
+from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.bounds import form_rank
 from plantlod.simplify.explicit import explicit_system_text, is_stalk, level_header
 from plantlod.simplify.grouping import merge_levels
@@ -74,7 +76,7 @@ def test_a_group_made_to_miss_is_named_by_its_path():
     tree, fit, runs_for = _level_one("sympodial", 2)
     _, level = fit(merge_levels(tree)[1])
     gmap = group_map(tree, level)
-    rank, missing = missing_paths(tree, level, runs_for(level), False)
+    rank, missing = missing_paths(level, runs_for(level), False)
     assert rank == _rank(tree, level, runs_for)
     # a level branch with no level branch hanging from it, of a group of 2+ on its path
     parents = set(np.asarray(level.parent).tolist())
@@ -86,7 +88,7 @@ def test_a_group_made_to_miss_is_named_by_its_path():
                    rotation_strength=np.where(np.arange(level.n_branches) == s,
                                               level.rotation_strength / 1.44,
                                               level.rotation_strength))
-    worse, now_missing = missing_paths(tree, slow, runs_for(slow), False)
+    worse, now_missing = missing_paths(slow, runs_for(slow), False)
     assert set(gmap.paths[s][1:].tolist()) <= now_missing
     assert int(gmap.paths[s][0]) not in now_missing            # its root hangs where it did
     assert worse > rank
@@ -110,10 +112,6 @@ def test_regrouping_keeps_the_level_that_ranks_best():
 def test_runs_of_two_groupings_of_one_shape_are_their_own():
     # a stalk's regrouped level 1 is a chain of as many branches as the first: the same
     # addresses, other groups; the fit and the measure must read it with its own groups
-    from plantlod.lsys.parse import parse_lsys
-    from golden_util import ROOT
-    from plantlod.lsys.build import build
-
     system = parse_lsys((ROOT / "examples" / "stalk8.lsys").read_text(), "stalk8.lsys")
     tree = build(system).tree
     runs_for = measurement_runs_for(tree, DT, 2.0)
