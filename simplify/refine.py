@@ -27,7 +27,8 @@ from .constants import (REFINE_EVALUATIONS, REFINE_FLOOR, REFINE_LOG_RANGE,
                         REFINE_LSMR_ITERATIONS, REFINE_PRIOR, REFINE_SCALE_PROBES, REFINE_SKIP,
                         REFINE_START_FLOOR)
 from .targets import StaticTargets
-from .refine_kernels import angle_adjoint, angle_product, force_adjoint, leaf_adjoint, leaf_totals
+from .refine_kernels import (adjoint_down, angle_adjoint, angle_product, force_adjoint, force_product,
+                             leaf_adjoint, leaf_totals)
 from .tree_sums import LeafSums, TreeSums
 
 
@@ -101,10 +102,11 @@ class StaticModel:
         return float(np.max(np.abs((theta - self.target) * self.weight)))
 
     def _parts(self, x):
-        """What both products need at x: the parameters, angles and forces."""
+        """What both products need at x: the parameters, angles, forces and each branch's own
+        drag c_g s_g (D, G, 3)."""
         kappa, p, c, area = self._unpack(x)
         theta, leaf, drag = self.angles(x)
-        return kappa, p, c, area, theta, leaf, drag
+        return kappa, p, c, area, theta, leaf, drag, c[None, :, None] * self.drag_shape
 
     def jvp(self, x, dx, parts=None):
         """J dx: the change of the residual (S·D·G·2 + len(x),) along log-parameters dx,
@@ -114,15 +116,14 @@ class StaticModel:
             δD_g = δp_g (D_g - c_g s_g) + δc_g c_g s_g + p_g Σ_c δD_c
             δθ_g = δκ_g θ_g + κ_g G_g (v δL_g + v² δD_g)
         """
-        kappa, p, c, area, theta, leaf, drag = parts or self._parts(x)
+        kappa, p, c, area, theta, leaf, drag, _own_drag = parts or self._parts(x)
         g = self.g
         dk, dp, dc, da = dx[:g], dx[g:2 * g], dx[2 * g:3 * g], dx[3 * g:]
-        own_drag = c[None, :, None] * self.drag_shape
         d_own = leaf_totals(self.leaf_branch, area * da, self.per_leaf, g)
         # δL_g = p_g (own'_g + Σ_c δL_c) with own' = Σ_k A_k δA_k ℓ_k + δp_g L_g / p_g
-        d_leaf = self.sums.up(p, d_own + (dp / p)[None, :, None] * leaf, True)
-        d_drag = self.sums.up(p, (c * dc)[None, :, None] * self.drag_shape
-                              + dp[None, :, None] * (drag - own_drag), False)
+        d_leaf, d_drag = np.empty_like(leaf), np.empty_like(drag)
+        force_product(self.sums.first, self.sums.child, p, c, np.ascontiguousarray(dp),
+                      np.ascontiguousarray(dc), d_own, leaf, drag, self.drag_shape, d_leaf, d_drag)
         out = np.empty(self.weight.size + len(x))
         angle_product(np.ascontiguousarray(dk), kappa, theta, self.gains, self.speeds, d_leaf,
                       d_drag, self.weight, out)
@@ -133,7 +134,7 @@ class StaticModel:
         """Jᵀ u (len(x),) for u (S·D·G·2 + len(x),), by one pass from the trunk up (the
         adjoint of `jvp`): each branch's force adjoint F̄_g = κ_g G_gᵀ (w ū)_g summed over
         speeds with v and v², plus p'_parent times its parent's."""
-        kappa, p, c, area, theta, leaf, drag = parts or self._parts(x)
+        kappa, p, c, area, theta, leaf, drag, own_drag = parts or self._parts(x)
         g = self.g
         n = self.weight.size
         d_count = self.weight.shape[1]
@@ -141,8 +142,7 @@ class StaticModel:
         l_bar, d_bar = np.zeros((d_count, g, 3)), np.zeros((d_count, g, 3))
         angle_adjoint(np.ascontiguousarray(u[:n]), kappa, theta, self.gains, self.speeds,
                       self.weight, k_bar, l_bar, d_bar)
-        l_bar, d_bar = self.sums.down(p, l_bar), self.sums.down(p, d_bar)   # trunk first
-        own_drag = c[None, :, None] * self.drag_shape
+        adjoint_down(self.parent, p, l_bar, d_bar)                          # trunk first
         out = np.zeros(len(x))
         out[:g] = k_bar
         p_bar, c_bar = np.zeros(g), np.zeros(g)

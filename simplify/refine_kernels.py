@@ -89,3 +89,46 @@ def leaf_adjoint(l_bar, leaf_branch, per_leaf, out):
             b = leaf_branch[k]
             for j in range(width):
                 out[k] += l_bar[d, b, j] * per_leaf[d, k, j]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def force_product(first, child, p, c, dp, dc, d_own, leaf, drag, drag_shape, d_leaf, d_drag):
+    """The force changes of `refine.StaticModel.jvp`, (D, G, 3) each into d_leaf and d_drag,
+    in one pass from the tips down (children, ascending, at ``child[first[g]:first[g + 1]]``):
+
+        δL_g = p_g (δown_g + (δp_g / p_g) L_g + Σ_c δL_c)
+        δD_g = (c_g δc_g) s_g + δp_g (D_g - c_g s_g) + p_g Σ_c δD_c
+
+    the same operations, in the same order, as `tree_sums.TreeSums.up` on the numpy terms
+    (bit for bit; the numpy version's temporaries cost twice this pass)."""
+    d_count, g_count, width = leaf.shape
+    for d in range(d_count):                   # a direction at a time: its (G, 3) slabs stay in cache
+        for g in range(g_count - 1, -1, -1):
+            ratio = dp[g] / p[g]
+            own_scale = c[g] * dc[g]
+            for j in range(width):
+                in_leaf = 0.0
+                in_drag = 0.0
+                for q in range(first[g], first[g + 1]):
+                    in_leaf += d_leaf[d, child[q], j]
+                    in_drag += d_drag[d, child[q], j]
+                own_leaf = d_own[d, g, j] + ratio * leaf[d, g, j]
+                d_leaf[d, g, j] = p[g] * (own_leaf + in_leaf)
+                shape = drag_shape[d, g, j]
+                own_drag = own_scale * shape + dp[g] * (drag[d, g, j] - c[g] * shape)
+                d_drag[d, g, j] = own_drag + p[g] * in_drag
+
+
+@numba.njit(cache=True, error_model="numpy")
+def adjoint_down(parent, p, l_bar, d_bar):
+    """In place, trunk first: B_g += p_parent B_parent for both force adjoints (D, G, 3), as
+    `tree_sums.TreeSums.down` (a parent comes before its children, so it is final when read)."""
+    d_count, g_count, width = l_bar.shape
+    for d in range(d_count):                   # a direction at a time: its (G, 3) slabs stay in cache
+        for g in range(g_count):
+            q = parent[g]
+            if q < 0:
+                continue
+            for j in range(width):
+                l_bar[d, g, j] = l_bar[d, g, j] + p[q] * l_bar[d, q, j]
+                d_bar[d, g, j] = d_bar[d, g, j] + p[q] * d_bar[d, q, j]

@@ -131,3 +131,30 @@ def test_stalk_is_left_exactly_as_the_tips_down_fit_gives_it(level):
     for key in a.branch:
         np.testing.assert_array_equal(a.branch[key], b.branch[key])
     assert a.leaf_areas == b.leaf_areas
+
+
+def test_fused_passes_give_the_numpy_recursion_bit_for_bit():
+    """`refine_kernels.force_product` and `adjoint_down` (the Jacobian products' passes over
+    the tree, one kernel each) against the numpy terms through `tree_sums.TreeSums` they
+    replaced: the same operations in the same order, so the same bits, on a random tree of
+    several roots and a few children per branch."""
+    from plantlod.simplify.refine_kernels import adjoint_down, force_product
+    from plantlod.simplify.tree_sums import TreeSums
+
+    rng = np.random.default_rng(11)
+    g, d = 60, 5
+    parent = np.array([-1, -1] + [int(rng.integers(0, i)) for i in range(2, g)], dtype=np.int64)
+    sums = TreeSums(parent)
+    p, c = rng.uniform(0.5, 0.9, g), rng.uniform(1e-4, 1e-2, g)
+    dp, dc = rng.normal(size=g), rng.normal(size=g)
+    d_own, leaf, drag, shape = (rng.normal(size=(d, g, 3)) for _ in range(4))
+    want_leaf = sums.up(p, d_own + (dp / p)[None, :, None] * leaf, True)
+    want_drag = sums.up(p, (c * dc)[None, :, None] * shape
+                        + dp[None, :, None] * (drag - c[None, :, None] * shape), False)
+    got_leaf, got_drag = np.empty_like(leaf), np.empty_like(drag)
+    force_product(sums.first, sums.child, p, c, dp, dc, d_own, leaf, drag, shape, got_leaf, got_drag)
+    assert np.array_equal(got_leaf, want_leaf) and np.array_equal(got_drag, want_drag)
+    l_bar, d_bar = rng.normal(size=(d, g, 3)), rng.normal(size=(d, g, 3))
+    want = sums.down(p, l_bar), sums.down(p, d_bar)
+    adjoint_down(parent, p, l_bar, d_bar)
+    assert np.array_equal(l_bar, want[0]) and np.array_equal(d_bar, want[1])
