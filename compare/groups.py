@@ -289,8 +289,7 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
     For a straight stalk every M_j is I and these are the plain sums. Members
     are added in path order, so results do not depend on chunking.
     """
-    bend = np.asarray(bend, dtype=np.float64)
-    rot = np.asarray(rot, dtype=np.float64)
+    bend, rot = _as_float(bend), _as_float(rot)   # float32 runs are read as they are
     b = original.n_branches
     if bend.shape != rot.shape or bend.ndim not in (1, 2) or bend.shape[-1] != b:
         raise ValueError(f"bend and rot must both have shape (K, {b}) or ({b},); "
@@ -311,7 +310,10 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
         return (theta_b[0], theta_r[0]) if bend.ndim == 1 else (theta_b, theta_r)
     # Small blocks of samples stay in cache; the buffers are reused block to block.
     rows = min(k, max(1, _CHUNK_ELEMENTS // len(members)))
-    bj, rj, acc, tmp = (np.empty((rows, len(members))) for _ in range(4))
+    # the members' angles taken in their own precision; the products are float64 (a float32
+    # angle widens exactly), so float32 runs give the bits their float64 copies would
+    bj, rj = np.empty((rows, len(members)), bend.dtype), np.empty((rows, len(members)), rot.dtype)
+    acc, tmp = np.empty((rows, len(members))), np.empty((rows, len(members)))
     for lo in range(0, k, rows):
         n = min(rows, k - lo)
         np.take(bend2[lo:lo + n], members, axis=1, out=bj[:n])  # (n, M) member angles
@@ -324,6 +326,12 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
     if bend.ndim == 1:
         return theta_b[0], theta_r[0]
     return theta_b, theta_r
+
+
+def _as_float(angles) -> np.ndarray:
+    """``angles`` as an array of float32 or float64 (kept as they are), else float64."""
+    angles = np.asarray(angles)
+    return angles if angles.dtype in (np.float32, np.float64) else angles.astype(np.float64)
 
 
 def swing_turns(original: Tree, simplified: Tree, paths: list[np.ndarray]) -> np.ndarray:

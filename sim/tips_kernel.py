@@ -30,18 +30,20 @@ from .trig import sincos1
 
 
 @numba.njit(cache=True, error_model="numpy", parallel=True)
-def _tips(parent, rest, offset, length, bend, rot, which, out):
-    """rest (n, 3, 3): Rz(ψ_parent) Q_i (Q_i alone for a root); offset (n, 3): Rz(ψ_parent) o_i.
+def _tips(parent, rest, offset, length, bend, rot, column, which, out):
+    """rest (n, 3, 3): Rz(ψ_parent) Q_i (Q_i alone for a root); offset (n, 3): Rz(ψ_parent) o_i;
+    column (n,): branch i's column in bend and rot (K, B).
     A branch frame R_i = S_i Rz(ψ_i) enters its tip only as R_i e_z = S_i e_z and its
     children only as R_i Q_c = S_i (Rz(ψ_i) Q_c), so the swing frames S are all it keeps."""
-    samples, n = bend.shape
+    samples = bend.shape[0]
+    n = parent.shape[0]
     for k in numba.prange(samples):
         swing = np.empty((n, 3, 3))
         tip = np.empty((n, 3))
         local = np.empty((3, 3))
         rmat = np.empty((3, 3))
         for i in range(n):
-            b, r = bend[k, i], rot[k, i]
+            b, r = np.float64(bend[k, column[i]]), np.float64(rot[k, column[i]])   # (float32 widened)
             theta = math.sqrt(b * b + r * r)
             ux = 0.0
             uy = 0.0
@@ -84,9 +86,10 @@ def _tips(parent, rest, offset, length, bend, rot, which, out):
 
 
 def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np.ndarray:
-    """Tips (K, len(which), 3) m of branches ``which`` for angles bend, rot (K, B) rad."""
-    bend = np.ascontiguousarray(bend, dtype=np.float64)
-    rot = np.ascontiguousarray(rot, dtype=np.float64)
+    """Tips (K, len(which), 3) m of branches ``which`` for angles bend, rot (K, B) rad
+    (float32 or float64, read as they are: the kernel widens each angle, exactly, so
+    float32 runs give the tips of their float64 copies without copying them)."""
+    bend, rot = _angles(bend), _angles(rot)
     which = np.ascontiguousarray(which, dtype=np.int64)
     b = tree.n_branches
     if bend.ndim != 2 or bend.shape != rot.shape or bend.shape[1] != b:
@@ -98,7 +101,7 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
     parent = np.asarray(tree.parent, dtype=np.int64)
     offset = np.asarray(tree.offset, dtype=np.float64).reshape(-1, 3)
     length = np.asarray(tree.length, dtype=np.float64)
-    keep = ancestors_of(parent, which)
+    keep = ancestors_of(parent, which)          # (the kernel reads their columns in place)
     if len(keep) < b:           # only the branches on the way to ``which``: the same tips
         new_index = np.full(b, -1, dtype=np.int64)
         new_index[keep] = np.arange(len(keep))
@@ -106,7 +109,6 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
         parent = np.where(up >= 0, new_index[np.maximum(up, 0)], -1)
         rest, twist_angle = rest[keep], twist_angle[keep]
         offset, length = offset[keep], length[keep]
-        bend, rot = np.ascontiguousarray(bend[:, keep]), np.ascontiguousarray(rot[:, keep])
         which = new_index[which]
     # each branch's rest rotation and offset seen from its parent's swing frame
     twist = rot_z(twist_angle)                                  # (n, 3, 3) Rz(psi)
@@ -115,8 +117,17 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
     offset = offset.copy()
     offset[has] = np.einsum("nij,nj->ni", twist[parent[has]], offset[has])
     _tips(parent, np.ascontiguousarray(rest), np.ascontiguousarray(offset),
-          np.ascontiguousarray(length), bend, rot, which, out)
+          np.ascontiguousarray(length), bend, rot, np.ascontiguousarray(keep, dtype=np.int64),
+          which, out)
     return out
+
+
+def _angles(angles) -> np.ndarray:
+    """C-contiguous float32 or float64 (K, B), copied only where it is neither."""
+    angles = np.asarray(angles)
+    if angles.dtype not in (np.float32, np.float64):
+        angles = angles.astype(np.float64)
+    return np.ascontiguousarray(angles)
 
 
 def ancestors_of(parent: np.ndarray, which: np.ndarray) -> np.ndarray:

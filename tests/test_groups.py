@@ -119,6 +119,19 @@ def test_combined_angles_do_not_depend_on_block_size(monkeypatch):
     assert not results[0][0][:, 4].any() and not results[0][1][:, 4].any()
 
 
+def test_float32_runs_give_the_combined_angles_of_their_float64_copies():
+    """The original's runs are kept in float32 (`evaluate.Runs`) and read without a float64
+    copy: a float32 angle widens exactly before its product, so the bits are the same."""
+    original = chain(STALK8, np.random.default_rng(5).uniform(0, 3, size=(8, 3)))
+    paths = main_paths(original, assign_groups(original, chain(STALK4)), n_groups=5)
+    rng = np.random.default_rng(6)
+    bend, rot = (rng.normal(size=(37, 8)).astype(np.float32) for _ in range(2))
+    narrow = combined_angles(original, paths, bend, rot)
+    wide = combined_angles(original, paths, bend.astype(np.float64), rot.astype(np.float64))
+    assert narrow[0].dtype == np.float64
+    assert np.array_equal(narrow[0], wide[0]) and np.array_equal(narrow[1], wide[1])
+
+
 # --- a branching tree with an apex that draws nothing ---------------------------------
 
 def branching_pair():

@@ -50,3 +50,15 @@ def test_tips_refuse_angles_of_the_wrong_shape():
     tree = build(parse_lsys((ROOT / "examples" / "stalk8.lsys").read_text(), "s")).tree
     with pytest.raises(ValueError):
         tips(tree, np.zeros((2, 3)), np.zeros((2, 3)), np.arange(2))
+
+
+def test_float32_runs_give_the_tips_of_their_float64_copies_bit_for_bit():
+    """`evaluate.Runs` keeps the original's runs in float32 and reads them without a float64
+    copy: the kernel widens each angle itself (exact), for every branch and for a few."""
+    tree = build(parse_lsys((ROOT / "examples" / "abop_1_25.lsys").read_text(), "t")).tree
+    rng = np.random.default_rng(8)
+    bend = rng.uniform(-0.4, 0.4, size=(6, tree.n_branches)).astype(np.float32)
+    rot = rng.uniform(-0.4, 0.4, size=(6, tree.n_branches)).astype(np.float32)
+    for which in (np.arange(tree.n_branches), rng.choice(tree.n_branches, 7, replace=False)):
+        wide = tips(tree, bend.astype(np.float64), rot.astype(np.float64), which)
+        assert np.array_equal(tips(tree, bend, rot, which), wide)
