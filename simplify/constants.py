@@ -176,4 +176,5 @@ MOTION_FIT_BOTH_WAYS = 0.8    # a chain's periods are corrected toward the mean 
 MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward the current G, x the
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)
+MEMBER_STATICS_KEPT = 4       # the original's per-branch static angles kept for this many direction sets (`targets`)
 REPORTS_KEPT = 6              # a Runs keeps the reports of this many trees (the motion fit's rounds, then the measurement)

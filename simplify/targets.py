@@ -19,6 +19,7 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 from plantlod.compare.groups import assign_groups, combined_angles, main_paths
+from .constants import MEMBER_STATICS_KEPT
 from .static import rest_frames, static_angles, static_parts
 
 
@@ -66,15 +67,43 @@ def static_targets(original: Tree, gmap: GroupMap, directions: np.ndarray,
                    gain: np.ndarray | None = None) -> StaticTargets:
     """The targets, combined angles in each group root's swing frame W_0 (model.md 5),
     each group's (bend, rotation) multiplied by ``gain`` (G, 2) where given."""
-    frames = rest_frames(original)
-    parts = static_parts(original, directions, frames)
+    leaf_force, members = member_statics(original, directions)
     out = []
-    for force in (parts.leaf, parts.drag):
-        bend, rot = static_angles(original, force, frames)
+    for bend, rot in members:
         cb, cr = combined_angles(original, gmap.paths, bend, rot)
         both = np.stack([cb, cr], axis=-1)
         out.append(both if gain is None else both * gain[None])
-    return StaticTargets(directions, out[0], out[1], parts.leaf[:, gmap.roots])
+    return StaticTargets(directions, out[0], out[1], leaf_force[:, gmap.roots])
+
+
+_member_statics: dict[bytes, tuple] = {}     # the last MEMBER_STATICS_KEPT, the most recent last
+
+
+def member_statics(original: Tree, directions: np.ndarray):
+    """The original's leaf force parts (D, B, 3) and every branch's static (θb, θr) (D, B) for
+    its leaf part and its drag part (`static.static_parts`, `static.static_angles`), in
+    ``directions`` (D, 3). They depend on the original alone: every level fitted to it (a
+    chain's, a regrouping's, both leaf sets of one) reads them, so the last few are kept,
+    keyed by a digest of the tree and the directions (read-only: shared)."""
+    import hashlib
+
+    from .evaluate import tree_digest
+
+    directions = np.ascontiguousarray(directions, dtype=np.float64)
+    key = hashlib.sha256(tree_digest(original) + repr(directions.shape).encode()
+                         + directions.tobytes()).digest()
+    known = _member_statics.pop(key, None)
+    if known is None:
+        frames = rest_frames(original)
+        parts = static_parts(original, directions, frames)
+        known = (parts.leaf, [static_angles(original, force, frames)
+                              for force in (parts.leaf, parts.drag)])
+        for array in (known[0], *known[1][0], *known[1][1]):
+            array.setflags(write=False)
+    _member_statics[key] = known
+    for stale in list(_member_statics)[:-MEMBER_STATICS_KEPT]:
+        del _member_statics[stale]
+    return known
 
 
 def group_strengths(original: Tree, gmap: GroupMap) -> tuple[np.ndarray, np.ndarray]:

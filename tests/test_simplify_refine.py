@@ -21,6 +21,7 @@ from plantlod.simplify.targets import static_targets
 from plantlod.simplify.closed_form import closed_form
 from plantlod.simplify.static import fit_directions, static_angles, static_parts
 from plantlod.sim.wind import wind_from_speed
+from plantlod.compare.groups import combined_angles
 from simplify_util import (assert_close_where_counted, level_case, settled, settled_combined,
                            small_case, written_tree)
 
@@ -158,3 +159,28 @@ def test_fused_passes_give_the_numpy_recursion_bit_for_bit():
     want = sums.down(p, l_bar), sums.down(p, d_bar)
     adjoint_down(parent, p, l_bar, d_bar)
     assert np.array_equal(l_bar, want[0]) and np.array_equal(d_bar, want[1])
+
+
+def test_static_targets_kept_for_an_original_are_its_own():
+    """`targets.member_statics` keeps the original's per-branch static angles for the levels
+    fitted to it: what `static_targets` gives from the kept values equals a computation from
+    scratch (static.py directly), and an original with one strength changed is not served
+    the first one's."""
+    from dataclasses import replace
+
+    from plantlod.simplify import targets
+
+    original, _skeleton, _skel_tree, gmap = small_case("abop_2_6", 4)
+    d = fit_directions(MATCH_DIRECTIONS, MATCH_TILTED_DIRECTIONS, FIT_ELEVATION)
+
+    def from_scratch(tree):
+        parts = static_parts(tree, d)
+        return np.stack([np.stack(combined_angles(tree, gmap.paths, *static_angles(tree, f)), -1)
+                         for f in (parts.leaf, parts.drag)])
+
+    for tree in (original, replace(original, bend_strength=original.bend_strength * 1.5),
+                 original):
+        for _ in range(2):                               # computed, then kept
+            t = static_targets(tree, gmap, d)
+            assert np.array_equal(np.stack([t.leaf, t.drag]), from_scratch(tree))
+    assert len(targets._member_statics) >= 2
