@@ -43,13 +43,14 @@ def measure(path: str, max_level: int = 3) -> list[str]:
     from plantlod.lsys.build import build
     from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase
-    from plantlod.simplify.explicit import is_stalk, merge_levels
+    from plantlod.simplify.explicit import is_stalk
+    from plantlod.simplify.grouping import level_counts
     from plantlod.simplify.pipeline import Options, simplify
 
     system = read_lsys(str(ROOT / path))
     original = build(system).tree
     stalk = is_stalk(original)
-    last = len(merge_levels(original)) - 1
+    last = len(level_counts(original)) - 1
     winds = [WindCase(s, d) for s in SPEEDS for d in DIRECTIONS]
     rows = []
     for level in range(1, min(max_level, last) + 1):

@@ -102,9 +102,23 @@ class Grouping:
         return int(self.root.shape[0])
 
 
+def level_counts(tree: Tree, ratio: float = LEVEL_RATIO) -> list[int]:
+    """The group count of every level `merge_levels` makes, level 0 (every branch) to the last,
+    from the counts alone: each level merges until it has max(⌊ratio c⌋, 1) groups of the c
+    before it, or one per root branch where that is more (a group whose root has a parent
+    can always merge), and the levels end at one group per root branch."""
+    roots = int(np.count_nonzero(np.asarray(tree.parent) < 0))
+    counts = [tree.n_branches]
+    while counts[-1] > roots:
+        counts.append(max(math.floor(ratio * counts[-1]), 1, roots))
+    return counts
+
+
 def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
-                 kept_apart: frozenset[int] = frozenset()) -> list[Grouping]:
-    """Level 0 (every branch alone) to the last level (one group per root branch).
+                 kept_apart: frozenset[int] = frozenset(), up_to: int | None = None
+                 ) -> list[Grouping]:
+    """Level 0 (every branch alone) to the last level (one group per root branch), or to
+    level ``up_to`` where given (the levels before it are the same either way).
 
     Each level has at most ``ratio`` times the groups of the level before it,
     except that a tree of several root branches ends with one group per root.
@@ -231,7 +245,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
         being merged."""
         return weights[min(len(levels), len(weights)) - 1]
 
-    while True:
+    while up_to is None or len(levels) <= up_to:
         tip_bound = LEVEL_BOUNDS[min(len(levels), max(LEVEL_BOUNDS))][2]
         tip_weight = 0.0 if misses is None else at_level(TIP_MISS_WEIGHT)
         weight = at_level(STRENGTH_MISMATCH_WEIGHT)

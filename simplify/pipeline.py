@@ -206,11 +206,10 @@ def chain_plan(system: LSystem, level: int) -> ChainPlan:
     before it. Any level chosen within ``budget`` has no more branches than any choice at
     a finer level, since ``budget`` is the minimum over every form there.
     """
-    from .explicit import merge_levels
+    from .grouping import level_counts
 
     original = build(system).tree
-    groupings = merge_levels(original)
-    explicit_counts = [g.count for g in groupings]          # index k: level k's groups
+    explicit_counts = level_counts(original)                # index k: level k's groups
     n = system.derivation_length
 
     def grammar_count(k: int) -> int | None:
@@ -227,10 +226,10 @@ def chain_plan(system: LSystem, level: int) -> ChainPlan:
                               explicit_counts[k] if k < len(explicit_counts) else None) if c]
         budget = min([budget, *counts])
     own = grammar_count(level)
-    if level >= len(groupings):                 # past the explicit form's last level
+    if level >= len(explicit_counts):           # past the explicit form's last level
         return ChainPlan(budget, None if own is None else own <= budget, None)
     grouping = level
-    while grouping < len(groupings) - 1 and explicit_counts[grouping] > budget:
+    while grouping < len(explicit_counts) - 1 and explicit_counts[grouping] > budget:
         grouping += 1
     return ChainPlan(budget, None if own is None else own <= budget, grouping)
 
@@ -280,7 +279,8 @@ class ChainShare:
     501 samples take 0.13 GB so)."""
 
     original: Tree
-    groupings: list
+    groupings: list                # levels 0 to the last, or to the level asked for (`up_to`)
+    last: int                      # the explicit form's last level (`grouping.level_counts`)
     runs: InBackground
     tips: dict = field(default_factory=dict)   # the original's group tips per run (`evaluate.Runs`)
     regrouped: bool = False        # level 1's grouping chosen by its fitted level (`regroup`)
@@ -291,25 +291,27 @@ class ChainShare:
         return self.runs.result()
 
 
-def chain_share(system: LSystem, options: Options, groupings_checked=None,
-                built: tuple[Tree, list] | None = None) -> ChainShare:
+def chain_share(system: LSystem, options: Options, last_checked=None,
+                built: tuple[Tree, list] | None = None, up_to: int | None = None) -> ChainShare:
     """Build, check, group and simulate the original of ``system`` once (`ChainShare`; the
     simulation goes on in the background). Raises InputError for a tree without branches or
     one unstable at ``options.dt``.
-    groupings_checked: called with the groupings before the simulation (a caller's own
-    checks, so that bad input is refused before the runs are paid for).
-    built: (original, groupings) where the caller has them already."""
+    last_checked: called with the explicit form's last level before the groupings and the
+    simulation (a caller's own checks, so that bad input is refused before they are paid for).
+    built: (original, groupings) where the caller has them already.
+    up_to: the last level to group (one level needs no coarser ones), default all."""
     from .evaluate import simulate_runs
-    from .grouping import merge_levels
+    from .grouping import level_counts, merge_levels
 
     original = build(system).tree if built is None else built[0]
     if original.n_branches == 0:
         raise InputError("the original tree has no branches; expected a tree to simplify",
                          system.source or None)
     check_stability(original, options.dt)
-    groupings = merge_levels(original) if built is None else built[1]
-    if groupings_checked is not None:
-        groupings_checked(groupings)
+    last = len(level_counts(original)) - 1
+    if last_checked is not None:
+        last_checked(last)
+    groupings = merge_levels(original, up_to=up_to) if built is None else built[1]
 
     def runs() -> list:
         return [(wind, times, bend.astype(np.float32), rot.astype(np.float32))
@@ -317,7 +319,7 @@ def chain_share(system: LSystem, options: Options, groupings_checked=None,
                     original, options.winds(), options.dt, options.steps, options.every,
                     options.damping)]
 
-    return ChainShare(original, groupings, InBackground(runs))
+    return ChainShare(original, groupings, last, InBackground(runs))
 
 
 def simplify_explicit(system: LSystem, options: Options,
@@ -340,19 +342,18 @@ def simplify_explicit(system: LSystem, options: Options,
         raise InputError("the explicit form has derived parameters only; expected --method "
                          "derived without --calibrate (or --form grammar)", source)
 
-    def level_exists(levels) -> None:
-        last = len(levels) - 1
+    def level_exists(last: int) -> None:
         if grouping is None and not 1 <= options.level <= last:
             raise InputError(f"level {options.level} is past the last: this tree has {last} "
                              f"levels in the explicit form (1 to {last}, the last a single "
                              f"branch)", source)
 
     if shared is None:
-        shared = chain_share(system, options, level_exists)
+        shared = chain_share(system, options, level_exists,
+                             up_to=options.level if grouping is None else grouping)
     else:
-        level_exists(shared.groupings)
-    original, levels = shared.original, shared.groupings
-    last = len(levels) - 1
+        level_exists(shared.last)
+    original, levels, last = shared.original, shared.groupings, shared.last
     runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
                            options.damping, lambda: shared.measure, shared.tips)
     if progress:

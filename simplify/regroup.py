@@ -59,7 +59,8 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
     and level 1's (text, tree) for it; (``groupings``, None) where nothing was fitted here
     (a tree of one level or of more than REGROUP_MAX_BRANCHES branches).
 
-    groupings: `merge_levels(original)`; fit(grouping): level 1 fitted with ``grouping``
+    groupings: `merge_levels(original)` (to the last level, or to the one the caller fits);
+    fit(grouping): level 1 fitted with ``grouping``
     (text, tree); runs_for(tree): the original's `Runs` in the measurement winds read with
     ``tree``'s groups (`motion_fit.shared_runs`). InputError from the first fit is raised;
     a later attempt that fails (a level that diverges) ends the attempts.
@@ -69,11 +70,12 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
     if len(groupings) < 2 or original.n_branches > REGROUP_MAX_BRANCHES:
         return groupings, None
     stalk = is_stalk(original)
+    up_to = len(groupings) - 1                    # (a single level's caller groups no coarser)
     kept_apart: set[int] = set()
     best = None                                   # (rank, groupings, level)
     for attempt in range(REGROUP_ATTEMPTS):
         if attempt:
-            groupings = merge_levels(original, kept_apart=frozenset(kept_apart))
+            groupings = merge_levels(original, kept_apart=frozenset(kept_apart), up_to=up_to)
         try:
             level = fit(groupings[1])
             rank, missing = missing_paths(level[1], runs_for(level[1]), stalk)

@@ -53,6 +53,23 @@ def test_levels_are_connected_nested_and_shrink(name):
             assert len(set(g[before.group == k].tolist())) == 1
 
 
+@pytest.mark.parametrize("name", EVAL + ["family/stalk-9", "family/sympodial-2", "family/mixed-8"])
+def test_level_counts_are_the_counts_of_the_merged_levels(name):
+    """`level_counts` (the counts alone: what `chain_plan` and a single level's check read)
+    against the levels `merge_levels` makes, and a merge stopped at a level (``up_to``, what
+    one level's `simplify` groups) gives the same levels up to it."""
+    from plantlod.simplify.grouping import level_counts
+
+    _, tree = _tree(name)
+    levels = merge_levels(tree)
+    assert level_counts(tree) == [g.count for g in levels]
+    for up_to in (1, 2):
+        head = merge_levels(tree, up_to=up_to)
+        assert len(head) == min(up_to, len(levels) - 1) + 1
+        for a, b in zip(head, levels):
+            assert np.array_equal(a.group, b.group) and np.array_equal(a.root, b.root)
+
+
 @pytest.mark.parametrize("name", EVAL[:4])
 def test_chords_put_group_tips_where_the_original_has_them(name):
     system, tree = _tree(name)
