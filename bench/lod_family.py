@@ -110,7 +110,7 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     from plantlod.lsys.parse import parse_lsys
     from plantlod.simplify.evaluate import Runs, WindCase
     from plantlod.simplify.explicit import is_stalk
-    from plantlod.simplify.pipeline import Options, simplify
+    from plantlod.simplify.pipeline import LevelChain, Options, simplify
     from plantlod.simplify.targets import group_map
     from tree_family import generate
 
@@ -120,12 +120,13 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     stalk = is_stalk(original)
     winds = [WindCase(s, d) for s in SPEEDS for d in DIRECTIONS]
     cases = []
+    chain = LevelChain()          # the levels share the original's runs and level 1's fit
     for level in levels:
         def case(wind, **kw):
             """A Case of this tree and level in ``wind``."""
             return Case(name, kind, seed, level, wind.speed, wind.direction, stalk, **kw)
         try:
-            tree = simplify(system, Options(level=level, form=FORM)).tree
+            tree = simplify(system, Options(level=level, form=FORM), chain=chain).tree
             runs = Runs(original, group_map(original, tree), winds, DT, int(round(DURATION / DT)), EVERY)
             reports = runs.compare(tree)
             angles = runs.largest_combined_angle()

@@ -133,17 +133,22 @@ def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, so
 
 
 def simplify(system: LSystem, options: Options,
-             progress: Callable[[str, float], None] | None = None) -> Result:
-    """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input."""
+             progress: Callable[[str, float], None] | None = None,
+             chain: "LevelChain | None" = None) -> Result:
+    """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input.
+    chain: what the caller's earlier levels of this tree left to share (`LevelChain`)."""
     if options.form not in FORMS:
         raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
+    def run_explicit(grouping: int | None = None) -> Result:
+        return simplify_explicit(system, options, progress, grouping=grouping, chain=chain)
+
     if options.form == "explicit":
-        return simplify_explicit(system, options, progress)
+        return run_explicit()
     if options.form == "grammar" or options.method != "derived" or options.calibrate:
         return simplify_grammar(system, options, progress)
     plan = chain_plan(system, options.level)
     if plan.grammar_fits is False or options.level >= system.derivation_length:
-        result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
+        result = run_explicit(plan.explicit_grouping)
         if options.level < system.derivation_length:
             result.notes.insert(0, "explicit form: the grammar form would have more branches "
                                    "than a finer level")
@@ -151,7 +156,7 @@ def simplify(system: LSystem, options: Options,
     try:
         grammar = simplify_grammar(system, options, progress)
     except InputError as exc:               # the grammar form cannot follow this tree
-        result = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
+        result = run_explicit(plan.explicit_grouping)
         result.notes.insert(0, f"explicit form: the grammar form does not apply ({exc.message})")
         return result
     from .explicit import is_stalk
@@ -162,7 +167,7 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, "grammar form: it meets the level's bounds")
         return grammar
     try:
-        explicit = simplify_explicit(system, options, progress, grouping=plan.explicit_grouping)
+        explicit = run_explicit(plan.explicit_grouping)
     except InputError as exc:
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
@@ -269,6 +274,17 @@ class InBackground:
 
 
 @dataclass
+class LevelChain:
+    """What the levels of one tree share when a caller simplifies them one at a time, with the
+    same options but the level (`simplify`'s ``chain``; bench/lod_family.py): the first
+    explicit level's `ChainShare` (the original built, grouped to its last level and simulated,
+    and level 1 regrouped and fitted), so a later level neither runs the original again nor
+    fits level 1 again. Each level's text is the one it gets alone."""
+
+    share: "ChainShare | None" = None
+
+
+@dataclass
 class ChainShare:
     """What every explicit level of one tree shares, so that a chain (``--levels``) builds,
     groups and simulates the original once: the original tree, its groupings
@@ -324,13 +340,15 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
 
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
-                      grouping: int | None = None, shared: ChainShare | None = None) -> Result:
+                      grouping: int | None = None, shared: ChainShare | None = None,
+                      chain: "LevelChain | None" = None) -> Result:
     """The explicit form of model.md 5 (simplify/explicit.py), measured like the grammar form.
 
     grouping: the explicit grouping to use (an index into `explicit.merge_levels`), default
     the level's own; `chain_plan` gives a coarser one where a finer level has fewer branches.
     shared: the original, its groupings and runs (`chain_share`) for these options, when a
-    chain shares them.
+    chain shares them; chain: where the first level of a caller's `LevelChain` leaves them
+    (every level grouped) for the levels after it.
     """
     from .explicit import explicit_system_text, level_header
     from .grouping import Grouping
@@ -348,9 +366,14 @@ def simplify_explicit(system: LSystem, options: Options,
                              f"levels in the explicit form (1 to {last}, the last a single "
                              f"branch)", source)
 
+    if shared is None and chain is not None and chain.share is not None:
+        shared = chain.share
     if shared is None:
         shared = chain_share(system, options, level_exists,
-                             up_to=options.level if grouping is None else grouping)
+                             up_to=None if chain is not None else
+                             options.level if grouping is None else grouping)
+        if chain is not None:
+            chain.share = shared
     else:
         level_exists(shared.last)
     original, levels, last = shared.original, shared.groupings, shared.last

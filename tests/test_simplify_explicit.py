@@ -238,6 +238,39 @@ def test_a_chain_runs_the_original_once_per_wind(tmp_path, monkeypatch):
     assert len(calls) > 3                                   # the levels' own runs
 
 
+def test_levels_simplified_in_turn_share_the_original_and_write_what_they_write_alone(monkeypatch):
+    """`LevelChain` (bench/lod_family.py's levels 1-3 of a tree): the levels after the first
+    neither run the original again nor fit level 1 again, and each level's text is the one it
+    gets alone (family monopodial-19: level 1 regrouped)."""
+    import plantlod.simplify.evaluate as evaluate
+    import plantlod.simplify.pipeline as pipeline
+
+    system, tree = _tree("family/monopodial-19")
+    alone = [pipeline.simplify(system, pipeline.Options(level=k, form="explicit")).text
+             for k in (1, 2)]
+    import plantlod.simplify.regroup as regroup
+
+    runs, fits = [], []
+    real_runs, real_regrouped = evaluate.simulate_runs, regroup.regrouped
+
+    def counting(run_tree, winds, *args, **kwargs):
+        runs.append(run_tree.n_branches)
+        return real_runs(run_tree, winds, *args, **kwargs)
+
+    monkeypatch.setattr(evaluate, "simulate_runs", counting)
+
+    def counting_fits(*args, **kwargs):
+        fits.append(1)
+        return real_regrouped(*args, **kwargs)
+
+    monkeypatch.setattr(regroup, "regrouped", counting_fits)
+    chain = pipeline.LevelChain()
+    shared = [pipeline.simplify(system, pipeline.Options(level=k, form="explicit"), chain=chain).text
+              for k in (1, 2)]
+    assert shared == alone
+    assert runs.count(tree.n_branches) == 1 and len(fits) == 1
+
+
 @pytest.mark.parametrize("name, gains", [("eval/bent_leafy.lsys", True), ("eval/sympodial.lsys", True),
                                          ("eval/bush3d.lsys", False),
                                          ("family/sympodial-47", True)])
