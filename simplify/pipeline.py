@@ -139,6 +139,7 @@ def simplify(system: LSystem, options: Options,
     chain: what the caller's earlier levels of this tree left to share (`LevelChain`)."""
     if options.form not in FORMS:
         raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
+
     def run_explicit(grouping: int | None = None) -> Result:
         return simplify_explicit(system, options, progress, grouping=grouping, chain=chain)
 
