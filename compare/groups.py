@@ -28,7 +28,7 @@ from .constants import ALPHA_TIE_TOL
 from plantlod.lsys.derived import ragged_arange
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.rotation import rot_z
-from plantlod.sim.kinematics import rest_rotations
+from plantlod.sim.kinematics import float_angles, rest_rotations
 from plantlod.lsys.tree import Tree
 
 # How many offending addresses an error message lists before "…".
@@ -289,7 +289,7 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
     For a straight stalk every M_j is I and these are the plain sums. Members
     are added in path order, so results do not depend on chunking.
     """
-    bend, rot = _as_float(bend), _as_float(rot)   # float32 runs are read as they are
+    bend, rot = float_angles(bend), float_angles(rot)   # float32 runs are read as they are
     b = original.n_branches
     if bend.shape != rot.shape or bend.ndim not in (1, 2) or bend.shape[-1] != b:
         raise ValueError(f"bend and rot must both have shape (K, {b}) or ({b},); "
@@ -326,12 +326,6 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
     if bend.ndim == 1:
         return theta_b[0], theta_r[0]
     return theta_b, theta_r
-
-
-def _as_float(angles) -> np.ndarray:
-    """``angles`` as an array of float32 or float64 (kept as they are), else float64."""
-    angles = np.asarray(angles)
-    return angles if angles.dtype in (np.float32, np.float64) else angles.astype(np.float64)
 
 
 def swing_turns(original: Tree, simplified: Tree, paths: list[np.ndarray]) -> np.ndarray:

@@ -26,6 +26,13 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 
+def float_angles(angles) -> np.ndarray:
+    """``angles`` as an array of float32 or float64, kept as they are (runs kept as float32 are
+    read in place; a float32 angle widens exactly where it meets a float64), else float64."""
+    angles = np.asarray(angles)
+    return angles if angles.dtype in (np.float32, np.float64) else angles.astype(np.float64)
+
+
 def rot_z(angle: np.ndarray) -> np.ndarray:
     """Rotations about z by ``angle`` (radians), shape (..., 3, 3)."""
     angle = np.asarray(angle, dtype=np.float64)

@@ -25,7 +25,7 @@ import numpy as np
 from plantlod.lsys.tree import Tree
 
 from . import jit  # noqa: F401  (trig.sincos registered with numba)
-from .kinematics import rest_rotations, rot_z
+from .kinematics import float_angles, rest_rotations, rot_z
 from .trig import sincos1
 
 
@@ -89,7 +89,8 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
     """Tips (K, len(which), 3) m of branches ``which`` for angles bend, rot (K, B) rad
     (float32 or float64, read as they are: the kernel widens each angle, exactly, so
     float32 runs give the tips of their float64 copies without copying them)."""
-    bend, rot = _angles(bend), _angles(rot)
+    bend = np.ascontiguousarray(float_angles(bend))
+    rot = np.ascontiguousarray(float_angles(rot))
     which = np.ascontiguousarray(which, dtype=np.int64)
     b = tree.n_branches
     if bend.ndim != 2 or bend.shape != rot.shape or bend.shape[1] != b:
@@ -120,14 +121,6 @@ def tips(tree: Tree, bend: np.ndarray, rot: np.ndarray, which: np.ndarray) -> np
           np.ascontiguousarray(length), bend, rot, np.ascontiguousarray(keep, dtype=np.int64),
           which, out)
     return out
-
-
-def _angles(angles) -> np.ndarray:
-    """C-contiguous float32 or float64 (K, B), copied only where it is neither."""
-    angles = np.asarray(angles)
-    if angles.dtype not in (np.float32, np.float64):
-        angles = angles.astype(np.float64)
-    return np.ascontiguousarray(angles)
 
 
 def ancestors_of(parent: np.ndarray, which: np.ndarray) -> np.ndarray:
