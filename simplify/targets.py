@@ -102,7 +102,7 @@ def member_statics(original: Tree, directions: np.ndarray):
             array.setflags(write=False)
     _member_statics[key] = known
     for stale in list(_member_statics)[:-MEMBER_STATICS_KEPT]:
-        del _member_statics[stale]
+        _member_statics.pop(stale, None)
     return known
 
 
