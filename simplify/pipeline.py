@@ -297,7 +297,6 @@ class ChainShare:
 
     original: Tree
     groupings: list                # levels 0 to the last, or to the level asked for (`up_to`)
-    last: int                      # the explicit form's last level (`grouping.level_counts`)
     runs: InBackground
     tips: dict = field(default_factory=dict)   # the original's group tips per run (`evaluate.Runs`)
     regrouped: bool = False        # level 1's grouping chosen by its fitted level (`regroup`)
@@ -306,6 +305,13 @@ class ChainShare:
     @property
     def measure(self) -> list:
         return self.runs.result()
+
+    @property
+    def last(self) -> int:
+        """The explicit form's last level (``groupings`` may stop before it)."""
+        from .grouping import level_counts
+
+        return len(level_counts(self.original)) - 1
 
 
 def chain_share(system: LSystem, options: Options, last_checked=None,
@@ -336,7 +342,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
                     original, options.winds(), options.dt, options.steps, options.every,
                     options.damping)]
 
-    return ChainShare(original, groupings, last, InBackground(runs))
+    return ChainShare(original, groupings, InBackground(runs))
 
 
 def simplify_explicit(system: LSystem, options: Options,
@@ -367,12 +373,12 @@ def simplify_explicit(system: LSystem, options: Options,
                              f"levels in the explicit form (1 to {last}, the last a single "
                              f"branch)", source)
 
-    if shared is None and chain is not None and chain.share is not None:
+    if shared is None and chain is not None:
         shared = chain.share
     if shared is None:
-        shared = chain_share(system, options, level_exists,
-                             up_to=None if chain is not None else
-                             options.level if grouping is None else grouping)
+        # one level needs no coarser groupings; a chain's later levels need them all
+        up_to = None if chain is not None else options.level if grouping is None else grouping
+        shared = chain_share(system, options, level_exists, up_to=up_to)
         if chain is not None:
             chain.share = shared
     else:
