@@ -297,14 +297,27 @@ class ChainShare:
 
     original: Tree
     groupings: list                # levels 0 to the last, or to the level asked for (`up_to`)
-    runs: InBackground
+    runs: InBackground             # (or anything whose result() gives the runs: `chain_workers`)
     tips: dict = field(default_factory=dict)   # the original's group tips per run (`evaluate.Runs`)
     regrouped: bool = False        # level 1's grouping chosen by its fitted level (`regroup`)
     level_one: tuple | None = None  # ... and that level's (text, tree), where it was fitted
+    _reader: Callable | None = field(default=None, repr=False)
 
     @property
     def measure(self) -> list:
         return self.runs.result()
+
+    def runs_for(self, options: Options) -> Callable[[Tree], "Runs"]:
+        """`motion_fit.shared_runs` over these runs: the original's `Runs` read with a level's
+        groups, one reader for every level of the chain (a chain's levels share the options
+        but the level)."""
+        if self._reader is None:
+            from .motion_fit import shared_runs
+
+            self._reader = shared_runs(self.original, options.winds(), options.dt, options.steps,
+                                       options.every, options.damping, lambda: self.measure,
+                                       self.tips)
+        return self._reader
 
     @property
     def last(self) -> int:
@@ -357,11 +370,6 @@ def simplify_explicit(system: LSystem, options: Options,
     chain shares them; chain: where the first level of a caller's `LevelChain` leaves them
     (every level grouped) for the levels after it.
     """
-    from .explicit import explicit_system_text, level_header
-    from .grouping import Grouping
-    from .motion_fit import shared_runs
-    from .regroup import regrouped
-
     source = system.source or None
     if options.method != "derived" or options.calibrate:
         raise InputError("the explicit form has derived parameters only; expected --method "
@@ -383,24 +391,13 @@ def simplify_explicit(system: LSystem, options: Options,
             chain.share = shared
     else:
         level_exists(shared.last)
-    original, levels, last = shared.original, shared.groupings, shared.last
-    runs_for = shared_runs(original, options.winds(), options.dt, options.steps, options.every,
-                           options.damping, lambda: shared.measure, shared.tips)
+    original, last = shared.original, shared.last
+    runs_for = shared.runs_for(options)
     if progress:
         progress("fitting the explicit form", 0.0)
-    header = level_header(system)
-
-    def fit(groups: Grouping, level: int) -> tuple[str, Tree]:
-        return explicit_system_text(original, groups, name=system.name or "tree",
-                                    header=header, level=level, dt=options.dt,
-                                    duration=options.duration,
-                                    damping_ratio=options.damping_ratio, runs_for=runs_for)
-
-    if not shared.regrouped:      # level 1's groups, chosen by its fitted level (the chain's too)
-        shared.groupings, shared.level_one = regrouped(original, levels,
-                                                       lambda g: fit(g, 1), runs_for)
-        shared.regrouped = True
-        levels = shared.groupings
+    fit = _level_fitter(system, options, shared)
+    settle_level_one(system, options, shared)   # level 1's groups (the chain's too)
+    levels = shared.groupings
     index = options.level if grouping is None else min(grouping, last)
     if index == options.level == 1 and shared.level_one is not None:
         text, tree = shared.level_one
@@ -419,6 +416,40 @@ def simplify_explicit(system: LSystem, options: Options,
     # the level's text is canonical (what write_lsys writes of it; tests/test_simplify_explicit.py)
     return Result(with_header_comment(text, comment), original, tree, reports, summary, notes,
                   largest, comment, system.source)
+
+
+def _level_fitter(system: LSystem, options: Options,
+                  shared: ChainShare) -> Callable[["Grouping", int], tuple[str, Tree]]:
+    """fit(groups, level): the explicit level of ``shared.original`` with ``groups``, its
+    (text, tree) (`explicit.explicit_system_text`), fitted to motion in the chain's runs."""
+    from .explicit import explicit_system_text, level_header
+
+    header = level_header(system)
+    runs_for = shared.runs_for(options)
+
+    def fit(groups, level: int) -> tuple[str, Tree]:
+        return explicit_system_text(shared.original, groups, name=system.name or "tree",
+                                    header=header, level=level, dt=options.dt,
+                                    duration=options.duration,
+                                    damping_ratio=options.damping_ratio, runs_for=runs_for)
+
+    return fit
+
+
+def settle_level_one(system: LSystem, options: Options, shared: ChainShare) -> None:
+    """Level 1's groups chosen by its fitted level (`regroup.regrouped`), once per chain:
+    ``shared.groupings`` then hold every level's final groups (the coarser levels grouped on
+    level 1's) and ``shared.level_one`` level 1's (text, tree) where it was fitted here.
+    Every level of a chain needs this first; after it the levels are independent fits
+    (`chain_workers`)."""
+    from .regroup import regrouped
+
+    if shared.regrouped:
+        return
+    fit = _level_fitter(system, options, shared)
+    shared.groupings, shared.level_one = regrouped(shared.original, shared.groupings,
+                                                   lambda g: fit(g, 1), shared.runs_for(options))
+    shared.regrouped = True
 
 
 def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
