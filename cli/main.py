@@ -118,7 +118,10 @@ def cli():
 
 
 def main() -> None:
+    from plantlod.sim.heap import return_large_arrays
+
     install_signal_handlers()
+    return_large_arrays()          # a command's freed arrays go back to the system (sim/heap.py)
     cli(prog_name="plantlod")
 
 
