@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+import os
 import sys
 
 import click
 
 from plantlod.simplify.constants import (
-    CALIBRATION_EVALUATIONS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
+    CALIBRATION_EVALUATIONS, CHAIN_JOBS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
 )
 
 from .discipline import require_together
@@ -62,10 +63,13 @@ def _wind_range(ctx, param, value):
 @click.option("--damping-ratio", type=click.FloatRange(min=0), default=0.0, show_default=True,
               help="Fit and measure the level under this damping ratio ζ (model.md 4); "
                    "simulate the result with the same --damping-ratio.")
+@click.option("--jobs", type=click.IntRange(min=1), default=None, metavar="N",
+              help=f"--levels: fit the levels in N processes (default: {CHAIN_JOBS}, or fewer "
+                   f"where the machine has fewer cores); the same files for any N.")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: only when stderr is a terminal).")
 def simplify(input_path, output, level, level_n, form, levels_dir, method, calibrate, wind_range, dt,
-             duration, evaluations, damping_ratio, progress):
+             duration, evaluations, damping_ratio, jobs, progress):
     """Write a level-n L-system that sways like FILE's tree.
 
     In the grammar form the result keeps FILE's axiom and productions and derives
@@ -101,8 +105,13 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     if levels_dir is not None:
         if output is not None:
             raise click.UsageError("--levels writes DIR/level<k>.lsys; -o does not apply")
-        _write_levels(system, levels_dir, input_path, wind_range, dt, duration, damping_ratio)
+        if jobs is None:
+            jobs = min(CHAIN_JOBS, os.cpu_count() or 1)
+        _write_levels(system, levels_dir, input_path, wind_range, dt, duration, damping_ratio,
+                      jobs)
         return
+    if jobs is not None:
+        raise click.UsageError("--jobs applies to --levels DIR (one level is fitted in one process)")
     options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
                       dt=dt, duration=duration, max_evaluations=evaluations, form=form,
                       damping_ratio=damping_ratio)
@@ -124,13 +133,13 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
 
 
 def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
-                  duration: float, damping_ratio: float = 0.0) -> None:
-    """Every explicit level, 1 to the last, into ``folder`` (created), one measured file each."""
-    import os
-
+                  duration: float, damping_ratio: float = 0.0, jobs: int = 1) -> None:
+    """Every explicit level, 1 to the last, into ``folder`` (created), one measured file each,
+    fitted in ``jobs`` processes (`simplify.chain_workers`; the same files for any)."""
     from plantlod.lsys.build import build
+    from plantlod.simplify.chain_workers import chain_levels
     from plantlod.simplify.grouping import merge_levels
-    from plantlod.simplify.pipeline import Options, chain_share, simplify_explicit
+    from plantlod.simplify.pipeline import Options, chain_share
 
     from plantlod.lsys.errors import InputError
 
@@ -144,19 +153,14 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     # every level into a temporary folder beside DIR, moved into DIR only when all are
     # written: a failure or a signal leaves neither a partial set nor a new empty DIR
     with output_folder(folder, merge=True) as tmp:
-        shared = None             # the original built, grouped and run once for the chain
-        for k, level_options in enumerate(options, start=1):
-            shared = shared or chain_share(system, level_options, built=(original, groupings))
-            result = simplify_explicit(system, level_options, shared=shared)
-            with open_output(os.path.join(tmp, f"level{k}.lsys")) as out:
-                out.write(result.text)
-            s = result.summary
-            tip_m = max((r.tip_error_max_m for _w, r in result.reports
-                         if math.isfinite(r.tip_error_max_m)), default=math.nan)
-            say(f"simplify: {display_name(input_path)} level {k}/{last}: "
-                f"{result.original.n_branches:,} -> {result.tree.n_branches:,} branches; "
-                f"worst amplitude {_pct(s.amplitude)}, tip {_pct(s.tip)} of height, "
-                f"tip error (max) {tip_m:.4g} m at {wind_range[0]:g}-{wind_range[1]:g} m/s")
+        shared = chain_share(system, options[0], built=(original, groupings)) if options else None
+        for level in chain_levels(system, options, shared, jobs):
+            with open_output(os.path.join(tmp, f"level{level.level}.lsys")) as out:
+                out.write(level.text)
+            say(f"simplify: {display_name(input_path)} level {level.level}/{last}: "
+                f"{level.branches[0]:,} -> {level.branches[1]:,} branches; "
+                f"worst amplitude {_pct(level.amplitude)}, tip {_pct(level.tip)} of height, "
+                f"tip error (max) {level.tip_max_m:.4g} m at {wind_range[0]:g}-{wind_range[1]:g} m/s")
 
 
 def _pct(x: float) -> str:

@@ -28,6 +28,10 @@ class InputError(PlantlodError):
         self.line = line
         self.col = col
 
+    def __reduce__(self):
+        """Pickled with its location (a worker process's error, `simplify.chain_workers`)."""
+        return (type(self), (self.message, self.file, self.line, self.col))
+
     def __str__(self) -> str:
         where = [str(p) for p in (self.file, self.line, self.col) if p is not None]
         prefix = ":".join(where)
