@@ -23,6 +23,7 @@ import json
 import os
 import pathlib
 from dataclasses import dataclass, field
+from typing import Iterator
 
 import numpy as np
 
@@ -117,24 +118,88 @@ def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
     progress: called as progress(level k, of n levels) while levels are fitted, if given.
     """
     data = path.read_bytes()
-    key = cache_key(data, speed, dt, duration, damping_ratio)
-    entry = None if cache is None else cache / f"{key}.json"
-    if entry is not None and entry.is_file():
-        stored = json.loads(entry.read_text(encoding="utf-8"))
-        built = _read_built(entry.with_suffix(".trees.zip"), len(stored["levels"]))
-        chain = _chain(path, data, stored["levels"], np.array(stored["tip_error_m"]),
-                       damping_ratio, built)
-        if built is None:
-            _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
+    chain = _cached_chain(path, data, speed, dt, duration, cache, damping_ratio)
+    if chain is not None:
         return chain, True
     texts, errors = _simplify_all(path, data, speed, dt, duration, damping_ratio, progress)
+    return _new_chain(path, data, texts, errors, speed, dt, duration, cache, damping_ratio), False
+
+
+def level_chains(paths: list[pathlib.Path], speed: float, dt: float, duration: float,
+                 cache: pathlib.Path | None, damping_ratio: float = 0.0, progress=None,
+                 jobs: int = 1) -> Iterator[tuple[pathlib.Path, Chain, bool]]:
+    """(path, chain, from the cache) of every tree file in ``paths``, in order: the chains
+    not cached are fitted in ``jobs`` processes, this one and jobs - 1 workers
+    (`plantlod.sim.workers.run_jobs`; each chain is a pure function of its file and the
+    wind, so the same chains for any ``jobs``), and stored in the cache here.
+
+    progress: progress(level k, of n levels, file name) for the chains fitted in this
+    process; progress(n, n, file name) when a worker's chain comes back."""
+    from plantlod.sim.workers import run_jobs
+
+    data = [p.read_bytes() for p in paths]
+    known = [_cached_chain(p, d, speed, dt, duration, cache, damping_ratio)
+             for p, d in zip(paths, data)]
+    missing = [k for k, chain in enumerate(known) if chain is None]
+
+    def fit_here(j: int):
+        k = missing[j]
+        done = None if progress is None else (lambda i, n, name=paths[k].name: progress(i, n, name))
+        return _simplify_all(paths[k], data[k], speed, dt, duration, damping_ratio, done)
+
+    fitted = {}
+    payload = ([paths[k] for k in missing], [data[k] for k in missing], speed, dt, duration,
+               damping_ratio)
+    for j, (texts, errors) in run_jobs(0, len(missing) - 1, fit_here, jobs - 1,
+                                       _worker_simplify, payload):
+        k = missing[j]
+        if progress is not None:
+            progress(len(texts), len(texts), paths[k].name)
+        fitted[k] = _new_chain(paths[k], data[k], texts, errors, speed, dt, duration, cache,
+                               damping_ratio)
+    for k, path in enumerate(paths):
+        yield path, known[k] or fitted[k], known[k] is not None
+
+
+def _worker_simplify(payload: tuple, _ask):
+    """In a worker (`sim.workers`): fit(j), the texts and tip errors of the j-th file's chain."""
+    paths, data, speed, dt, duration, damping_ratio = payload
+
+    def fit(j: int):
+        return _simplify_all(paths[j], data[j], speed, dt, duration, damping_ratio)
+
+    return fit
+
+
+def _cached_chain(path: pathlib.Path, data: bytes, speed: float, dt: float, duration: float,
+                  cache: pathlib.Path | None, damping_ratio: float) -> Chain | None:
+    """The chain of ``path`` (its bytes ``data``) from the cache, None where it is not there."""
+    if cache is None:
+        return None
+    entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio)}.json"
+    if not entry.is_file():
+        return None
+    stored = json.loads(entry.read_text(encoding="utf-8"))
+    built = _read_built(entry.with_suffix(".trees.zip"), len(stored["levels"]))
+    chain = _chain(path, data, stored["levels"], np.array(stored["tip_error_m"]),
+                   damping_ratio, built)
+    if built is None:
+        _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
+    return chain
+
+
+def _new_chain(path: pathlib.Path, data: bytes, texts: list[str], errors, speed: float,
+               dt: float, duration: float, cache: pathlib.Path | None,
+               damping_ratio: float) -> Chain:
+    """The chain of fitted ``texts`` and tip ``errors``, stored in the cache where there is one."""
     chain = _chain(path, data, texts, np.asarray(errors), damping_ratio)
-    if entry is not None:
+    if cache is not None:
+        entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio)}.json"
         entry.parent.mkdir(parents=True, exist_ok=True)
         _store(entry, json.dumps({"file": str(path), "levels": texts,
                                   "tip_error_m": [float(e) for e in errors]}).encode("utf-8"))
         _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
-    return chain, False
+    return chain
 
 
 def _store(path: pathlib.Path, data: bytes) -> None:

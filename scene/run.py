@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import math
+import os
 import pathlib
 import re
 import time
@@ -27,12 +28,13 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.sim.kinematics import pose
+from plantlod.simplify.constants import CHAIN_JOBS
 
 from .constants import (
     FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
 )
 from .file import Scene
-from .levels import Chain, chain_from_texts, level_chain
+from .levels import Chain, chain_from_texts, level_chains
 from .schedule import distances, frame_times, schedules
 from .switch import Transfer
 
@@ -247,13 +249,16 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     # gust does not carry a far tree past its budget
     speed = float(np.linalg.norm(winds, axis=-1).max()) if winds.size else 0.0
     speed = round(speed, 6)
-    for path in sorted({t.file for t in scene.trees}):
-        def levels_done(k: int, n: int, name: str = path.name) -> None:
-            if progress:
-                progress("levels", k, n, name)
+    def levels_done(k: int, n: int, name: str) -> None:
+        if progress:
+            progress("levels", k, n, name)
 
-        chain, hit = level_chain(path, speed, scene.dt, scene.duration, cache,
-                                 scene.damping_ratio, levels_done)
+    # the tree files' chains not cached are fitted in up to CHAIN_JOBS processes at once
+    # (`level_chains`): a new forest's first run waits for them
+    jobs = min(CHAIN_JOBS, os.cpu_count() or 1)
+    for path, chain, hit in level_chains(sorted({t.file for t in scene.trees}), speed, scene.dt,
+                                         scene.duration, cache, scene.damping_ratio,
+                                         levels_done, jobs):
         chains[path] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)

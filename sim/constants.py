@@ -25,3 +25,6 @@ THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine 
 # environment variable: "compiled" or "interpreted" forces the single-run kernel's engine
 # (default: interpreted for short runs while numba is not loaded; the same bits either way)
 KERNEL_ENV = "PLANTLOD_KERNEL"
+
+# --- workers (sim/workers.py) ----------------------------------------------------------
+WORKER_POLL = 1.0            # s: waits on the workers wake this often (and a finished worker is joined)

@@ -144,7 +144,6 @@ MIN_MERGE_FACTOR = 0.25      # ... and at least this x (a merge that untwists fr
 # --- a chain's levels in several processes (simplify/chain_workers.py) ------------------
 CHAIN_JOBS = 2                # `simplify --levels`' processes by default (at most the cores): each
                               # holds its own fits, so the 2 GB bound of issue 21 counts them all
-CHAIN_WORKER_POLL = 1.0       # s: waits on the workers wake this often (and a finished worker is joined)
 
 # --- level 1 regrouped where its fitted level misses (simplify/regroup.py, session 18) ---
 REGROUP_ATTEMPTS = 3          # level-1 fits at most: the first grouping, then groups kept apart where it missed
