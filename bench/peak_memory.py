@@ -45,21 +45,23 @@ def _status_kb(pid: int, field: str) -> int:
 
 
 def descendants(pid: int) -> list[int]:
-    """The processes below ``pid`` (children, their children, ...), from /proc's parent ids."""
-    parent_of = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as stat:
-                    parent_of[int(entry)] = int(stat.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
+    """The processes below ``pid`` (children, their children, ...), from each thread's
+    /proc/<pid>/task/<tid>/children (a worker may be started by any thread)."""
     found, frontier = [], [pid]
     while frontier:
         p = frontier.pop()
-        kids = [c for c, q in parent_of.items() if q == p]
-        found += kids
-        frontier += kids
+        try:
+            tasks = os.listdir(f"/proc/{p}/task")
+        except OSError:
+            continue
+        for tid in tasks:
+            try:
+                with open(f"/proc/{p}/task/{tid}/children") as children:
+                    kids = [int(c) for c in children.read().split()]
+            except (OSError, ValueError):
+                continue
+            found += kids
+            frontier += kids
     return found
 
 
