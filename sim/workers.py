@@ -99,7 +99,9 @@ def run_jobs(first: int, last: int, here: Callable[[int], Any], workers: int,
         return
     jobs = Jobs(first, last)
     procs = []
-    old_pipe = signal.signal(signal.SIGPIPE, signal.SIG_IGN) if hasattr(signal, "SIGPIPE") else None
+    old_pipe = None                   # (signal handlers can only be set in the main thread)
+    if hasattr(signal, "SIGPIPE") and threading.current_thread() is threading.main_thread():
+        old_pipe = signal.signal(signal.SIGPIPE, signal.SIG_IGN)
     try:
         for _ in range(min(workers, last - first)):
             link, proc = _start()
