@@ -208,7 +208,8 @@ def test_parents_and_brackets():
 
 
 def test_radius_setting_is_scoped():
-    tree = turtle("F !(0.5) F [ !(0.2) F ! F ] F G")
+    with pytest.warns(UserWarning, match="'!' without a parameter"):    # the bare ! does nothing
+        tree = turtle("F !(0.5) F [ !(0.2) F ! F ] F G")
     assert tree.radius.tolist() == [0.1, 0.5, 0.2, 0.2, 0.5, 0.5]
 
 
