@@ -46,7 +46,7 @@ def run(report) -> None:
         report(f"simplify abop_1_24a n={n} ({branches:,} branches), level 1: wall", seconds, "s",
                target, COMMAND)
         report(f"simplify abop_1_24a n={n}: peak memory", mb, "MB", "<= 2048" if n == 6 else "",
-               "VmHWM of the child (/proc)")
+               "peak resident memory of the command (/proc, bench/peak_memory.py)")
     b = np.log([r[0] for r in rows])
     t = np.log([r[1] for r in rows])
     last = float((t[-1] - t[-2]) / (b[-1] - b[-2]))
