@@ -144,8 +144,11 @@ def _start():
 
     here, there = socket.socketpair()
     code = f"import plantlod.sim.workers as w; w.main({there.fileno()}, {os.getpid()})"
+    # nothing of a worker's reaches the command's output: results, errors and warnings come
+    # over the link, and a worker that fails outside a job leaves its jobs to the command
     proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=[there.fileno()],
-                            stdin=subprocess.DEVNULL, close_fds=True)
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, close_fds=True)
     there.close()
     link = Connection(here.detach())
     link.send(list(sys.path))
