@@ -65,7 +65,8 @@ def _wind_range(ctx, param, value):
                    "simulate the result with the same --damping-ratio.")
 @click.option("--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help=f"--levels: fit the levels in N processes (default: {CHAIN_JOBS}, or fewer "
-                   f"where the machine has fewer cores); the same files for any N.")
+                   f"where the machine has fewer cores); the same files for any N, memory "
+                   f"grows with N (each process holds its own fit).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: only when stderr is a terminal).")
 def simplify(input_path, output, level, level_n, form, levels_dir, method, calibrate, wind_range, dt,
