@@ -20,18 +20,6 @@ import time
 POLL_S = 0.05
 
 
-def high_water_kb(pid: int) -> int:
-    """The process' peak resident set so far (VmHWM, kB); 0 once it is gone."""
-    try:
-        with open(f"/proc/{pid}/status") as status:
-            for line in status:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1])
-    except OSError:
-        pass
-    return 0
-
-
 def _status_kb(pid: int, field: str) -> int:
     """A ``field`` (VmRSS, VmHWM) of /proc/<pid>/status in kB; 0 once the process is gone."""
     try:
@@ -42,6 +30,11 @@ def _status_kb(pid: int, field: str) -> int:
     except OSError:
         pass
     return 0
+
+
+def high_water_kb(pid: int) -> int:
+    """The process' peak resident set so far (VmHWM, kB); 0 once it is gone."""
+    return _status_kb(pid, "VmHWM")
 
 
 def descendants(pid: int) -> list[int]:

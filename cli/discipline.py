@@ -33,10 +33,9 @@ from typing import Callable
 import click
 
 from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning
+from plantlod.sim.constants import CAUGHT_SIGNALS  # noqa: F401  (cli.io reads it from here)
 
 # Signals that end a command: temporary files removed, exit 128 + n.
-CAUGHT_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
-                       if hasattr(signal, name))
 INT64_MAX = 2**63 - 1
 MAX_ERROR_CHARS = 1000       # an error message longer than this is cut
 DEBUG_VARIABLE = "PLANTLOD_DEBUG"

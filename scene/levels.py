@@ -117,12 +117,9 @@ def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
 
     progress: called as progress(level k, of n levels) while levels are fitted, if given.
     """
-    data = path.read_bytes()
-    chain = _cached_chain(path, data, speed, dt, duration, cache, damping_ratio)
-    if chain is not None:
-        return chain, True
-    texts, errors = _simplify_all(path, data, speed, dt, duration, damping_ratio, progress)
-    return _new_chain(path, data, texts, errors, speed, dt, duration, cache, damping_ratio), False
+    done = None if progress is None else (lambda k, n, _name: progress(k, n))
+    (_path, chain, hit), = level_chains([path], speed, dt, duration, cache, damping_ratio, done)
+    return chain, hit
 
 
 def level_chains(paths: list[pathlib.Path], speed: float, dt: float, duration: float,

@@ -1,5 +1,7 @@
 """Constants of the dynamics: gusts and the memory bounds of streaming runs."""
 
+import signal as _signal
+
 # --- gusts (docs/model.md, "Gusts") -------------------------------------------------
 GUST_COMPONENTS = 8           # number of seeded sinusoids
 GUST_MIN_FREQUENCY = 0.05     # Hz
@@ -27,4 +29,8 @@ THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine 
 KERNEL_ENV = "PLANTLOD_KERNEL"
 
 # --- workers (sim/workers.py) ----------------------------------------------------------
+# Signals that end a command (cli.discipline: temporaries removed, exit 128 + n); workers
+# ignore them and die with the command instead
+CAUGHT_SIGNALS = tuple(getattr(_signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
+                       if hasattr(_signal, name))
 WORKER_POLL = 1.0            # s: waits on the workers wake this often (and a finished worker is joined)

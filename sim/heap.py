@@ -15,7 +15,6 @@ value computed changes. Elsewhere than glibc (or where the call fails) nothing i
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import sys
 
 LARGE_ARRAY_BYTES = 4 * 1024 * 1024     # arrays above this get their own mapping
@@ -26,8 +25,7 @@ def return_large_arrays(threshold: int = LARGE_ARRAY_BYTES) -> bool:
     """Fix glibc's mmap threshold at ``threshold`` bytes for this process; True where set."""
     if not sys.platform.startswith("linux"):
         return False
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        return bool(libc.mallopt(_M_MMAP_THRESHOLD, int(threshold)))
+    try:        # the process' own symbols (glibc's among them): no library search at start-up
+        return bool(ctypes.CDLL(None).mallopt(_M_MMAP_THRESHOLD, int(threshold)))
     except (OSError, AttributeError):
         return False

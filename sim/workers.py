@@ -36,9 +36,7 @@ import threading
 import warnings
 from typing import Any, Callable, Iterator
 
-from .constants import WORKER_POLL
-
-_CAUGHT = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+from .constants import CAUGHT_SIGNALS, WORKER_POLL
 
 
 class _Failed:
@@ -196,7 +194,7 @@ def main(fd: int, parent: int) -> None:
     function and its payload from it, then jobs until none is left. Anything that ends it
     outside a job (its parent gone, a link cut short) ends it quietly: the parent runs what
     it leaves, and says what goes wrong."""
-    for signum in _CAUGHT:
+    for signum in CAUGHT_SIGNALS:
         signal.signal(signum, signal.SIG_IGN)
     _die_with_parent(parent)
     try:

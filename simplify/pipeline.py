@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -39,6 +39,9 @@ from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
 from .levels import check_level, level_system, round_sig, write_parameters
 from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
+
+if TYPE_CHECKING:
+    from .grouping import Grouping
 
 METHODS = ("derived", "thesis")
 FORMS = ("auto", "grammar", "explicit")
@@ -391,22 +394,19 @@ def simplify_explicit(system: LSystem, options: Options,
             chain.share = shared
     else:
         level_exists(shared.last)
-    original, last = shared.original, shared.last
-    runs_for = shared.runs_for(options)
+    original = shared.original
     if progress:
         progress("fitting the explicit form", 0.0)
-    fit = _level_fitter(system, options, shared)
     settle_level_one(system, options, shared)   # level 1's groups (the chain's too)
-    levels = shared.groupings
-    index = options.level if grouping is None else min(grouping, last)
+    index = options.level if grouping is None else min(grouping, shared.last)
     if index == options.level == 1 and shared.level_one is not None:
         text, tree = shared.level_one
     else:
-        text, tree = fit(levels[index], options.level)
+        text, tree = _level_fitter(system, options, shared)(shared.groupings[index], options.level)
     check_stability(tree, options.dt)
     if progress:
         progress("measuring", 0.5)
-    runs = runs_for(tree)          # the motion fit's, when the level's branches are the same
+    runs = shared.runs_for(options)(tree)   # the motion fit's, when the level's branches are the same
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
