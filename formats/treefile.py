@@ -18,6 +18,7 @@ import gc
 import json
 import math
 import re
+import sys
 from itertools import chain, islice
 from json.encoder import encode_basestring   # json's own string encoder (C), no ASCII escaping
 from typing import Iterator, TextIO
@@ -210,7 +211,11 @@ def _finite(line: _Line, key: str, v) -> float:
             return v
         raise line.error(f'"{key}" must be a finite number, got {v!r}', key)
     if type(v) is int:
-        return float(v)
+        try:
+            return float(v)
+        except OverflowError:         # beyond the largest double (about 1.8e308)
+            raise line.error(f'"{key}" must be a finite number, got an integer of '
+                             f"{v.bit_length()} bits", key) from None
     raise line.error(f'"{key}" must be a number, got {_json_type(v)}', key)
 
 
@@ -240,7 +245,18 @@ def _object(pairs):
     return out
 
 
-_DECODER = json.JSONDecoder(object_pairs_hook=_object, parse_constant=_reject_constant)
+def _integer(text: str) -> int:
+    """A JSON integer, exactly; one longer than Python converts (4300 digits) is no value
+    a tree file holds."""
+    digits = len(text.lstrip("-").lstrip("0"))
+    limit = sys.get_int_max_str_digits()
+    if limit and digits > limit:
+        raise ValueError(f"an integer of {digits} digits; expected at most {limit}")
+    return int(text)
+
+
+_DECODER = json.JSONDecoder(object_pairs_hook=_object, parse_constant=_reject_constant,
+                            parse_int=_integer)
 
 
 def _parse(source: str, number: int, text: str, kind: str) -> _Line:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import sys
 from typing import Iterable, Iterator, NamedTuple
 
 from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
@@ -207,6 +208,27 @@ def _describe(tok: _Tok) -> str:
 
 def _error(pos: Pos, message: str) -> InputError:
     return InputError(message, pos.file, pos.line, pos.col)
+
+
+def _whole_number(cur: _Cursor, digits: str, start: int) -> int:
+    """The exact value of a literal of decimal digits found at ``start`` of cur's line. One
+    longer than Python converts (`sys.get_int_max_str_digits`, 4300 digits) is an input
+    error there: no count, seed or address is that large."""
+    significant = digits.lstrip("0") or "0"
+    limit = sys.get_int_max_str_digits()
+    if limit and len(significant) > limit:
+        raise cur.error(f"a whole number of {len(significant)} digits; expected at most {limit}",
+                        start)
+    return int(significant)
+
+
+def _address_parts(cur: _Cursor, text: str, start: int) -> tuple[int, ...]:
+    """The integers of a dotted address ``text`` (already matched) found at ``start``."""
+    parts, at = [], start
+    for part in text.split("."):
+        parts.append(_whole_number(cur, part, at))
+        at += len(part) + 1
+    return tuple(parts)
 
 
 def _where(pos: Pos) -> str:
@@ -736,7 +758,7 @@ class _FileParser:
                 raise cur.error(f"expected a value after '{key}:'")
             literal = re.fullmatch(r"[0-9]+", cur.text[value_start:].strip())
             if key in _INTEGER_KEYS and literal:
-                value = int(literal.group())       # exact, however large
+                value = _whole_number(cur, literal.group(), value_start)   # exact, however large
                 cur.i = len(cur.text)
             else:
                 _, value = _constant(cur, self.defines)
@@ -920,7 +942,7 @@ class _FileParser:
         if not _ADDRESS.fullmatch(text):
             raise cur.error(f"override address '{text}' is not valid; expected dotted "
                             "non-negative integers such as 0.1.0")
-        address = tuple(int(part) for part in text.split("."))
+        address = _address_parts(cur, text, start)
         pos = cur.pos()
         if address in self.override_pos:
             raise cur.error(f"address {text} is overridden twice (first at "
@@ -952,7 +974,7 @@ class _FileParser:
             raise cur.error("expected 'ADDRESS: ORIGINAL_ADDRESS' in the groups section, as in "
                             "'12: 0.4.0.1' (dotted non-negative integers; the original's may end "
                             "in ':K', the K-th branch drawn at one address)")
-        address = tuple(int(part) for part in left.split("."))
+        address = _address_parts(cur, left, cur.i + len(line) - len(line.lstrip()))
         pos = cur.pos()
         if address in self.group_pos:
             raise cur.error(f"address {left} has two groups (first at "

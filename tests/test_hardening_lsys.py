@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 import time
 
 import numpy as np
@@ -258,6 +259,50 @@ def test_deep_json_is_an_input_error():
     text = '{"format": ' + "[" * 100_000 + "]" * 100_000 + "}\n"
     with pytest.raises(InputError, match=f"nested more than {MAX_JSON_DEPTH} deep"):
         read_tree(io.StringIO(text), "t.jsonl")
+
+
+# --- whole numbers longer than Python converts (4300 digits) ---------------------------
+
+LONG = "9" * 5000
+
+
+@pytest.mark.parametrize("n, body, line, col", [
+    (LONG, "axiom: F\n", 1, 20),                                          # derivation_length
+    (1, "seed: " + LONG + "\naxiom: F\n", HEAD_LINES + 1, 7),
+    (1, "axiom: F\noverrides:\n  0." + LONG + ": length=2\n", HEAD_LINES + 3, 5),
+    (1, "axiom: F\ngroups:\n  " + LONG + ": 0\n", HEAD_LINES + 3, 3),
+])
+def test_whole_numbers_past_pythons_conversion_limit_are_located(n, body, line, col):
+    """int() refuses more than 4300 digits with a ValueError (CPython's guard against slow
+    conversions); the reader says where the number is instead."""
+    with pytest.raises(InputError, match="a whole number of 5000 digits; expected at most 4300") as info:
+        system(body, n)
+    assert (info.value.line, info.value.col) == (line, col)
+
+
+def test_a_whole_number_at_the_limit_is_read_exactly():
+    """4300 digits convert: the value reaches the derivation-length check, as any large one."""
+    with pytest.raises(InputError, match="derivation length") as info:
+        derive(system("axiom: F\nproductions:\n  F -> F\n", "1" + "0" * 4299), None)
+    assert "more than" in str(info.value)
+
+
+@pytest.mark.parametrize("value, message", [
+    ("9" * 5000, "an integer of 5000 digits; expected at most 4300"),
+    ("1" + "0" * 400, "must be a finite number, got an integer of"),
+])
+def test_tree_file_integers_past_conversion_or_double_range_are_input_errors(value, message):
+    from plantlod.formats.treefile import write_tree
+    from plantlod.lsys.build import build
+
+    good = io.StringIO()
+    write_tree(build(system("axiom: F L\n")).tree, good)
+    lines = good.getvalue().splitlines()
+    branch = next(i for i, line in enumerate(lines) if '"bend_strength"' in line)
+    lines[branch] = re.sub(r'"bend_strength": [^,}]+', f'"bend_strength": {value}', lines[branch])
+    with pytest.raises(InputError, match=message) as info:
+        read_tree(io.StringIO("\n".join(lines) + "\n"), "t.jsonl")
+    assert info.value.line == branch + 1
 
 
 @pytest.mark.parametrize("expr", ["1" + "+1" * 150, "2" + "^2" * 150, "-" * 150 + "1",
