@@ -28,6 +28,7 @@ from typing import Iterator
 import numpy as np
 
 from plantlod.lsys.build import build
+from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
@@ -174,15 +175,43 @@ def _cached_chain(path: pathlib.Path, data: bytes, speed: float, dt: float, dura
     if cache is None:
         return None
     entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio)}.json"
-    if not entry.is_file():
+    stored = _stored_entry(entry)
+    if stored is None:
         return None
-    stored = json.loads(entry.read_text(encoding="utf-8"))
-    built = _read_built(entry.with_suffix(".trees.zip"), len(stored["levels"]))
-    chain = _chain(path, data, stored["levels"], np.array(stored["tip_error_m"]),
-                   damping_ratio, built)
+    texts, errors = stored
+    built = _read_built(entry.with_suffix(".trees.zip"), len(texts))
+    try:
+        chain = _chain(path, data, texts, errors, damping_ratio, built)
+    except InputError:                    # a level damaged in the cache: fitted again (an
+        return None                       # error of the original's own is raised by the fit)
     if built is None:
         _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
     return chain
+
+
+def _stored_entry(entry: pathlib.Path) -> tuple[list[str], np.ndarray] | None:
+    """The level texts and (levels + 1,) tip errors (max, m; level 0's first) that
+    `_new_chain` stored at ``entry``; None where there is no entry or it is not one whole
+    (a damaged cache is a miss: the chain is fitted again and the entry written anew)."""
+    try:
+        stored = json.loads(entry.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    if not isinstance(stored, dict):
+        return None
+    texts, errors = stored.get("levels"), stored.get("tip_error_m")
+    if not (isinstance(texts, list) and isinstance(errors, list)
+            and len(errors) == len(texts) + 1
+            and all(isinstance(t, str) for t in texts)
+            and all(type(e) in (int, float) for e in errors)):
+        return None
+    try:
+        errors = np.array(errors, dtype=np.float64)
+    except OverflowError:                 # an integer past a double's range
+        return None
+    if errors[0] != 0 or np.any(errors < 0) or np.any(np.isinf(errors)):
+        return None                       # (level 0, the original, misses by nothing)
+    return texts, errors
 
 
 def _new_chain(path: pathlib.Path, data: bytes, texts: list[str], errors, speed: float,
@@ -233,7 +262,6 @@ def _read_built(path: pathlib.Path, count: int) -> list[Tree] | None:
     import zipfile
 
     from plantlod.formats.npz import read_tree_bytes
-    from plantlod.lsys.errors import InputError
 
     if not path.is_file():
         return None

@@ -484,6 +484,32 @@ def test_a_cached_chain_reads_its_built_levels_as_its_texts_give_them(tmp_path):
     assert not [p for p in cache.iterdir() if p.name.startswith(".plantlod-")]
 
 
+def test_a_damaged_cache_entry_is_a_miss_fitted_again(tmp_path):
+    """A cache entry (KEY.json) that is not one the scene wrote whole (not JSON, another
+    shape, tip errors that no fit gives, a level text that no longer reads) is a miss, not
+    an error: the chain is fitted again, equal to the first, and the entry written anew."""
+    from plantlod.scene.levels import level_chain
+
+    cache = tmp_path / "cache"
+    first, _ = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    (entry,) = cache.glob("*.json")
+    good = json.loads(entry.read_text())
+    archive = entry.with_suffix(".trees.zip")                  # (removed: the texts are read)
+    damaged = ["", "[1, 2]", "null", '{"levels": "abc"}', json.dumps(good)[:200],
+               json.dumps({**good, "tip_error_m": good["tip_error_m"][:1]}),
+               json.dumps({**good, "tip_error_m": [0.0] + [-1.0] * len(good["levels"])}),
+               json.dumps({**good, "tip_error_m": [0.0] + [10 ** 400] * len(good["levels"])}),
+               json.dumps({**good, "levels": ["axiom: {"] + good["levels"][1:]})]
+    for text in damaged:
+        archive.unlink()
+        entry.write_text(text)
+        again, hit = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+        assert not hit, text
+        assert again.texts == first.texts and np.array_equal(again.tip_error_m, first.tip_error_m)
+        assert json.loads(entry.read_text()) == good              # written again, whole
+    assert level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)[1]
+
+
 def test_a_worker_reads_each_chain_once(tmp_path, chains):
     """`chain_from_texts` (what a Dask worker's batch calls) reads a chain once per process:
     the second batch of the same file gets the same chain, equal to the one read from the
