@@ -104,6 +104,35 @@ def help_time() -> tuple[float, str]:
     return seconds, done.stderr.strip()
 
 
+# Deep chains (session 21, found by fuzzing): addresses of thousands of parts, where
+# building them prefix by prefix cost the cube of the depth (a 3,000-deep chain 4.2 s,
+# 8,900 deep 481 s), and a stochastic chain read its history once a step (1,500 steps 26 s).
+DEEP_CHAIN = """derivation_length: {n}
+branching_angle: 30
+force_absorbed: 0.005
+force_propagated: 0.7
+branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20
+leaf L: area=0.01
+axiom: A L
+productions:
+{rules}
+"""
+DEEP_STEPS, STOCHASTIC_STEPS = 3000, 1500
+
+
+def deep_chain_time(stochastic: bool) -> tuple[int, float]:
+    """(branches, seconds) of deriving and building the chain A -> F A (stochastic: A ->
+    (0.5) F A, A -> (0.5) A) to its addressed tree, best of REPEATS."""
+    from plantlod.lsys.build import build
+    from plantlod.lsys.parse import parse_lsys
+
+    rules = ("  A -> (0.5) F A\n  A -> (0.5) A" if stochastic else "  A -> F A")
+    n = STOCHASTIC_STEPS if stochastic else DEEP_STEPS
+    system = parse_lsys(DEEP_CHAIN.format(n=n, rules=rules), "chain.lsys")
+    seconds, built = _best(lambda: build(system))
+    return built.tree.n_branches, seconds
+
+
 def run(report) -> None:
     modules, rate = derive_rate(ABOP_124A, N_124A)
     report(f"derive ABOP 1.24a n={N_124A} ({modules:,} modules, fast path)", rate, "modules/s",
@@ -117,6 +146,10 @@ def run(report) -> None:
     seconds = derive_wall_time(ABOP_124A, N_124A)
     report(f"plantlod derive abop_1_24a.lsys -n {N_124A} -o /dev/null (subprocess)", seconds, "s",
            "", COMMAND)
+    for stochastic in (False, True):
+        branches, seconds = deep_chain_time(stochastic)
+        kind = f"stochastic chain n={STOCHASTIC_STEPS}" if stochastic else f"chain n={DEEP_STEPS}"
+        report(f"derive and build a {kind} ({branches:,} branches deep)", seconds, "s", "", COMMAND)
     seconds, heavy = help_time()
     report(f"plantlod --help start-up (heavy modules imported: {heavy or 'none'})", seconds, "s",
            "no numba", COMMAND)

@@ -29,5 +29,11 @@ MAX_DERIVATION_STEPS = 10_000       # derivation_length / -n above this: exit 2
 # The derivation history keeps two int64 per module per step (the addresses);
 # its total over all steps may be at most this many times --max-modules.
 DERIVATION_HISTORY_FACTOR = 8
+# Addresses (lsys/derived.py `address_strings`): built prefix by prefix unless that would
+# write this many times the characters of the addresses themselves (a chain k steps deep:
+# k/3 times; the chain of 8,900 branches took 481 s, joined row by row 17 s), then joined
+# from their numbers, at most this many numbers at a time.
+ADDRESS_PREFIX_EXCESS = 4
+ADDRESS_BLOCK_NUMBERS = 4_000_000
 MAX_LINE_CHARS = 1_000_000          # one line of an .lsys file
 MAX_EXPRESSION_DEPTH = 100          # nesting of an expression (operators, parentheses, calls)

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .constants import ADDRESS_BLOCK_NUMBERS, ADDRESS_PREFIX_EXCESS
+
 
 def ragged_arange(lengths: np.ndarray) -> np.ndarray:
     """Concatenated ``arange(l)`` for every l in ``lengths``: (sum(lengths),) int64.
@@ -100,7 +102,10 @@ class DerivedString:
 
         Builds each distinct prefix once, step by step: the modules of one
         successor share their parent's text, so this costs about one string
-        concatenation per module instead of a join of k+1 numbers.
+        concatenation per module instead of a join of k+1 numbers. Where prefixes
+        are hardly shared (a long chain: step t rebuilds t prefixes of t parts each,
+        k³/3 characters for k² written), each address is joined from its numbers
+        instead (`address_array`, a block of rows at a time).
         """
         cur = np.asarray(idx, dtype=np.int64).reshape(-1)
         if self.origin is not None:
@@ -116,10 +121,24 @@ class DerivedString:
                 unique, inverse = np.unique(up, return_inverse=True)
             steps.append((inverse, local[cur]))
             cur = unique
+        k = len(steps)
+        built = sum(len(inverse) * (k - t) for t, (inverse, _) in enumerate(steps))
+        if built > ADDRESS_PREFIX_EXCESS * (len(idx) * (k + 1) + 1):
+            return self._joined_addresses(np.asarray(idx, dtype=np.int64).reshape(-1))
         text = [str(a) for a in cur.tolist()]
         for inverse, local in reversed(steps):
             suffix = [f".{j}" for j in range(int(local.max(initial=0)) + 1)]
             text = [text[i] + suffix[j] for i, j in zip(inverse.tolist(), local.tolist())]
+        return text
+
+    def _joined_addresses(self, idx: np.ndarray) -> list[str]:
+        """`address_strings` of ``idx``, each joined from its row of `address_array`; rows
+        in blocks of at most ADDRESS_BLOCK_NUMBERS numbers (memory)."""
+        rows = max(1, ADDRESS_BLOCK_NUMBERS // (len(self.history) + 1))
+        text: list[str] = []
+        for start in range(0, len(idx), rows):
+            block = self.address_array(idx[start:start + rows])
+            text.extend(".".join(map(str, row)) for row in block.tolist())
         return text
 
     def module_text(self, i: int) -> str:

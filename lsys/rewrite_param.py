@@ -145,6 +145,9 @@ class GeneralRewriter:
         self.first_id = np.cumsum([0] + [len(r.successors) for r in rules])[:-1]
         self.copy_id = len(flat)
         self.flat = flat
+        # The addresses of the modules the last step chose among (`_addresses`): (steps
+        # behind that string, {module index: address}). A rewriter serves one derivation.
+        self._chosen: tuple[int, dict[int, str]] | None = None
 
     # --- matching ---------------------------------------------------------------------
     def _match(self, ds: DerivedString):
@@ -158,6 +161,7 @@ class GeneralRewriter:
         codes, starts, params = ds.codes, ds.param_start, ds.params
         nparams = np.diff(starts)
         choice = np.full(n, self.copy_id, dtype=np.int64)
+        chosen: dict[int, str] = {}              # this step's `_addresses`
         unmatched = np.ones(n, dtype=bool)
         by_key: dict[tuple[int, int], np.ndarray] = {}
         left_nb = right_nb = None
@@ -198,13 +202,35 @@ class GeneralRewriter:
                 pending.append((first, cand, env))
                 continue
             weights = np.stack([_as_column(p(env), cand.size) for p in rule.probabilities], axis=1)
-            picked = choose(weights, address_fractions(self.seed, ds.address_strings(cand)))
+            picked = choose(weights, address_fractions(self.seed, self._addresses(ds, cand, chosen)))
             for alt in range(len(rule.successors)):
                 sel = picked == alt
                 if sel.any():
                     choice[cand[sel]] = first + alt
                     pending.append((first + alt, cand[sel], _select(env, sel)))
+        self._chosen = (len(ds.history), chosen)
         return choice, pending
+
+    def _addresses(self, ds: DerivedString, cand: np.ndarray, chosen: dict[int, str]) -> list[str]:
+        """``ds.address_strings(cand)``, each also kept in ``chosen``. A module whose parent
+        the last step chose for (a stochastic module's successors are mostly stochastic
+        modules again) has its parent's address and ".j", j its place in the successor
+        (`DerivedString.history`); the others are read from the history, which walks every
+        step: once a step, a derivation of k steps would walk it k²/2 times."""
+        known = self._chosen
+        out: list[str | None] = [None] * len(cand)
+        if known is not None and ds.origin is None and ds.history and known[0] == len(ds.history) - 1:
+            parent, local = ds.history[-1]
+            last = known[1]
+            for r, (p, j) in enumerate(zip(parent[cand].tolist(), local[cand].tolist())):
+                if p in last:
+                    out[r] = f"{last[p]}.{j}"
+        missing = [r for r, a in enumerate(out) if a is None]
+        if missing:
+            for r, a in zip(missing, ds.address_strings(cand[missing])):
+                out[r] = a
+        chosen.update(zip(cand.tolist(), out))
+        return out
 
     # --- assembly ---------------------------------------------------------------------
     def apply(self, ds: DerivedString, step_label: int | None, max_modules: int | None):

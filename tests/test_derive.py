@@ -392,6 +392,47 @@ def test_first_k_steps_identical_for_every_derivation_length():
             assert np.array_equal(p1, p2) and np.array_equal(l1, l2)
 
 
+def _slow_stochastic_derive(system, k, monkeypatch):
+    """`derive` with every stochastic step's addresses read from the whole history (no
+    addresses carried from the step before: the literal definition)."""
+    from plantlod.lsys import rewrite_param
+
+    with monkeypatch.context() as m:
+        m.setattr(rewrite_param.GeneralRewriter, "_addresses",
+                  lambda self, ds, cand, chosen: ds.address_strings(cand))
+        return derive(system, k)
+
+
+@pytest.mark.parametrize("axiom, rules, k", [
+    ("A", ["A -> (0.5) FA", "A -> (0.5) A"], 120),                 # a chain
+    ("A", ["A -> (0.3) F[+A]A", "A -> (0.3) F[-A]", "A -> (0.4) FA",
+           "F -> (0.5) FF", "F -> (0.5) F"], 7),                    # branching, F stochastic too
+    ("X", ["X -> AXA", "A -> (0.5) B", "A -> (0.5) AC", "C -> (0.5) A", "C -> (0.5) X"], 9),
+])
+def test_stochastic_steps_carrying_addresses_choose_as_the_history_says(axiom, rules, k, monkeypatch):
+    """A stochastic module's address is carried from its parent's of the step before where
+    the parent was chosen for too (`GeneralRewriter._addresses`); the choices are those of
+    addresses read from the whole history, step by step."""
+    system = make_system(axiom, rules, seed=13)
+    fast, slow = derive(system, k), _slow_stochastic_derive(system, k, monkeypatch)
+    assert text_of(fast) == text_of(slow) and len(fast) > 20
+    for (p1, l1), (p2, l2) in zip(fast.history, slow.history):
+        assert np.array_equal(p1, p2) and np.array_equal(l1, l2)
+
+
+def test_a_deep_chain_has_its_addresses_in_closed_form():
+    """A -> FA for k steps: the F made at step i + 1 has the address 0 .1 (i times) .0, then
+    .0 for each of the k - i - 1 steps it is copied. At k = 300 the addresses are joined from
+    their numbers (building them prefix by prefix would write about k/3 times as much)."""
+    k = 300
+    d = derive(make_system("A", ["A -> FA"]), k)
+    want = ["0" + ".1" * i + ".0" + ".0" * (k - i - 1) for i in range(k)] + ["0" + ".1" * k]
+    assert addresses(d) == want
+    bushy = derive(make_system("F", ["F -> F[+F]F[-F]F"]), 4)       # prefixes shared: built
+    idx = np.arange(len(bushy))
+    assert bushy.address_strings(idx) == bushy._joined_addresses(idx)
+
+
 # --- the max_modules guard -----------------------------------------------------------
 
 def test_max_modules_guard_message():
