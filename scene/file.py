@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantlod.lsys.errors import InputError
+from plantlod.sim.constants import MAX_DAMPING_RATIO
 
 from .constants import MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
 
@@ -131,7 +132,7 @@ class _Reader:
                                  f"{', '.join(sorted(allowed))}", key)
 
     def number(self, table: dict, key: str, default=None, *, low=None, low_open=False,
-               integer=False) -> float:
+               integer=False, high=None) -> float:
         if key not in table:
             if default is None:
                 raise self.error(f"missing '{key}'", None)
@@ -143,6 +144,8 @@ class _Reader:
             raise self.error(f"'{key}' must be {kind}, got {value!r}", key)
         if low is not None and (value <= low if low_open else value < low):
             raise self.error(f"'{key}' must be {'>' if low_open else '>='} {low:g}, got {value!r}", key)
+        if high is not None and value > high:
+            raise self.error(f"'{key}' must be <= {high:g}, got {value!r}", key)
         return value
 
     def vector(self, table: dict, key: str, size: int, default=None) -> tuple[float, ...]:
@@ -158,10 +161,15 @@ class _Reader:
         return tuple(float(v) for v in value)
 
     def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
-        if not isinstance(name, str) or not name:
+        if not isinstance(name, str) or not name or "\0" in name:
             raise self.error(f"'{key}' must name an .lsys file, got {name!r}", key)
-        path = (folder / name).resolve()
-        if not path.is_file():
+        try:
+            path = (folder / name).resolve()
+            found = path.is_file()
+        except OSError as exc:               # a name too long for the system, a loop of links
+            raise self.error(f"tree file {name[:80]!r}{'…' if len(name) > 80 else ''}: "
+                             f"{exc.strerror or exc}", key) from None
+        if not found:
             raise self.error(f"tree file {name!r} not found (looked in {folder})", key)
         return path
 
@@ -188,7 +196,7 @@ def read_scene(path: str) -> Scene:
         raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {steps:,.3g} steps, more than "
                       f"the limit of {MAX_SCENE_STEPS:,}; expected a shorter scene or a larger dt",
                       "duration" if "duration" in data else "dt")
-    damping_ratio = r.number(data, "damping_ratio", 0.0, low=0)
+    damping_ratio = r.number(data, "damping_ratio", 0.0, low=0, high=MAX_DAMPING_RATIO)
     budget = r.number(data, "budget_px", 1.0, low=0)
     if budget == 0:
         raise r.error("'budget_px' is 0: no level but the full tree shows no error; expected a "
@@ -279,14 +287,15 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
                       f"{MAX_TREES:,}", "count")
     seed = int(r.number(table, "seed", 0, low=0, integer=True))
     x0, y0, x1, y1 = r.vector(table, "area", 4)
-    if not (x1 > x0 and y1 > y0):
-        raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0", "area")
+    if not (x1 > x0 and y1 > y0 and math.isfinite(x1 - x0) and math.isfinite(y1 - y0)):
+        raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0 (and sides that are "
+                      "finite numbers)", "area")
     spacing = r.number(table, "min_spacing", 0.0, low=0)
     scale = r.number(table, "scale", 1.0, low=0, low_open=True)
     if spacing > 0:
         # points at least s apart in a w x h rectangle: disks of radius s/2 in the rectangle
         # grown by s/2 a side, packed at most hexagonally (density pi / (2 sqrt 3))
-        most = (x1 - x0 + spacing) * (y1 - y0 + spacing) / (spacing * spacing * math.sqrt(3) / 2)
+        most = ((x1 - x0) / spacing + 1) * ((y1 - y0) / spacing + 1) / (math.sqrt(3) / 2)
         if count > most:
             raise r.error(f"cannot place {count:,} trees {spacing:g} m apart in the area: at most "
                           f"{int(most):,} fit; expected a larger area or a smaller spacing",
@@ -305,7 +314,7 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
         x, y = float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1))
         gx, gy = int(x // cell), int(y // cell)
         near = [j for dx in (-1, 0, 1) for dy in (-1, 0, 1) for j in grid.get((gx + dx, gy + dy), [])]
-        if spacing > 0 and any((points[j][0] - x) ** 2 + (points[j][1] - y) ** 2 < spacing ** 2
+        if spacing > 0 and any(math.hypot(points[j][0] - x, points[j][1] - y) < spacing
                                for j in near):
             continue
         grid.setdefault((gx, gy), []).append(len(points))

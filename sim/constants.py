@@ -34,3 +34,5 @@ KERNEL_ENV = "PLANTLOD_KERNEL"
 CAUGHT_SIGNALS = tuple(getattr(_signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
                        if hasattr(_signal, name))
 WORKER_POLL = 1.0            # s: waits on the workers wake this often (and a finished worker is joined)
+MAX_DAMPING_RATIO = 100.0     # ζ above this is refused (measured trees 0.02-0.10, critical 1; at 1e10 the
+                             # stable step underflowed to 0 s)

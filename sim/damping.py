@@ -23,6 +23,8 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 
+from .constants import MAX_DAMPING_RATIO
+
 
 @dataclass(frozen=True)
 class Damping:
@@ -41,7 +43,7 @@ class Damping:
 def as_damping(damping: "float | Damping | None" = 0.0, ratio: float | None = None) -> Damping:
     """A checked `Damping` from a coefficient c (or a `Damping`) and an optional ratio ζ.
 
-    Raises InputError for c outside [0, 2), ζ negative or not finite, or both given.
+    Raises InputError for c outside [0, 2), ζ outside [0, MAX_DAMPING_RATIO], or both given.
     """
     if isinstance(damping, Damping):
         base = damping
@@ -52,14 +54,16 @@ def as_damping(damping: "float | Damping | None" = 0.0, ratio: float | None = No
         base = Damping(c=c)
     if ratio is not None:
         z = float(ratio)
-        if not (math.isfinite(z) and z >= 0.0):
-            raise InputError(f"the damping ratio must be a finite number >= 0, got {z:g}")
+        if not (math.isfinite(z) and 0.0 <= z <= MAX_DAMPING_RATIO):
+            raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
+                             f"got {z:g}")
         if base.c != 0.0 or (base.ratio and base.ratio != z):
             raise InputError("give either the damping c (--damping) or the damping ratio "
                              "(--damping-ratio), not both")
         base = Damping(c=0.0, ratio=z)
-    if base.ratio and not (math.isfinite(base.ratio) and base.ratio >= 0.0):
-        raise InputError(f"the damping ratio must be a finite number >= 0, got {base.ratio:g}")
+    if base.ratio and not (math.isfinite(base.ratio) and 0.0 <= base.ratio <= MAX_DAMPING_RATIO):
+        raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
+                         f"got {base.ratio:g}")
     return base
 
 

@@ -60,9 +60,12 @@ def _check_strengths(tree: Tree) -> None:
 
 
 def _round_down(x: float, digits: int = 6) -> float:
-    """``x`` > 0 rounded down to ``digits`` significant digits, for messages."""
+    """``x`` > 0 rounded down to ``digits`` significant digits, for messages (``x`` itself
+    where that is 0, not finite, or too small for the unit to be a double)."""
+    if not (x > 0 and math.isfinite(x)):
+        return x
     unit = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return math.floor(x / unit) * unit
+    return math.floor(x / unit) * unit if unit > 0 else x
 
 
 def largest_stable_dt(tree: Tree, damping: "float | Damping" = 0.0) -> float:

@@ -358,3 +358,29 @@ def test_a_scene_of_trees_without_branches_warns_and_writes_valid_json(tmp_path)
     assert "warning: " in result.stderr and "no branch symbol declared" in result.stderr
     assert "(no branches)" in result.stderr
     assert json.loads(result.stdout, parse_constant=lambda c: pytest.fail(c))["speedup"] is None
+
+
+@pytest.mark.parametrize("body, message", [
+    (f'[[tree]]\nfile = "{STALK}"\n', "'damping_ratio' must be <= 100, got 1e+300"),
+    (f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [-1e308, -1e308, 1e308, 1e308]\n',
+     "'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0 (and sides that are finite numbers)"),
+    (f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [0, 0, 10, 10]\nmin_spacing = 1e300\n',
+     "cannot place 3 trees 1e+300 m apart in the area: at most 1 fit"),
+    ('[[tree]]\nfile = "a\\u0000b"\n', "'file' must name an .lsys file"),
+    (f'[[tree]]\nfile = "{"a" * 5000}.lsys"\n', "File name too long"),
+])
+def test_values_past_what_numbers_and_paths_hold_are_located_bad_input(tmp_path, body, message):
+    """Found by fuzzing (session 21): each of these was an internal error (a math domain
+    error, numpy's range, float ** overflow, an embedded null byte) or exit 1."""
+    path = tmp_path / "s.toml"
+    top = "damping_ratio = 1e300\n" if "damping" in message else ""
+    path.write_text(top + HEAD.format(duration="1") + body)
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    assert line.startswith(f"{path}:")                          # located in the scene file
+
+
+def test_a_spacing_below_the_smallest_normal_double_still_places_trees(tmp_path):
+    """min_spacing 5e-324 (its square is 0: a division by zero before session 21)."""
+    path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\n'
+                                'area = [0, 0, 10, 10]\nmin_spacing = 5e-324\n')
+    assert run_cli("scene", path, "--no-cache", exit_code=None).exit_code == 0
