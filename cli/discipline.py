@@ -227,8 +227,11 @@ def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
 @contextlib.contextmanager
 def _library_warnings():
     """`PlantlodWarning`s raised by the library become the command's one-line warnings
-    (pending until it writes its output or ends well; every one, each once); other
-    warnings keep Python's handling."""
+    (pending until it writes its output or ends well; every one, each once), and so do
+    numpy's floating-point RuntimeWarnings ("overflow encountered in multiply": an input
+    near a double's range; the command's own checks then refuse what is not finite, and
+    the warning is dropped with the run's other warnings); other warnings keep Python's
+    handling."""
     import warnings
 
     from .io import warn_once_running
@@ -240,6 +243,8 @@ def _library_warnings():
         def show(message, category, filename, lineno, file=None, line=None):
             if issubclass(category, PlantlodWarning):
                 warn_once_running(str(message))
+            elif issubclass(category, RuntimeWarning) and " encountered in " in str(message):
+                warn_once_running(f"floating point: {message}")
             else:
                 previous(message, category, filename, lineno, file, line)
 

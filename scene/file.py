@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantlod.lsys.errors import InputError
-from plantlod.sim.constants import MAX_DAMPING_RATIO
+from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 
 from .constants import MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
 
@@ -206,7 +206,8 @@ def read_scene(path: str) -> Scene:
     if not isinstance(wind_t, dict):
         raise r.error("[wind] must be a table", "wind")
     r.keys(wind_t, WIND_KEYS, "[wind]")
-    wind = Wind(r.number(wind_t, "speed", 0.0, low=0), r.number(wind_t, "direction", 0.0),
+    wind = Wind(r.number(wind_t, "speed", 0.0, low=0, high=MAX_WIND_SPEED),
+                r.number(wind_t, "direction", 0.0),
                 r.number(wind_t, "gust_strength", 0.0, low=0),
                 int(r.number(wind_t, "gust_seed", 0, low=0, integer=True)),
                 r.number(wind_t, "front_speed", 0.0, low=0))

@@ -36,3 +36,5 @@ CAUGHT_SIGNALS = tuple(getattr(_signal, name) for name in ("SIGINT", "SIGTERM", 
 WORKER_POLL = 1.0            # s: waits on the workers wake this often (and a finished worker is joined)
 MAX_DAMPING_RATIO = 100.0     # ζ above this is refused (measured trees 0.02-0.10, critical 1; at 1e10 the
                              # stable step underflowed to 0 s)
+MAX_WIND_SPEED = 1000.0        # m/s: faster winds are refused (the strongest gusts measured are near 110 m/s;
+                             # at 1e300 the scene's wind overflowed to inf)

@@ -22,7 +22,7 @@ from typing import Protocol, TextIO
 
 import numpy as np
 
-from .constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY
+from .constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY, MAX_WIND_SPEED
 from plantlod.lsys.errors import InputError
 
 
@@ -65,8 +65,9 @@ def wind_from_speed(speed: float, direction_deg: float) -> ConstantWind:
     """
     speed = float(speed)
     direction_deg = float(direction_deg)
-    if not (math.isfinite(speed) and speed >= 0):
-        raise InputError(f"wind speed must be a finite number >= 0, got {speed:g}")
+    if not (math.isfinite(speed) and 0 <= speed <= MAX_WIND_SPEED):
+        raise InputError(f"wind speed must be a finite number in [0, {MAX_WIND_SPEED:g}] m/s, "
+                         f"got {speed:g}")
     if not math.isfinite(direction_deg):
         raise InputError(f"wind direction must be a finite number of degrees, got {direction_deg:g}")
     turned = direction_deg % 360.0

@@ -358,3 +358,16 @@ def test_a_file_name_that_is_not_utf8_is_no_internal_error(tmp_path):
     result = run_cli("compare", str(path), str(path), *SIM, "--json")
     assert "\\udcff.lsys" in result.stdout
     run_cli("simplify", str(path), "--level", "1", "--duration", "1", "-o", os.devnull)
+
+
+def test_numpy_floating_point_warnings_never_reach_stderr_raw(tmp_path):
+    """A drag coefficient of 1e308 overflows numpy's multiply before the run is found to
+    diverge: the command still says one line (numpy's RuntimeWarning, two lines with a
+    source path, is one of the run's warnings, dropped with it on failure; session 21)."""
+    tree = tmp_path / "t.jsonl"
+    run_cli("derive", str(ROOT / "examples" / "stalk8.lsys"), "-o", str(tree))
+    text = tree.read_text().replace('"drag_coefficient": 0.0015', '"drag_coefficient": 1e308')
+    assert "1e308" in text
+    tree.write_text(text)
+    one_line(run_cli("simulate", str(tree), "--dt", "0.01", "--steps", "50", "--wind-speed", "5",
+                     exit_code=None), 1, "simulation diverged")

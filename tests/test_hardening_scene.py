@@ -384,3 +384,13 @@ def test_a_spacing_below_the_smallest_normal_double_still_places_trees(tmp_path)
     path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\n'
                                 'area = [0, 0, 10, 10]\nmin_spacing = 5e-324\n')
     assert run_cli("scene", path, "--no-cache", exit_code=None).exit_code == 0
+
+
+def test_a_wind_past_1000_m_s_is_located_bad_input(tmp_path):
+    """speed = 1e300 overflowed to inf inside the run, reported without the file (session 21)."""
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration="1").replace("speed = 5", "speed = 1e300")
+                    + f'[[tree]]\nfile = "{STALK}"\n')
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+                    "'speed' must be <= 1000, got 1e+300")
+    assert line.startswith(f"{path}:4:")
