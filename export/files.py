@@ -9,6 +9,8 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
+from .constants import MAX_EXPORT_SAMPLES
+
 FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
 
 
@@ -17,8 +19,15 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     """Write ``tree`` moving by ``bend``/``rot`` (K, B) at ``times`` (K,) to ``path``, atomically."""
     import math
 
+    span = float(times[-1]) * fps
+    if not math.isfinite(span) or span + 1 > MAX_EXPORT_SAMPLES / max(tree.n_branches, 1):
+        raise InputError(f"the angles run {float(times[-1]):g} s: at {fps:g} fps that is more "
+                         f"frames than the limit of {MAX_EXPORT_SAMPLES:,} frames x branches "
+                         f"({tree.n_branches:,} branches); expected a shorter run or a lower --fps")
+    if not (np.isfinite(bend).all() and np.isfinite(rot).all()):
+        raise InputError("the angles hold values that are not finite numbers")
     if frames is not None:
-        count = int(math.floor(float(times[-1]) * fps + 1e-9)) + 1
+        count = int(math.floor(span + 1e-9)) + 1
         if not 0 <= frames[0] < frames[1] <= count:
             raise InputError(f"--frames {frames[0]}:{frames[1]} is outside the run's {count} frames "
                              f"(0:{count} at {fps:g} fps)")

@@ -20,6 +20,8 @@ import math
 
 import numpy as np
 
+from plantlod.lsys.errors import InputError
+
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose
 
@@ -75,6 +77,9 @@ def local_transforms(tree: Tree, bend: np.ndarray, rot: np.ndarray) -> tuple[np.
     p = pose(tree, bend, rot)
     parent = np.asarray(tree.parent, dtype=np.int64)
     frame = p.frame
+    if not np.isfinite(frame).all():          # angles past what the rotations hold (1e300 rad)
+        raise InputError("the angles give branch frames that are not finite numbers; expected "
+                         "angles in radians (or --degrees)")
     local = frame.copy()
     has = parent >= 0
     local[:, has] = np.einsum("fbji,fbjk->fbik", frame[:, parent[has]], frame[:, has])

@@ -168,3 +168,25 @@ def test_frames_outside_the_run_and_a_missing_folder_are_exit_2(run, tmp_path):
     result = run_cli(*args, "-o", str(tmp_path / "no" / "x.glb"), exit_code=2)
     assert "output directory does not exist" in result.stderr
     assert not list(tmp_path.glob(".plantlod-*"))
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t, a: (t * 1e298, a), "frames than the limit of 500,000,000 frames x branches"),
+    (lambda t, a: (t, a * 1e300), "the angles give branch frames that are not finite numbers"),
+])
+def test_angles_past_what_an_export_holds_are_bad_input_in_the_angles_file(run, tmp_path, edit,
+                                                                           message):
+    """Times of 1e298 s made numpy allocate 3e299 frames (an internal error) and angles of
+    1e300 rad wrote NaN rotations with exit 0 (session 21, found by fuzzing)."""
+    folder, _, _ = run
+    lines = (folder / "a.csv").read_text().splitlines()
+    rows = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    t, a = edit(rows[:, 0], rows[:, 1:])
+    edited = tmp_path / "e.csv"
+    edited.write_text("\n".join([lines[0]] + [",".join(repr(float(x)) for x in [ti, *ai])
+                                              for ti, ai in zip(t, a)]) + "\n")
+    result = run_cli("export", str(folder / "t.jsonl"), str(edited), "-o", str(tmp_path / "x.glb"),
+                     exit_code=2)
+    assert result.stderr.startswith(f"{edited}: error:") or result.stderr.startswith("e.csv")
+    assert message in result.stderr and result.stderr.count("\n") == 1
+    assert not (tmp_path / "x.glb").exists()
