@@ -72,7 +72,11 @@ def check_buffer_uris(doc, path: str, max_bytes: int) -> None:
         if not isinstance(uri, str) or not uri or urllib.parse.urlsplit(uri).scheme:
             raise InputError(f"buffer URI {str(uri)[:80]!r}: expected a data: URI or the name "
                              "of a file beside the glTF", path)
-        target = os.path.join(os.path.dirname(os.path.abspath(path)), urllib.parse.unquote(uri))
+        name = urllib.parse.unquote(uri)
+        if "/" in name or "\\" in name or "\0" in name or name in (".", ".."):
+            raise InputError(f"buffer URI {uri[:80]!r}: expected the name of a file beside the "
+                             "glTF (no folder, no NUL byte)", path)
+        target = os.path.join(os.path.dirname(os.path.abspath(path)), name)
         try:
             info = os.stat(target)
         except OSError as exc:

@@ -95,8 +95,14 @@ def test_indices_and_lengths_are_checked(files, tmp_path, edit, fragment):
 
 def test_external_buffers_are_checked(files, tmp_path):
     doc = json.loads((files / "s.gltf").read_text())
-    for uri, fragment in [("missing.bin", "No such file"), ("/dev/zero", "not a regular file"),
-                          ("http://example.com/x.bin", "expected a data: URI")]:
+    (tmp_path / "folder.bin").mkdir()
+    # a buffer file is one beside the glTF: no folder, no path out of it (a page must not
+    # carry /etc/passwd), no NUL byte (an internal error before session 21)
+    for uri, fragment in [("missing.bin", "No such file"), ("folder.bin", "not a regular file"),
+                          ("http://example.com/x.bin", "expected a data: URI"),
+                          ("/dev/zero", "beside the glTF"), ("../s.bin", "beside the glTF"),
+                          ("sub/s.bin", "beside the glTF"), ("s%00.bin", "beside the glTF"),
+                          ("..", "beside the glTF")]:
         doc["buffers"][0]["uri"] = uri
         path = tmp_path / "e.gltf"
         path.write_text(json.dumps(doc))
