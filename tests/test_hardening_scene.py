@@ -394,3 +394,15 @@ def test_a_wind_past_1000_m_s_is_located_bad_input(tmp_path):
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     "'speed' must be <= 1000, got 1e+300")
     assert line.startswith(f"{path}:4:")
+
+
+@pytest.mark.parametrize("options", [("--angles", "x.zarr", "--report", "x.zarr"),
+                                     ("--report", "z.png", "--plot", "./z.png")])
+def test_two_outputs_at_one_path_are_refused_before_any_work(tmp_path, options, monkeypatch):
+    """The report written into --angles' path made the store fail and stay as a file; the
+    plot over the report was silent (session 21, found by fuzzing)."""
+    monkeypatch.chdir(tmp_path)
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", *options, exit_code=None), 2,
+             "name the same file")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
