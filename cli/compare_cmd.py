@@ -146,10 +146,10 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     settings = _settings_if_needed(ctx, sides, sim_kwargs)
     runs = [_run_side(path, csv, n, degrees, settings) for path, csv, n in sides]
 
-    from plantlod.compare.runs import check_bounds, compare_runs
+    from plantlod.compare.runs import check_bounds
 
-    comparisons = [compare_runs(runs[0], run, window[0] if window else None,
-                                window[1] if window else None) for run in runs[1:]]
+    comparisons = [_compare_one(runs[0], run, path, window)
+                   for run, (path, _csv, _n) in zip(runs[1:], sides[1:])]
     bounds = {"amplitude_error": max_amplitude_error, "period_error": max_period_error,
               "tip_error": max_tip_error, "motion_error": max_motion_error,
               "period_error_major": max_period_error_major, "tip_error_max_m": max_tip_error_m}
@@ -170,6 +170,20 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
 
 
 # --- inputs ----------------------------------------------------------------------------
+
+def _compare_one(original_run, run, path: str, window):
+    """`compare_runs` of one SIMPLIFIED; an error of its groups against the original (an
+    address of no original branch, two groups at one root) names its file."""
+    from plantlod.compare.runs import compare_runs
+
+    try:
+        return compare_runs(original_run, run, window[0] if window else None,
+                            window[1] if window else None)
+    except InputError as exc:
+        if exc.file is not None:
+            raise
+        raise InputError(exc.message, display_name(path)) from None
+
 
 def _check_pairs(simplified, values, option: str) -> None:
     if values and len(values) != len(simplified):

@@ -15,7 +15,7 @@ import shutil
 import numpy as np
 import pytest
 
-from golden_util import assert_golden
+from golden_util import ROOT, assert_golden, run_cli
 from plantlod.cli.main import cli
 from reference_model import reference_simulate
 
@@ -284,3 +284,17 @@ def test_window_and_several_simplified_files(runner, stalks):
     assert table.stdout.count("\noriginal:   stalk8.lsys") == 1            # the second block
     assert table.stdout.count("window:     0 to 10 s (1001 samples)") == 2
     assert len(table.stderr.splitlines()) == 2                           # one summary per file
+
+
+def test_a_simplified_file_whose_groups_miss_the_original_is_named(tmp_path):
+    """With several SIMPLIFIED files, an error of one's groups against the original names
+    that file (it named none before session 21)."""
+    good = tmp_path / "l1.lsys"
+    run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--level", "1", "--form",
+            "explicit", "-o", str(good))
+    bad = tmp_path / "bad.lsys"
+    bad.write_text(good.read_text().replace("  3: 0.0.1.0", "  3: 9.9.9.9"))
+    result = run_cli("compare", str(ROOT / "examples" / "stalk8.lsys"), str(good), str(bad),
+                     "--dt", "0.01", "--steps", "20", "--wind-speed", "5", exit_code=2)
+    lines = result.stderr.strip().splitlines()
+    assert lines[-1].startswith(f"{bad}: error:") and "9.9.9.9" in lines[-1], lines
