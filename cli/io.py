@@ -258,7 +258,9 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
         yield tmp
         with _write_errors(path):
             if merge and os.path.isdir(path):
-                for name in sorted(os.listdir(tmp)):
+                names = sorted(os.listdir(tmp))
+                check_merge_targets(path, names)     # before the first move: all or none
+                for name in names:
                     os.replace(os.path.join(tmp, name), os.path.join(path, name))
                 os.rmdir(tmp)
             else:
@@ -268,6 +270,16 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
         release(tmp)
+
+
+def check_merge_targets(path: str, names: list[str]) -> None:
+    """InputError where one of ``names`` in the folder ``path`` is a folder (a file cannot
+    replace it), so that nothing is moved in when not everything can be."""
+    for name in names:
+        target = os.path.join(path, name)
+        if os.path.isdir(target) and not os.path.islink(target):
+            raise InputError(f"{name} in it is a folder; expected a file of that name or none",
+                             path)
 
 
 @contextlib.contextmanager

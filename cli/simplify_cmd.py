@@ -13,7 +13,7 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import display_name, open_output, output_folder, say
+from .io import check_merge_targets, display_name, open_output, output_folder, say
 
 
 def _wind_range(ctx, param, value):
@@ -149,6 +149,8 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     original = build(system).tree
     groupings = merge_levels(original)
     last = len(groupings) - 1
+    if os.path.isdir(folder):                # refused before the fit, not after it
+        check_merge_targets(folder, [f"level{k}.lsys" for k in range(1, last + 1)])
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",
                        damping_ratio=damping_ratio) for k in range(1, last + 1)]
     # every level into a temporary folder beside DIR, moved into DIR only when all are

@@ -406,3 +406,23 @@ def test_two_outputs_at_one_path_are_refused_before_any_work(tmp_path, options, 
     one_line(run_cli("scene", path, "--no-cache", *options, exit_code=None), 2,
              "name the same file")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def test_simplify_levels_into_a_folder_holding_a_folder_of_a_level_name_moves_nothing(tmp_path):
+    """level2.lsys a folder in DIR: refused before the fit, DIR as it was (level 1 was moved
+    in and the rest dropped before session 21, found by fuzzing); and the merge itself
+    checks every name before its first move (`cli.io.check_merge_targets`)."""
+    from plantlod.cli.io import output_folder
+    from plantlod.lsys.errors import InputError
+
+    target = tmp_path / "lv"
+    (target / "level2.lsys").mkdir(parents=True)
+    one_line(run_cli("simplify", STALK, "--levels", str(target), "--duration", "1",
+                     exit_code=None), 2, "level2.lsys in it is a folder")
+    assert sorted(os.listdir(target)) == ["level2.lsys"]
+    with pytest.raises(InputError, match="level2.lsys in it is a folder"):
+        with output_folder(str(target), merge=True) as tmp:
+            for name in ("level1.lsys", "level2.lsys"):
+                (tmp_path / tmp / name).write_text("x")
+    assert sorted(os.listdir(target)) == ["level2.lsys"]
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
