@@ -27,6 +27,7 @@ from .text_input import reading, source_name, stdin_bytes
 
 TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
+ARCHIVE_VERSION = 1          # `version` of both archives (read: exactly this)
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
 ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
 
@@ -48,7 +49,7 @@ def tree_bytes(tree: Tree) -> bytes:
         else:
             fields[f.name] = np.asarray(value)
     out = io.BytesIO()
-    np.savez(out, format=np.array(TREE_FORMAT), version=np.array(1), **fields)
+    np.savez(out, format=np.array(TREE_FORMAT), version=np.array(ARCHIVE_VERSION), **fields)
     return out.getvalue()
 
 
@@ -133,6 +134,12 @@ def _load(data: bytes, source: str, kind: str) -> dict[str, np.ndarray]:
     if label is None or label.shape != () or label.dtype.kind != "U" or str(label) != kind:
         found = f" (format {str(label)!r})" if label is not None and label.size == 1 else ""
         raise InputError(f"not a {kind} archive{found}", source)
+    version = arrays.get("version")
+    if (version is None or version.shape != () or version.dtype.kind not in "iu"
+            or int(version) != ARCHIVE_VERSION):
+        shown = version.tolist() if version is not None and version.size < 8 else "missing"
+        raise InputError(f"{kind} archive version {shown!r} is not supported; expected "
+                         f"{ARCHIVE_VERSION} (written by this plantlod)", source)
     return arrays
 
 
@@ -198,8 +205,13 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     values["leaf_normal"] = _numbers(arrays, "leaf_normal", source, (f, 3))
     values["address"] = _strings(arrays, "address", source, _BRANCH_ADDRESS)
     values["symbol"] = _strings(arrays, "symbol", source)
+    long = next((s for s in values["symbol"] if len(s) != 1), None)
+    if long is not None:
+        raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one character "
+                         "a branch", source)
     values["leaf_address"] = _strings(arrays, "leaf_address", source, _LEAF_ADDRESS)
-    values["group_root"] = _strings(arrays, "group_root", source) if "group_root" in arrays else []
+    values["group_root"] = (_strings(arrays, "group_root", source, _LEAF_ADDRESS)
+                            if "group_root" in arrays else [])
     # a level's gain matrices (model.md 5): optional, (B, 6)
     values["force_gain"] = (_numbers(arrays, "force_gain", source, (b, 6))
                             if "force_gain" in arrays else None)
@@ -230,7 +242,7 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
 
 def angles_bytes(times: np.ndarray, addresses: list[str], bend: np.ndarray, rot: np.ndarray) -> bytes:
     out = io.BytesIO()
-    np.savez(out, format=np.array(ANGLES_FORMAT), version=np.array(1), time=np.asarray(times),
+    np.savez(out, format=np.array(ANGLES_FORMAT), version=np.array(ARCHIVE_VERSION), time=np.asarray(times),
              address=np.array(list(addresses), dtype=str), bend=np.asarray(bend),
              rotation=np.asarray(rot))
     return out.getvalue()

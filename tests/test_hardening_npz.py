@@ -228,3 +228,31 @@ def test_derive_refuses_text_into_an_archive(tmp_path):
     one_line(run_cli("derive", STALK, "--format", "string", "-o", str(tmp_path / "d.npz"),
                      exit_code=None), 2, "--format string writes text; an .npz archive holds a tree")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("change, fragment", [
+    ({"version": npy(np.array(3))}, "version 3 is not supported"),
+    ({"version": npy(np.array("1"))}, "is not supported"),
+    ({"version": npy(np.array(1.0))}, "version 1.0 is not supported"),
+    ({"version": npy(np.array([1, 1]))}, "is not supported"),
+    ({"version": None}, "version 'missing' is not supported"),
+])
+def test_an_archive_version_other_than_1_is_refused(change, fragment):
+    """As the tree-file reader refuses a version it does not know (session 21: any was read)."""
+    refused(archive(angles_members(**change)), fragment)
+
+
+@pytest.mark.parametrize("field, value, fragment", [
+    ("symbol", "FF", "'symbol' in the archive holds 'FF'; expected one character"),
+    ("group_root", "x", "'group_root' in the archive holds 'x', not an address"),
+])
+def test_tree_archive_strings_are_checked_as_the_tree_file_checks_them(field, value, fragment):
+    from plantlod.lsys.build import build
+    from plantlod.lsys.parse import parse_lsys
+
+    tree = build(parse_lsys(open(STALK).read(), STALK)).tree
+    with zipfile.ZipFile(io.BytesIO(tree_bytes(tree))) as z:
+        members = {n[:-4]: z.read(n) for n in z.namelist()}
+    strings = [value] * tree.n_branches
+    members[field] = npy(np.array(strings))
+    refused(archive(members), fragment, reader=read_tree_bytes)
