@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import stat
 import re
 import warnings
 from importlib import resources
@@ -69,12 +70,21 @@ def _read_bytes(path: str) -> bytes:
     """The file's bytes, refused beyond VIEW_MAX_FILE_BYTES before it is read."""
     from plantlod.formats.text_input import reading
 
+    # /dev/zero or a pipe has no size to check (and opening a pipe waits for a writer), and
+    # the glTF reader reads the path again: only regular files
+    with reading(path):
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise InputError("not a regular file; expected a .glb or .gltf file "
+                             "(`plantlod export` output)", path)
     with reading(path), open(path, "rb") as handle:
-        size = os.fstat(handle.fileno()).st_size
-        if size > VIEW_MAX_FILE_BYTES:
-            raise InputError(f"the file has {size:,} bytes, more than the limit of "
+        info = os.fstat(handle.fileno())
+        if info.st_size > VIEW_MAX_FILE_BYTES:
+            raise InputError(f"the file has {info.st_size:,} bytes, more than the limit of "
                              f"{VIEW_MAX_FILE_BYTES:,}", path)
-        return handle.read(VIEW_MAX_FILE_BYTES + 1)
+        data = handle.read(VIEW_MAX_FILE_BYTES + 1)
+    if len(data) > VIEW_MAX_FILE_BYTES:              # (grew while it was read)
+        raise InputError(f"the file has more than {VIEW_MAX_FILE_BYTES:,} bytes, the limit", path)
+    return data
 
 
 def view_page(trees: Sequence[tuple[str, bytes, int | None]], wind_direction_deg: float = 0.0,

@@ -110,6 +110,18 @@ def test_external_buffers_are_checked(files, tmp_path):
             glb_from_file(str(path))
 
 
+@pytest.mark.parametrize("device", ["/dev/zero", "fifo"])
+def test_a_file_that_is_not_regular_is_refused_before_reading(tmp_path, device):
+    """/dev/zero was read without end by the glTF reader (memory, then killed with a
+    temporary left); a pipe waited for a writer (session 21, found by fuzzing)."""
+    path = device
+    if device == "fifo":
+        path = str(tmp_path / "p.glb")
+        os.mkfifo(path)
+    with pytest.raises(InputError, match="not a regular file"):
+        glb_from_file(path)
+
+
 def test_a_file_too_large_is_refused_before_reading(files, tmp_path, monkeypatch):
     import plantlod.export.view as view
 
