@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from golden_util import assert_golden, run_cli
+from golden_util import ROOT, assert_golden, run_cli
 
 from plantlod.formats.lsys_file import read_lsys
 from plantlod.lsys.build import build
@@ -134,3 +134,17 @@ def test_a_stalk_is_scored_on_its_relative_bounds():
     assert bounds_score([(None, r)], 1) == pytest.approx(0.5)                # 0.01/0.02 period
     assert bounds_score([(None, r)], 1, stalk=True) == pytest.approx(1.5)    # 0.03/0.02 amplitude
     assert form_rank([(None, r)], 1, stalk=True) == (1, pytest.approx(1.5))
+
+
+@pytest.mark.parametrize("args, message", [
+    (("--level", "1", "--dt", "10"), "--duration 20 s at --dt 10 s gives fewer than 8 steps"),
+    (("--level", "1", "--duration", "1e-9"), "gives fewer than 8 steps to measure the motion in"),
+    (("--levels", "DIR", "--form", "grammar"), "--levels writes the explicit form"),
+])
+def test_options_that_cannot_measure_or_do_not_apply_are_usage_errors(tmp_path, args, message):
+    """A run too short for two kept samples said "expected times (K,) matching a signal";
+    --levels with --form grammar was silently explicit (session 21, found by fuzzing)."""
+    args = [str(tmp_path / "lv") if a == "DIR" else a for a in args]
+    result = run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), *args, exit_code=2)
+    assert message in result.stderr and result.stderr.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
