@@ -186,6 +186,8 @@ def read_scene(path: str) -> Scene:
         m = re.search(r"line (\d+), column (\d+)", str(exc))
         raise InputError(f"not valid TOML: {str(exc).split(' (at')[0]}", path,
                          int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None
+    except RecursionError:              # arrays or tables nested thousands deep
+        raise InputError("not valid here: TOML nested too deeply for a scene", path) from None
     r = _Reader(text, path)
     r.keys(data, TOP_KEYS, "the scene")
     folder = file.resolve().parent

@@ -426,3 +426,13 @@ def test_simplify_levels_into_a_folder_holding_a_folder_of_a_level_name_moves_no
                 (tmp_path / tmp / name).write_text("x")
     assert sorted(os.listdir(target)) == ["level2.lsys"]
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
+
+
+def test_toml_nested_thousands_deep_names_the_file(tmp_path):
+    """tomllib's RecursionError reached the command as "input nested too deeply" with no
+    file (session 21, found by fuzzing)."""
+    path = tmp_path / "s.toml"
+    path.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+                    "nested too deeply")
+    assert line.startswith(f"{path}: error:")
