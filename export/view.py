@@ -71,9 +71,10 @@ def _read_bytes(path: str) -> bytes:
     from plantlod.formats.text_input import reading
 
     # /dev/zero or a pipe has no size to check (and opening a pipe waits for a writer), and
-    # the glTF reader reads the path again: only regular files
+    # the glTF reader reads the path again: only regular files (a folder: open says so)
     with reading(path):
-        if not stat.S_ISREG(os.stat(path).st_mode):
+        mode = os.stat(path).st_mode
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
             raise InputError("not a regular file; expected a .glb or .gltf file "
                              "(`plantlod export` output)", path)
     with reading(path), open(path, "rb") as handle:
