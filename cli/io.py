@@ -14,7 +14,6 @@ import io
 import os
 import shutil
 import signal
-import stat
 import sys
 import tempfile
 import threading
@@ -23,8 +22,8 @@ from typing import IO, Iterator
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import (atomic_path, hold, release, remove_pending, usual_file_mode,
-                                     write_all)
+from plantlod.formats.atomic import (atomic_path, hold, release, remove_pending, special_target,
+                                     usual_file_mode, write_all)
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -123,23 +122,6 @@ def count(n: int, noun: str) -> str:
     return f"{n:,} {noun if n == 1 else _PLURALS.get(noun, noun + 's')}"
 
 
-def _special_target(path: str) -> bool:
-    """True when ``path`` exists and is not a regular file (``/dev/null``, a FIFO, a tty).
-
-    Such a target must be written in place: renaming a temporary file over it
-    would replace the device or pipe with a regular file.
-    """
-    try:
-        mode = os.stat(path).st_mode
-    except (FileNotFoundError, NotADirectoryError):
-        return False
-    except OSError as exc:                    # a name too long, a loop of links
-        raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
-    if stat.S_ISDIR(mode):
-        raise InputError("is a directory; expected the name of a file to write", path)
-    return not stat.S_ISREG(mode)
-
-
 def check_output_path(path: str | None) -> None:
     """Refuse now what `open_output` would refuse later (a missing directory, a directory
     as the target), so that a command can check every output before writing the first."""
@@ -149,7 +131,7 @@ def check_output_path(path: str | None) -> None:
         raise InputError("the output file name is empty; expected -o FILE or -o - for stdout")
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
-    _special_target(path)
+    special_target(path)
 
 
 @contextlib.contextmanager
@@ -181,7 +163,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             out.flush()
         return
     check_output_path(path)
-    if _special_target(path):
+    if special_target(path):
         with _write_errors(path), _open_stream(path, binary) as out:
             yield out
         return

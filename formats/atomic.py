@@ -44,12 +44,38 @@ def remove_pending() -> None:
                 os.unlink(path)
 
 
+def special_target(path: str) -> bool:
+    """True when ``path`` exists and is not a regular file (``/dev/null``, a FIFO, a tty).
+
+    Such a target must be written in place: renaming a temporary file over it would
+    replace the device or pipe with a regular file (as root, /dev/full itself). A
+    directory, or a name the system refuses, is an InputError.
+    """
+    import stat
+
+    from plantlod.lsys.errors import InputError
+
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    except (OSError, ValueError) as exc:      # a name too long, a loop of links, a NUL byte
+        raise InputError(f"cannot write: {getattr(exc, 'strerror', None) or exc}", path) from None
+    if stat.S_ISDIR(mode):
+        raise InputError("is a directory; expected the name of a file to write", path)
+    return not stat.S_ISREG(mode)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str, suffix: str = ".tmp") -> Iterator[str]:
     """A temporary path beside ``path`` to write to; renamed to ``path`` (with the usual
     permissions) when the block ends normally, removed on any exception, and by
     `remove_pending` on a signal. ``suffix`` keeps an extension for writers that choose
-    the format by it (OpenUSD)."""
+    the format by it (OpenUSD). A `special_target` (a device, a pipe) is given itself,
+    written in place."""
+    if special_target(path):
+        yield path
+        return
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=suffix, dir=folder)
     hold(tmp)

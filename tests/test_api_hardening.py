@@ -4,6 +4,8 @@ speed and direction, and compare's labels for a level made by simplify."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -87,3 +89,25 @@ def test_compare_labels_a_level_by_its_name():
     report = plantlod.compare(system, level, wind=(5.0, 0, 0), dt=0.01, duration=1)
     assert report["original"]["file"] == STALK
     assert report["comparisons"][0]["simplified"]["file"] == "stalk8 level 1 (explicit form)"
+
+
+def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
+    """The API's writers renamed their temporary file over the path: over /dev/full (run as
+    root) that replaced the device with a regular file, and every later test of a full disk
+    passed silently (session 21, found by fuzzing). Devices and pipes are written in place
+    (`formats.atomic.atomic_path`), as the commands always did."""
+    import stat
+
+    tree = plantlod.derive(STALK)
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)                           # (a pipe of our own: a regression replaces it,
+    reader = os.open(pipe, os.O_RDONLY | os.O_NONBLOCK)   # not a device of the machine's)
+    try:
+        plantlod.write_tree(tree, pipe)
+        got = os.read(reader, 1 << 20).decode()
+    finally:
+        os.close(reader)
+    assert stat.S_ISFIFO(os.stat(pipe).st_mode) and got == plantlod.write_tree(tree)
+    with pytest.raises(InputError, match="is a directory"):
+        plantlod.write_tree(tree, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]
