@@ -9,8 +9,7 @@ import sys
 import click
 
 from plantlod.simplify.constants import (
-    CALIBRATION_EVALUATIONS, CHAIN_JOBS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_EVERY,
-    SIMPLIFY_WIND_RANGE,
+    CALIBRATION_EVALUATIONS, CHAIN_JOBS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
 )
 
 from .discipline import require_together
@@ -103,10 +102,6 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
         level = level_n
     if (level is None) == (levels_dir is None):
         raise click.UsageError("give --level N, or --levels DIR for every level of the explicit form")
-    if duration < 2 * SIMPLIFY_EVERY * dt:      # (a period needs two kept samples at least)
-        raise click.UsageError(f"--duration {duration:g} s at --dt {dt:g} s gives fewer than "
-                               f"{2 * SIMPLIFY_EVERY} steps to measure the motion in; expected a "
-                               "longer --duration or a smaller --dt")
     if levels_dir is not None and form == "grammar":
         raise click.UsageError("--levels writes the explicit form; --form grammar does not apply")
     system = read_lsys(input_path)

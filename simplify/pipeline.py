@@ -24,6 +24,7 @@ from .constants import SIMPLIFY_DT
 from .constants import SIMPLIFY_DURATION
 from .constants import SIMPLIFY_EVERY
 from .constants import SIMPLIFY_WIND_RANGE
+from .constants import MAX_LEVEL
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
@@ -77,14 +78,46 @@ class Options:
 
     def __post_init__(self) -> None:
         from plantlod.lsys.errors import InputError
-        from plantlod.sim.constants import MAX_TIME_STEPS, MIN_TIME_STEP
+        from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_TIME_STEPS, MIN_TIME_STEP
 
+        def whole(name: str, value, low: int, high: int) -> None:
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+                    or not low <= value <= high:
+                raise InputError(f"{name} must be a whole number in [{low}, {high:,}], got {value!r}")
+
+        def real(name: str, value) -> None:
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                    or not math.isfinite(value):
+                raise InputError(f"{name} must be a finite number, got {value!r}")
+
+        whole("level", self.level, 1, MAX_LEVEL)    # (no tree has that many levels)
+        for name, value, choices in (("method", self.method, ("derived", "thesis")),
+                                     ("form", self.form, ("auto", "grammar", "explicit"))):
+            if value not in choices:
+                raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+        if not isinstance(self.calibrate, bool):
+            raise InputError(f"calibrate must be True or False, got {self.calibrate!r}")
+        if not isinstance(self.wind_range, (tuple, list)) or len(self.wind_range) != 2:
+            raise InputError(f"wind_range must be (low, high) in m/s, got {self.wind_range!r}")
+        for name, value in (("wind_range", self.wind_range[0]), ("wind_range", self.wind_range[1]),
+                            ("dt", self.dt), ("duration", self.duration),
+                            ("damping_ratio", self.damping_ratio)):
+            real(name, value)
+        if not 0 <= self.damping_ratio <= MAX_DAMPING_RATIO:
+            raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
+                             f"got {self.damping_ratio:g}")
+        whole("every", self.every, 1, MAX_TIME_STEPS)
+        whole("max_evaluations", self.max_evaluations, 1, MAX_TIME_STEPS)
         if not MIN_TIME_STEP <= self.dt < math.inf:
             raise InputError(f"--dt {self.dt:g} s: expected a time step of at least "
                              f"{MIN_TIME_STEP:g} s")
         if not 0 <= self.duration / self.dt <= MAX_TIME_STEPS:
             raise InputError(f"--duration {self.duration:g} / --dt {self.dt:g} gives more than "
                              f"{MAX_TIME_STEPS:,} steps, the limit of one run")
+        if self.duration < 2 * self.every * self.dt:    # (a period needs two kept samples)
+            raise InputError(f"--duration {self.duration:g} s at --dt {self.dt:g} s gives fewer "
+                             f"than {2 * self.every} steps to measure the motion in; expected a "
+                             "longer --duration or a smaller --dt")
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
@@ -540,6 +573,15 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
 
     options : the other fields of `Options` (method, calibrate, wind_range, dt, ...).
     """
+    import dataclasses
+
+    if not isinstance(system, LSystem):
+        raise InputError(f"expected an LSystem or the path of an .lsys file, got "
+                         f"{type(system).__name__}")
+    known = {f.name for f in dataclasses.fields(Options)} - {"level"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise InputError(f"unknown option {unknown[0]!r}; expected some of {', '.join(sorted(known))}")
     return simplify(system, Options(level=level, **options)).system
 
 

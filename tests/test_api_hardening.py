@@ -111,3 +111,26 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     with pytest.raises(InputError, match="is a directory"):
         plantlod.write_tree(tree, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]
+
+
+@pytest.mark.parametrize("options, fragment", [
+    ({"level": 10 ** 30}, "level must be a whole number in [1, 1,000]"),   # looped 10^30 times
+    ({"level": 0}, "level must be a whole number"),                        # KeyError: 0
+    ({"level": 1.5}, "level must be a whole number"),                      # TypeError
+    ({"every": 0}, "every must be a whole number"),                        # ZeroDivisionError
+    ({"every": 10 ** 30}, "every must be a whole number"),                 # numba TypingError
+    ({"wind_range": (5,)}, "wind_range must be (low, high)"),              # TypeError
+    ({"dt": "0.01"}, "dt must be a finite number"),                        # TypeError
+    ({"damping_ratio": "0.1"}, "damping_ratio must be a finite number"),   # ValueError
+    ({"max_evaluations": -1}, "max_evaluations must be a whole number"),   # accepted
+    ({"calibrate": "yes"}, "calibrate must be True or False"),             # accepted
+    ({"foo": 1}, "unknown option 'foo'"),                                  # TypeError
+    ({"dt": 10}, "gives fewer than 8 steps to measure the motion in"),     # signal shape error
+])
+def test_simplify_options_are_checked_before_any_work(options, fragment):
+    """Each of these raised another exception, hung or was accepted (session 21, found by
+    fuzzing the API); `simplify.pipeline.Options` checks every field, for the command too."""
+    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+        plantlod.simplify(STALK, **({"level": 1} | options))
+    with pytest.raises(InputError, match="expected an LSystem or the path"):
+        plantlod.simplify(None, level=1)
