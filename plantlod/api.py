@@ -25,6 +25,8 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
+from .arguments import one_run, output_target, path_of, real, whole
+
 PathOrText = Union[str, "os.PathLike[str]"]
 PathOrFile = Union[str, "os.PathLike[str]", IO[str]]
 
@@ -71,16 +73,17 @@ class Angles:
 def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSystem:
     """Parse an L-system from a file path or from its text (docs/lsys-format.md).
 
-    A string with a line break is the text itself (an L-system has several lines); any
+    A string with a line break (LF or CR) is the text itself (an L-system has several lines); any
     other string, or a path object, names a file (a missing one is an `InputError`
     "no such file"). Raises `plantlod.InputError` (file:line:col) on bad input.
     """
     from plantlod.lsys.parse import parse_lsys
 
     if isinstance(path_or_text, os.PathLike) or (
-            isinstance(path_or_text, str) and "\n" not in path_or_text):
+            isinstance(path_or_text, str) and "\n" not in path_or_text
+            and "\r" not in path_or_text):
         from plantlod.formats.lsys_file import read_lsys
-        return read_lsys(os.fspath(path_or_text))
+        return read_lsys(path_of(path_or_text))
     if not isinstance(path_or_text, str):
         raise InputError(f"expected a path or the text of an L-system, got "
                          f"{type(path_or_text).__name__}")
@@ -91,6 +94,9 @@ def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> st
     """The canonical text of ``system`` (with its header comment); written when a target is given."""
     from plantlod.formats.lsys_file import write_lsys
 
+    if not isinstance(system, LSystem):
+        raise InputError(f"write_lsystem takes an LSystem, got {type(system).__name__}")
+    output_target(path_or_file)
     text = write_lsys(system, system.comment or None)
     _write_text(text, path_or_file)
     return text
@@ -110,7 +116,13 @@ def derive(system: LSystem | PathOrText, n: int | None = None, *,
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
     from plantlod.lsys.errors import PlantlodWarning
 
+    from plantlod.lsys.constants import MAX_DERIVATION_STEPS
+
     system = _as_system(system)
+    if n is not None:
+        n = whole("n", n, high=MAX_DERIVATION_STEPS)
+    if max_modules is not None:
+        max_modules = whole("max_modules", max_modules, low=1)
     built = build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES)
     for message in built.warnings:
         warnings.warn(message, PlantlodWarning, stacklevel=2)
@@ -129,6 +141,9 @@ def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
     """The tree file text of ``tree``; written when a target is given."""
     from plantlod.formats.treefile import write_tree as _write
 
+    if not isinstance(tree, Tree):
+        raise InputError(f"write_tree takes a Tree, got {type(tree).__name__}")
+    output_target(path_or_file)
     buf = io.StringIO()
     _write(tree, buf)
     _write_text(buf.getvalue(), path_or_file)
@@ -163,7 +178,10 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     from plantlod.sim.damping import as_damping
     from plantlod.sim.stability import check_stability
 
-    damping = as_damping(damping, damping_ratio)
+    damping = as_damping(real("damping", damping),
+                         None if damping_ratio is None else real("damping_ratio", damping_ratio))
+    if threads is not None:
+        threads = whole("threads", threads, low=1)
     tree = _as_tree(tree)
     wind = _wind_option(wind, wind_speed, wind_direction)
     steps = _step_count(dt, steps, duration)
@@ -208,9 +226,18 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
         s = simulate_arrays(tree, dt, steps, winds[0], every=every, damping=damping)
         return s.times, s.bend[None], s.rot[None]
 
+    from plantlod.lsys.errors import RunFailure
+
     ks = np.arange(steps, dtype=np.float64)          # step k uses V(t_{k-1})
-    samples = np.stack([np.asarray(w.sample(ks * dt), dtype=np.float64).reshape(steps, 3)
-                        for w in winds]) if steps else np.zeros((len(winds), 0, 3))
+    samples = np.zeros((len(winds), steps, 3))
+    for w, wind in enumerate(winds if steps else []):
+        try:
+            got = np.asarray(wind.sample(ks * dt), dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise RunFailure(f"the wind gave no array of numbers (wind {w}: {exc})") from None
+        if got.shape != (steps, 3):                  # (as one wind's run says, sim/run.py)
+            raise RunFailure(f"the wind gave an array of shape {got.shape}, expected ({steps}, 3)")
+        samples[w] = got
     bend, rot = run_lanes(LaneModel.from_tree(tree, damping), samples, dt, steps, every=every,
                           threads=threads, addresses=tree.address)
     rest = np.zeros((len(winds), 1, tree.n_branches))
@@ -232,11 +259,13 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
     """The angle CSV of a single run (``bend`` of shape (T, B)); written when a target is given."""
     from plantlod.formats.angles_csv import AnglesCsvWriter
 
-    if np.ndim(angles.bend) != 2:
-        raise InputError("write_angles writes one run: select it first (angles[w])")
+    time, bend, rot, addresses = one_run(angles, "write_angles")
+    bad = next((a for a in addresses if "," in a or "\n" in a or "\r" in a), None)
+    if bad is not None:
+        raise InputError(f"the angles' address {bad[:40]!r} holds a comma or a line break")
+    output_target(path_or_file)
     buf = io.StringIO()
-    AnglesCsvWriter(buf, list(angles.addresses), degrees=degrees).write(
-        angles.time, angles.bend, angles.rotation)
+    AnglesCsvWriter(buf, addresses, degrees=degrees).write(time, bend, rot)
     _write_text(buf.getvalue(), path_or_file)
     return buf.getvalue()
 
@@ -286,12 +315,18 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
         tree = _as_tree(item)
         a = simulate(tree, w, dt, n, damping=damping, damping_ratio=damping_ratio)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
-    t0, t1 = window if window else (None, None)
+    if window is not None and not (isinstance(window, (tuple, list)) and len(window) == 2):
+        raise InputError(f"window must be (start, end) in seconds (either None), got {window!r}")
+    t0, t1 = ((None if t is None else real("window", t)) for t in window) if window else (None, None)
     comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
     unknown = set(bounds or {}) - set(BOUND_OPTIONS)
     if unknown:
         raise InputError(f"unknown bound {sorted(unknown)[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}")
+    if bounds is not None and not isinstance(bounds, dict):
+        raise InputError(f"bounds must map figure names to limits, got {type(bounds).__name__}")
     bounds = {name: (bounds or {}).get(name) for name in BOUND_OPTIONS}
+    bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
+              for name, b in bounds.items()}
     violations = [check_bounds(c.report, bounds) for c in comparisons]
     return comparison_document(comparisons, bounds, violations)
 
@@ -310,11 +345,15 @@ def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLi
     from plantlod.compare.runs import angles_in_tree_order
 
     tree = _as_tree(tree)
-    if np.ndim(angles.bend) != 2:
-        raise InputError("export_animation takes one run: select it first (angles[w])")
-    bend, rot = angles_in_tree_order(tree, list(angles.addresses), np.asarray(angles.bend),
-                                     np.asarray(angles.rotation), "angles")
-    write(os.fspath(path), tree, np.asarray(angles.time), bend, rot, fps, frames)
+    time, bend, rot, addresses = one_run(angles, "export_animation")
+    path = path_of(path, "path", output=True)
+    fps = real("fps", fps, low=0, low_open=True, high=1000)
+    if frames is not None:
+        if not (isinstance(frames, (tuple, list)) and len(frames) == 2):
+            raise InputError(f"frames must be (A, B), frames A to B-1, got {frames!r}")
+        frames = (whole("frames", frames[0]), whole("frames", frames[1], low=1))
+    bend, rot = angles_in_tree_order(tree, addresses, bend, rot, "angles")
+    write(path, tree, time, bend, rot, fps, frames)
 
 
 def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
@@ -325,24 +364,28 @@ def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
     from plantlod.export.constants import VIEW_TITLE
     from plantlod.export.view import view_page_from_files
 
-    paths = [gltf_paths] if isinstance(gltf_paths, (str, os.PathLike)) else list(gltf_paths)
+    if isinstance(gltf_paths, (str, os.PathLike)):
+        gltf_paths = [gltf_paths]
+    if not isinstance(gltf_paths, (list, tuple)) or not gltf_paths:
+        raise InputError("write_view takes the paths of .glb/.gltf files (a path or a list)")
+    paths = [path_of(p, "a glTF path") for p in gltf_paths]
+    wind_direction = real("wind_direction", wind_direction)
+    if title is not None and not isinstance(title, str):
+        raise InputError(f"title must be text, got {type(title).__name__}")
+    output_target(path_or_file)
     page = view_page_from_files(paths, wind_direction, title or VIEW_TITLE)
     _write_text(page, path_or_file)
     return page
 
 
 def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
-    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    dt = real("dt", dt, low=0, low_open=True)
     if (steps is None) == (duration is None):
         raise InputError("give exactly one of steps and duration")
     if steps is None:
-        if not (math.isfinite(duration) and duration >= 0):
-            raise InputError(f"duration must be a finite number >= 0, got {duration!r}")
-        steps = int(round(duration / dt))
-    if not isinstance(steps, (int, np.integer)) or steps < 0:
-        raise InputError(f"steps must be an integer >= 0, got {steps!r}")
-    return int(steps)
+        duration = real("duration", duration, low=0)
+        steps = round(duration / dt)
+    return whole("steps", steps)
 
 
 def _wind(wind: Any):
@@ -431,10 +474,13 @@ def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any
 
 def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
     if hasattr(path_or_file, "read"):
+        if isinstance(path_or_file, (io.RawIOBase, io.BufferedIOBase)) \
+                or "b" in getattr(path_or_file, "mode", ""):
+            raise InputError("a binary stream; expected a text stream or a path")
         return path_or_file, getattr(path_or_file, "name", "<stream>")  # type: ignore[return-value]
     from plantlod.formats.text_input import read_text
 
-    path = os.fspath(path_or_file)
+    path = path_of(path_or_file)
     return io.StringIO(read_text(path)), path
 
 
@@ -446,7 +492,7 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
         return
     from plantlod.formats.atomic import atomic_path, write_whole
 
-    with atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
+    with atomic_path(path_of(path_or_file, output=True)) as tmp:   # all or nothing: no partial file
         write_whole(tmp, text.encode("utf-8", "backslashreplace"))
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",

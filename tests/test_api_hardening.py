@@ -134,3 +134,65 @@ def test_simplify_options_are_checked_before_any_work(options, fragment):
         plantlod.simplify(STALK, **({"level": 1} | options))
     with pytest.raises(InputError, match="expected an LSystem or the path"):
         plantlod.simplify(None, level=1)
+
+
+def _angles():
+    tree = plantlod.derive(STALK)
+    return tree, plantlod.simulate(tree, wind=(2, 0, 0), dt=0.01, steps=30)
+
+
+@pytest.mark.parametrize("call, fragment", [
+    (lambda t, a, d: plantlod.write_tree(t, ""), "must name a file"),
+    (lambda t, a, d: plantlod.write_tree(t, str(d / "no" / "x.jsonl")), "output directory does not exist"),
+    (lambda t, a, d: plantlod.write_tree(t, 42), "must be a path"),
+    (lambda t, a, d: plantlod.write_tree(t, __import__("io").BytesIO()), "binary stream"),
+    (lambda t, a, d: plantlod.write_tree(None), "write_tree takes a Tree"),
+    (lambda t, a, d: plantlod.write_lsystem(t), "write_lsystem takes an LSystem"),
+    (lambda t, a, d: plantlod.read_tree(42), "must be a path"),
+    (lambda t, a, d: plantlod.read_lsystem("\0bad"), "must name a file"),
+    (lambda t, a, d: plantlod.derive(STALK, 1.5), "n must be a whole number"),
+    (lambda t, a, d: plantlod.derive(STALK, max_modules=float("nan")), "max_modules must be"),
+    (lambda t, a, d: plantlod.simulate(t, wind=(1, 0, 0), dt=2 ** 1100, steps=3), "dt must be"),
+    (lambda t, a, d: plantlod.simulate(t, wind=(1, 0, 0), dt=0.01, duration="1"), "duration must be"),
+    (lambda t, a, d: plantlod.simulate(t, wind=[(1, 0, 0)] * 2, dt=0.01, steps=3, threads="2"),
+     "threads must be"),
+    (lambda t, a, d: plantlod.simulate(t, wind=(1, 0, 0), dt=0.01, steps=3, damping=[0.1]),
+     "damping must be"),
+    (lambda t, a, d: plantlod.write_angles(plantlod.Angles(a.time, a.bend, a.rotation,
+                                                            a.addresses[:-1])), "the angles must hold"),
+    (lambda t, a, d: plantlod.write_angles(plantlod.Angles(a.time[::-1], a.bend, a.rotation,
+                                                            a.addresses)), "must rise"),
+    (lambda t, a, d: plantlod.write_angles(None), "takes an Angles"),
+    (lambda t, a, d: plantlod.export_animation(t, a, str(d / "x.glb"), fps=-30), "fps must be"),
+    (lambda t, a, d: plantlod.export_animation(t, a, str(d / "x.glb"), frames=(0,)), "frames must be"),
+    (lambda t, a, d: plantlod.export_animation(t, plantlod.Angles(a.time[:0], a.bend[:0],
+                                                                  a.rotation[:0], a.addresses),
+                                               str(d / "x.glb")), "T >= 1"),
+    (lambda t, a, d: plantlod.export_animation(t, a, str(d / "no" / "x.glb")), "output directory"),
+    (lambda t, a, d: plantlod.compare(t, t, wind=(1, 0, 0), dt=0.01, steps=5, window=(1,)),
+     "window must be"),
+    (lambda t, a, d: plantlod.compare(t, t, wind=(1, 0, 0), dt=0.01, steps=5,
+                                      bounds={"motion_error": float("nan")}), "bounds['motion_error']"),
+    (lambda t, a, d: plantlod.write_view(None), "write_view takes the paths"),
+    (lambda t, a, d: plantlod.write_view(STALK, wind_direction=float("nan")), "wind_direction must"),
+    (lambda t, a, d: plantlod.write_view(STALK, title=42), "title must be text"),
+])
+def test_api_arguments_of_the_wrong_kind_are_input_errors(tmp_path, call, fragment):
+    """Each of these raised TypeError, ValueError, IndexError, KeyError, OverflowError or
+    FileNotFoundError, or wrote a broken file (session 21, found by fuzzing the API);
+    `plantlod.arguments` checks them. Nothing is left behind."""
+    tree, angles = _angles()
+    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+        call(tree, angles, tmp_path)
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_wind_object_giving_no_numbers_is_a_run_failure():
+    from plantlod.lsys.errors import RunFailure
+
+    tree = plantlod.derive(STALK)
+    narrow = type("W", (), {"sample": lambda self, t: np.zeros((len(t), 2))})()
+    words = type("W", (), {"sample": lambda self, t: "abc"})()
+    for wind in (words, [narrow, (1, 0, 0)], [words, (1, 0, 0)]):
+        with pytest.raises(RunFailure, match="the wind gave"):
+            plantlod.simulate(tree, wind=wind, dt=0.01, steps=30)

@@ -1,0 +1,99 @@
+"""The public API's argument checks (plantlod/api.py): every argument that is not what a
+function takes is an `InputError` naming the argument, as a command's bad option is, never
+a TypeError or a numpy error from deep inside (docs/api.md)."""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+from plantlod.lsys.errors import InputError
+
+_REAL = (int, float, np.integer, np.floating)
+
+
+def real(name: str, value: Any, *, low: float | None = None, low_open: bool = False,
+         high: float | None = None) -> float:
+    """``value`` as a finite float in [low, high] (``low_open``: above low)."""
+    if isinstance(value, bool) or not isinstance(value, _REAL):
+        raise InputError(f"{name} must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except OverflowError:                     # an int past a double's range
+        x = math.inf
+    if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)) \
+            or (high is not None and x > high):
+        bounds = f"{'(' if low_open else '['}{'-inf' if low is None else f'{low:g}'}, " \
+                 f"{'inf' if high is None else f'{high:g}'}]"
+        raise InputError(f"{name} must be a finite number in {bounds}, got {value!r}")
+    return x
+
+
+def whole(name: str, value: Any, *, low: int = 0, high: int | None = None) -> int:
+    """``value`` as an int in [low, high]."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or value < low or (high is not None and value > high):
+        raise InputError(f"{name} must be a whole number in [{low}, "
+                         f"{'inf' if high is None else f'{high:,}'}], got {value!r}")
+    return int(value)
+
+
+def output_target(value: Any, name: str = "the target") -> None:
+    """None, a writable text stream, or the path of a file whose folder exists."""
+    if value is None:
+        return
+    if hasattr(value, "write"):
+        if isinstance(value, (io.RawIOBase, io.BufferedIOBase)) or "b" in getattr(value, "mode", ""):
+            raise InputError(f"{name} is a binary stream; expected a text stream or a path")
+        if getattr(value, "writable", lambda: True)() is False:
+            raise InputError(f"{name} is not open for writing")
+        return
+    path_of(value, name, output=True)
+
+
+def path_of(value: Any, name: str = "the path", *, output: bool = False) -> str:
+    """``value`` (a str or os.PathLike naming a file) as a str; ``output``: its folder must
+    exist (as a command's -o FILE)."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise InputError(f"{name} must be a path (str or os.PathLike), got {type(value).__name__}")
+    path = os.fspath(value)
+    if not isinstance(path, str) or not path or "\0" in path:
+        raise InputError(f"{name} must name a file, got {value!r}")
+    if output and not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise InputError("output directory does not exist", path)
+    return path
+
+
+def one_run(angles: Any, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """(time (T,), bend (T, B), rotation (T, B), addresses [B]) of an `Angles` of one run,
+    checked: T >= 1 finite times rising, finite angles of the addresses' count."""
+    from plantlod.api import Angles
+
+    if not isinstance(angles, Angles):
+        raise InputError(f"{what} takes an Angles (plantlod.simulate or read_angles), got "
+                         f"{type(angles).__name__}")
+    if np.ndim(angles.bend) == 3:
+        raise InputError(f"{what} takes one run: select it first (angles[w])")
+    addresses = angles.addresses
+    if not isinstance(addresses, (tuple, list)) or not all(isinstance(a, str) for a in addresses):
+        raise InputError("the angles' addresses must be a sequence of address strings")
+    try:
+        time = np.asarray(angles.time, dtype=np.float64)
+        bend = np.asarray(angles.bend, dtype=np.float64)
+        rot = np.asarray(angles.rotation, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError("the angles' time, bend and rotation must be arrays of real numbers") from None
+    shape = (time.shape[0] if time.ndim == 1 else -1, len(addresses))
+    if time.ndim != 1 or time.shape[0] < 1 or bend.shape != shape or rot.shape != shape:
+        raise InputError(f"the angles must hold time (T,) with T >= 1 and bend and rotation "
+                         f"(T, B) for B = {len(addresses)} addresses; got time "
+                         f"{tuple(time.shape)}, bend {tuple(bend.shape)}, rotation {tuple(rot.shape)}")
+    if not (np.isfinite(time).all() and np.isfinite(bend).all() and np.isfinite(rot).all()):
+        raise InputError("the angles hold values that are not finite numbers")
+    if np.any(np.diff(time) <= 0):
+        raise InputError("the angles' times must rise from row to row")
+    return time, bend, rot, list(addresses)
