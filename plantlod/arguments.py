@@ -5,41 +5,13 @@ a TypeError or a numpy error from deep inside (docs/api.md)."""
 from __future__ import annotations
 
 import io
-import math
 import os
 from typing import Any
 
 import numpy as np
 
+from plantlod.lsys.checks import real, whole  # noqa: F401  (the API's number checks)
 from plantlod.lsys.errors import InputError
-
-_REAL = (int, float, np.integer, np.floating)
-
-
-def real(name: str, value: Any, *, low: float | None = None, low_open: bool = False,
-         high: float | None = None) -> float:
-    """``value`` as a finite float in [low, high] (``low_open``: above low)."""
-    if isinstance(value, bool) or not isinstance(value, _REAL):
-        raise InputError(f"{name} must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except OverflowError:                     # an int past a double's range
-        x = math.inf
-    if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)) \
-            or (high is not None and x > high):
-        bounds = f"{'(' if low_open else '['}{'-inf' if low is None else f'{low:g}'}, " \
-                 f"{'inf' if high is None else f'{high:g}'}]"
-        raise InputError(f"{name} must be a finite number in {bounds}, got {value!r}")
-    return x
-
-
-def whole(name: str, value: Any, *, low: int = 0, high: int | None = None) -> int:
-    """``value`` as an int in [low, high]."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-            or value < low or (high is not None and value > high):
-        raise InputError(f"{name} must be a whole number in [{low}, "
-                         f"{'inf' if high is None else f'{high:,}'}], got {value!r}")
-    return int(value)
 
 
 def output_target(value: Any, name: str = "the target") -> None:

@@ -19,6 +19,7 @@ import numpy as np
 
 from plantlod.formats.lsys_file import with_header_comment, write_lsys
 from plantlod.lsys.build import build
+from plantlod.lsys.checks import real, whole
 from .constants import CALIBRATION_EVALUATIONS
 from .constants import SIMPLIFY_DT
 from .constants import SIMPLIFY_DURATION
@@ -80,17 +81,7 @@ class Options:
         from plantlod.lsys.errors import InputError
         from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_TIME_STEPS, MIN_TIME_STEP
 
-        def whole(name: str, value, low: int, high: int) -> None:
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-                    or not low <= value <= high:
-                raise InputError(f"{name} must be a whole number in [{low}, {high:,}], got {value!r}")
-
-        def real(name: str, value) -> None:
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-                    or not math.isfinite(value):
-                raise InputError(f"{name} must be a finite number, got {value!r}")
-
-        whole("level", self.level, 1, MAX_LEVEL)    # (no tree has that many levels)
+        whole("level", self.level, low=1, high=MAX_LEVEL)    # (no tree has that many levels)
         for name, value, choices in (("method", self.method, ("derived", "thesis")),
                                      ("form", self.form, ("auto", "grammar", "explicit"))):
             if value not in choices:
@@ -106,8 +97,8 @@ class Options:
         if not 0 <= self.damping_ratio <= MAX_DAMPING_RATIO:
             raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
                              f"got {self.damping_ratio:g}")
-        whole("every", self.every, 1, MAX_TIME_STEPS)
-        whole("max_evaluations", self.max_evaluations, 1, MAX_TIME_STEPS)
+        whole("every", self.every, low=1, high=MAX_TIME_STEPS)
+        whole("max_evaluations", self.max_evaluations, low=1, high=MAX_TIME_STEPS)
         if not MIN_TIME_STEP <= self.dt < math.inf:
             raise InputError(f"--dt {self.dt:g} s: expected a time step of at least "
                              f"{MIN_TIME_STEP:g} s")
