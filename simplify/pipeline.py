@@ -163,7 +163,28 @@ def simplify(system: LSystem, options: Options,
              progress: Callable[[str, float], None] | None = None,
              chain: "LevelChain | None" = None) -> Result:
     """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input.
-    chain: what the caller's earlier levels of this tree left to share (`LevelChain`)."""
+    chain: what the caller's earlier levels of this tree left to share (`LevelChain`).
+
+    A fit whose linear algebra meets numbers that are not finite (a strength of 1e-300
+    makes 1000 / k overflow) is a RunFailure saying so, not numpy's or scipy's error."""
+    from plantlod.lsys.errors import RunFailure
+
+    try:
+        return _simplify(system, options, progress, chain)
+    except np.linalg.LinAlgError as exc:
+        raise RunFailure(f"simplify's fit failed ({exc}); the tree's strengths, lengths or "
+                         "forces are far outside what it fits") from None
+    except ValueError as exc:
+        if "infs or NaNs" not in str(exc):
+            raise
+        raise RunFailure("simplify's fit met numbers that are not finite; the tree's "
+                         "strengths, lengths or forces are far outside what it fits") from None
+
+
+def _simplify(system: LSystem, options: Options,
+              progress: Callable[[str, float], None] | None,
+              chain: "LevelChain | None") -> Result:
+    """`simplify` itself."""
     if options.form not in FORMS:
         raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
 

@@ -148,3 +148,16 @@ def test_options_that_cannot_measure_or_do_not_apply_are_usage_errors(tmp_path, 
     result = run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), *args, exit_code=2)
     assert message in result.stderr and result.stderr.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_fit_meeting_numbers_that_are_not_finite_is_a_run_failure(tmp_path):
+    """bend_strength=1e-300 made scipy's least squares raise "array must not contain infs or
+    NaNs", an internal error (session 21, found by fuzzing the API)."""
+    lsys = tmp_path / "t.lsys"
+    lsys.write_text((ROOT / "examples" / "stalk8.lsys").read_text()
+                    .replace("bend_strength=20", "bend_strength=1e-300"))
+    assert "1e-300" in lsys.read_text()
+    result = run_cli("simplify", str(lsys), "--level", "1", "--duration", "1", "-o",
+                     str(tmp_path / "o.lsys"), exit_code=1)
+    assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
+    assert not (tmp_path / "o.lsys").exists()
