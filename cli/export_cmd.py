@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import click
 
-from plantlod.lsys.errors import InputError
-
 from .io import check_output_path, display_name, say
 from .loading import load_tree
 
@@ -46,11 +44,6 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     tree, _ = load_tree(tree_path)
     times, addresses, bend, rot = read_angles_file(angles_path, degrees)
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
-    try:
-        export_animation(output, tree, times, bend, rot, fps, frames)
-    except InputError as exc:
-        if exc.file is not None or "angles" not in exc.message:
-            raise
-        raise InputError(exc.message, display_name(angles_path)) from None   # (it is about ANGLES)
+    export_animation(output, tree, times, bend, rot, fps, frames, display_name(angles_path))
     say(f"export: {display_name(tree_path)}: {tree.n_branches:,} branches, "
         f"{times[-1]:g} s at {fps:g} fps -> {output}")

@@ -163,11 +163,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             out.flush()
         return
     check_output_path(path)
-    if special_target(path):
-        with _write_errors(path), _open_stream(path, binary) as out:
-            yield out
-        return
-    with _write_errors(path), atomic_path(path) as tmp:
+    with _write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
         with _open_stream(tmp, binary) as out:
             yield out
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 import numpy as np
@@ -15,17 +16,20 @@ FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
 
 
 def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: np.ndarray,
-                     fps: float = 30.0, frames: tuple[int, int] | None = None) -> None:
-    """Write ``tree`` moving by ``bend``/``rot`` (K, B) at ``times`` (K,) to ``path``, atomically."""
+                     fps: float = 30.0, frames: tuple[int, int] | None = None,
+                     angles_name: str | None = None) -> None:
+    """Write ``tree`` moving by ``bend``/``rot`` (K, B) at ``times`` (K,) to ``path``, atomically.
+    ``angles_name``: the file the angles came from, named by errors about them."""
     import math
 
     span = float(times[-1]) * fps
     if not math.isfinite(span) or span + 1 > MAX_EXPORT_SAMPLES / max(tree.n_branches, 1):
         raise InputError(f"the angles run {float(times[-1]):g} s: at {fps:g} fps that is more "
                          f"frames than the limit of {MAX_EXPORT_SAMPLES:,} frames x branches "
-                         f"({tree.n_branches:,} branches); expected a shorter run or a lower --fps")
+                         f"({tree.n_branches:,} branches); expected a shorter run or a lower --fps",
+                         angles_name)
     if not (np.isfinite(bend).all() and np.isfinite(rot).all()):
-        raise InputError("the angles hold values that are not finite numbers")
+        raise InputError("the angles hold values that are not finite numbers", angles_name)
     if frames is not None:
         count = int(math.floor(span + 1e-9)) + 1
         if not 0 <= frames[0] < frames[1] <= count:
@@ -37,14 +41,29 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
                          f"{', '.join(FORMATS)}", path)
     from plantlod.formats.atomic import atomic_path, write_whole
 
-    with atomic_path(path, suffix=ext) as tmp:
+    with atomic_path(path, suffix=ext) as tmp, _angles_named(angles_name):
         if ext in (".glb", ".gltf"):
             from .gltf import gltf_bytes, gltf_document
 
             data = gltf_bytes(gltf_document(tree, times, bend, rot, fps, frames), ext == ".glb")
             write_whole(tmp, data)
         else:
+            if tmp == path:                       # a device or a pipe (`atomic_path`)
+                raise InputError("OpenUSD writes a file of its own; expected the path of a "
+                                 "regular file", path)
             os.unlink(tmp)                        # USD creates its own file
             from .usd import write_usd
 
             write_usd(tmp, tree, times, bend, rot, fps, frames)
+
+
+@contextlib.contextmanager
+def _angles_named(name: str | None):
+    """An InputError naming no file, raised while the poses are built (`gltf.local_transforms`:
+    angles whose frames are not finite), names the angles' file."""
+    try:
+        yield
+    except InputError as exc:
+        if exc.file is not None or name is None:
+            raise
+        raise InputError(exc.message, name) from None

@@ -21,7 +21,6 @@ import math
 import numpy as np
 
 from plantlod.lsys.errors import InputError
-
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import pose
 

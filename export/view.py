@@ -11,8 +11,8 @@ from __future__ import annotations
 import base64
 import json
 import os
-import stat
 import re
+import stat
 import warnings
 from importlib import resources
 from typing import Sequence

@@ -26,6 +26,7 @@ from typing import Iterator, TextIO
 import numpy as np
 
 from .constants import MAX_JSON_DEPTH, NORMAL_UNIT_TOL
+from plantlod.lsys.checks import digits_past_limit
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths
 
@@ -248,10 +249,10 @@ def _object(pairs):
 def _integer(text: str) -> int:
     """A JSON integer, exactly; one longer than Python converts (4300 digits) is no value
     a tree file holds."""
-    digits = len(text.lstrip("-").lstrip("0"))
-    limit = sys.get_int_max_str_digits()
-    if limit and digits > limit:
-        raise ValueError(f"an integer of {digits} digits; expected at most {limit}")
+    past = digits_past_limit(text)
+    if past is not None:
+        raise ValueError(f"an integer of {past} digits; expected at most "
+                         f"{sys.get_int_max_str_digits()}")
     return int(text)
 
 

@@ -5,6 +5,7 @@ naming the argument."""
 from __future__ import annotations
 
 import math
+import sys
 from typing import Any
 
 import numpy as np
@@ -38,3 +39,12 @@ def whole(name: str, value: Any, *, low: int = 0, high: int | None = None) -> in
         raise InputError(f"{name} must be a whole number in [{low}, "
                          f"{'inf' if high is None else f'{high:,}'}], got {value!r}")
     return int(value)
+
+
+def digits_past_limit(literal: str) -> int | None:
+    """The significant digits of a decimal integer ``literal`` (sign and leading zeros
+    aside) where Python would refuse to convert them (`sys.get_int_max_str_digits`, 4300
+    by default: int() raises ValueError), else None."""
+    digits = len(literal.lstrip("+-").lstrip("0"))
+    limit = sys.get_int_max_str_digits()
+    return digits if limit and digits > limit else None

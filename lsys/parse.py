@@ -25,6 +25,7 @@ import re
 import sys
 from typing import Iterable, Iterator, NamedTuple
 
+from .checks import digits_past_limit
 from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
 from .errors import InputError, PlantlodWarning
 from .expr import (
@@ -214,12 +215,11 @@ def _whole_number(cur: _Cursor, digits: str, start: int) -> int:
     """The exact value of a literal of decimal digits found at ``start`` of cur's line. One
     longer than Python converts (`sys.get_int_max_str_digits`, 4300 digits) is an input
     error there: no count, seed or address is that large."""
-    significant = digits.lstrip("0") or "0"
-    limit = sys.get_int_max_str_digits()
-    if limit and len(significant) > limit:
-        raise cur.error(f"a whole number of {len(significant)} digits; expected at most {limit}",
-                        start)
-    return int(significant)
+    past = digits_past_limit(digits)
+    if past is not None:
+        raise cur.error(f"a whole number of {past} digits; expected at most "
+                        f"{sys.get_int_max_str_digits()}", start)
+    return int(digits.lstrip("0") or "0")    # (int() counts leading zeros toward its limit)
 
 
 def _address_parts(cur: _Cursor, text: str, start: int) -> tuple[int, ...]:

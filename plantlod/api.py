@@ -25,7 +25,7 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
-from .arguments import one_run, output_target, path_of, real, whole
+from .arguments import binary_stream, one_run, output_target, path_of, real, whole
 
 PathOrText = Union[str, "os.PathLike[str]"]
 PathOrFile = Union[str, "os.PathLike[str]", IO[str]]
@@ -113,10 +113,8 @@ def derive(system: LSystem | PathOrText, n: int | None = None, *,
     import warnings
 
     from plantlod.lsys.build import build
-    from plantlod.lsys.constants import DEFAULT_MAX_MODULES
+    from plantlod.lsys.constants import DEFAULT_MAX_MODULES, MAX_DERIVATION_STEPS
     from plantlod.lsys.errors import PlantlodWarning
-
-    from plantlod.lsys.constants import MAX_DERIVATION_STEPS
 
     system = _as_system(system)
     if n is not None:
@@ -226,18 +224,11 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
         s = simulate_arrays(tree, dt, steps, winds[0], every=every, damping=damping)
         return s.times, s.bend[None], s.rot[None]
 
-    from plantlod.lsys.errors import RunFailure
+    from plantlod.sim.wind import wind_samples
 
     ks = np.arange(steps, dtype=np.float64)          # step k uses V(t_{k-1})
-    samples = np.zeros((len(winds), steps, 3))
-    for w, wind in enumerate(winds if steps else []):
-        try:
-            got = np.asarray(wind.sample(ks * dt), dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise RunFailure(f"the wind gave no array of numbers (wind {w}: {exc})") from None
-        if got.shape != (steps, 3):                  # (as one wind's run says, sim/run.py)
-            raise RunFailure(f"the wind gave an array of shape {got.shape}, expected ({steps}, 3)")
-        samples[w] = got
+    samples = (np.stack([wind_samples(w, ks * dt) for w in winds]) if steps
+               else np.zeros((len(winds), 0, 3)))
     bend, rot = run_lanes(LaneModel.from_tree(tree, damping), samples, dt, steps, every=every,
                           threads=threads, addresses=tree.address)
     rest = np.zeros((len(winds), 1, tree.n_branches))
@@ -474,8 +465,7 @@ def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any
 
 def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
     if hasattr(path_or_file, "read"):
-        if isinstance(path_or_file, (io.RawIOBase, io.BufferedIOBase)) \
-                or "b" in getattr(path_or_file, "mode", ""):
+        if binary_stream(path_or_file):
             raise InputError("a binary stream; expected a text stream or a path")
         return path_or_file, getattr(path_or_file, "name", "<stream>")  # type: ignore[return-value]
     from plantlod.formats.text_input import read_text
@@ -485,6 +475,7 @@ def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
 
 
 def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
+    """``text`` to a target `output_target` has checked."""
     if path_or_file is None:
         return
     if hasattr(path_or_file, "write"):
@@ -492,7 +483,7 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
         return
     from plantlod.formats.atomic import atomic_path, write_whole
 
-    with atomic_path(path_of(path_or_file, output=True)) as tmp:   # all or nothing: no partial file
+    with atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
         write_whole(tmp, text.encode("utf-8", "backslashreplace"))
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",

@@ -14,12 +14,17 @@ from plantlod.lsys.checks import real, whole  # noqa: F401  (the API's number ch
 from plantlod.lsys.errors import InputError
 
 
+def binary_stream(value: Any) -> bool:
+    """Whether a stream (an object with read or write) reads or writes bytes, not text."""
+    return isinstance(value, (io.RawIOBase, io.BufferedIOBase)) or "b" in getattr(value, "mode", "")
+
+
 def output_target(value: Any, name: str = "the target") -> None:
     """None, a writable text stream, or the path of a file whose folder exists."""
     if value is None:
         return
     if hasattr(value, "write"):
-        if isinstance(value, (io.RawIOBase, io.BufferedIOBase)) or "b" in getattr(value, "mode", ""):
+        if binary_stream(value):
             raise InputError(f"{name} is a binary stream; expected a text stream or a path")
         if getattr(value, "writable", lambda: True)() is False:
             raise InputError(f"{name} is not open for writing")

@@ -24,6 +24,7 @@ from plantlod.lsys.tree import Tree
 
 from .damping import Damping, as_damping
 from .stability import check_stability
+from .wind import wind_samples
 from .wind import Wind
 
 
@@ -90,13 +91,8 @@ def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: 
             # steps to the row after the next `rows - filled` multiples of every
             n = min((rows - filled) * every - step % every, SIM_STEPS_PER_CALL)
             ks = np.arange(step, step + n, dtype=np.float64)   # step k uses V(t_{k-1})
-            try:
-                wind_samples = np.asarray(wind.sample(ks * dt), dtype=np.float64)
-            except (TypeError, ValueError) as exc:     # a wind object of the caller's
-                raise RunFailure(f"the wind gave no array of numbers ({exc})") from None
-            if wind_samples.shape != (n, 3):
-                raise RunFailure(f"the wind gave an array of shape {wind_samples.shape}, expected ({n}, 3)")
-            written, bad, bad_step = kernel.advance(model, state, wind_samples, dt, step + 1,
+            samples = wind_samples(wind, ks * dt)
+            written, bad, bad_step = kernel.advance(model, state, samples, dt, step + 1,
                                                     every, out_bend, out_rot, filled, engine)
             filled += written
             if bad >= 0:

@@ -23,7 +23,7 @@ from typing import Protocol, TextIO
 import numpy as np
 
 from .constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY, MAX_WIND_SPEED
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 
 
 class Wind(Protocol):
@@ -32,6 +32,18 @@ class Wind(Protocol):
     def sample(self, times: np.ndarray) -> np.ndarray:
         """Wind vectors (K, 3) float64, m/s, world frame, at ``times`` (K,) s."""
         ...
+
+
+def wind_samples(wind: Wind, times: np.ndarray) -> np.ndarray:
+    """(K, 3) m/s: ``wind.sample(times)`` for K = len(times), checked, for a wind object of
+    the caller's too: one that gives no numbers, or another shape, is a RunFailure."""
+    try:
+        out = np.asarray(wind.sample(times), dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RunFailure(f"the wind gave no array of numbers ({exc})") from None
+    if out.shape != (len(times), 3):
+        raise RunFailure(f"the wind gave an array of shape {out.shape}, expected ({len(times)}, 3)")
+    return out
 
 
 def _times(times) -> np.ndarray:

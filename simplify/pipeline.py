@@ -78,12 +78,11 @@ class Options:
     damping_ratio: float = 0.0
 
     def __post_init__(self) -> None:
-        from plantlod.lsys.errors import InputError
-        from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_TIME_STEPS, MIN_TIME_STEP
+        from plantlod.sim.constants import MAX_TIME_STEPS, MIN_TIME_STEP
+        from plantlod.sim.damping import as_damping
 
         whole("level", self.level, low=1, high=MAX_LEVEL)    # (no tree has that many levels)
-        for name, value, choices in (("method", self.method, ("derived", "thesis")),
-                                     ("form", self.form, ("auto", "grammar", "explicit"))):
+        for name, value, choices in (("method", self.method, METHODS), ("form", self.form, FORMS)):
             if value not in choices:
                 raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
         if not isinstance(self.calibrate, bool):
@@ -94,9 +93,7 @@ class Options:
                             ("dt", self.dt), ("duration", self.duration),
                             ("damping_ratio", self.damping_ratio)):
             real(name, value)
-        if not 0 <= self.damping_ratio <= MAX_DAMPING_RATIO:
-            raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
-                             f"got {self.damping_ratio:g}")
+        as_damping(0.0, self.damping_ratio or None)      # ζ checked as every run checks it
         whole("every", self.every, low=1, high=MAX_TIME_STEPS)
         whole("max_evaluations", self.max_evaluations, low=1, high=MAX_TIME_STEPS)
         if not MIN_TIME_STEP <= self.dt < math.inf:
@@ -159,35 +156,35 @@ def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, so
                          source)
 
 
+def _finite_fit(fit: Callable) -> Callable:
+    """``fit`` (a form's fit of one level), where linear algebra that meets numbers that are
+    not finite (a strength of 1e-300 makes 1000 / k overflow) is a RunFailure saying so,
+    not numpy's or scipy's error."""
+    import functools
+
+    from plantlod.lsys.errors import RunFailure
+
+    @functools.wraps(fit)
+    def guarded(*args, **kwargs):
+        try:
+            return fit(*args, **kwargs)
+        except np.linalg.LinAlgError as exc:
+            raise RunFailure(f"simplify's fit failed ({exc}); the tree's strengths, lengths or "
+                             "forces are far outside what it fits") from None
+        except ValueError as exc:
+            if "infs or NaNs" not in str(exc):
+                raise
+            raise RunFailure("simplify's fit met numbers that are not finite; the tree's "
+                             "strengths, lengths or forces are far outside what it fits") from None
+
+    return guarded
+
+
 def simplify(system: LSystem, options: Options,
              progress: Callable[[str, float], None] | None = None,
              chain: "LevelChain | None" = None) -> Result:
     """Simplify ``system`` to ``options.level`` in ``options.form``. Raises InputError for bad input.
-    chain: what the caller's earlier levels of this tree left to share (`LevelChain`).
-
-    A fit whose linear algebra meets numbers that are not finite (a strength of 1e-300
-    makes 1000 / k overflow) is a RunFailure saying so, not numpy's or scipy's error."""
-    from plantlod.lsys.errors import RunFailure
-
-    try:
-        return _simplify(system, options, progress, chain)
-    except np.linalg.LinAlgError as exc:
-        raise RunFailure(f"simplify's fit failed ({exc}); the tree's strengths, lengths or "
-                         "forces are far outside what it fits") from None
-    except ValueError as exc:
-        if "infs or NaNs" not in str(exc):
-            raise
-        raise RunFailure("simplify's fit met numbers that are not finite; the tree's "
-                         "strengths, lengths or forces are far outside what it fits") from None
-
-
-def _simplify(system: LSystem, options: Options,
-              progress: Callable[[str, float], None] | None,
-              chain: "LevelChain | None") -> Result:
-    """`simplify` itself."""
-    if options.form not in FORMS:
-        raise InputError(f"unknown form {options.form!r}; expected one of {', '.join(FORMS)}")
-
+    chain: what the caller's earlier levels of this tree left to share (`LevelChain`)."""
     def run_explicit(grouping: int | None = None) -> Result:
         return simplify_explicit(system, options, progress, grouping=grouping, chain=chain)
 
@@ -406,6 +403,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     return ChainShare(original, groupings, InBackground(runs))
 
 
+@_finite_fit
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
                       grouping: int | None = None, shared: ChainShare | None = None,
@@ -507,6 +505,7 @@ def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
             f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
 
 
+@_finite_fit
 def simplify_grammar(system: LSystem, options: Options,
                      progress: Callable[[str, float], None] | None = None) -> Result:
     """The grammar form: the same productions, derivation length N - n, new parameters."""
