@@ -152,6 +152,10 @@ REGROUP_ATTEMPTS = 3          # level-1 fits at most: the first grouping, then g
                               # (family level 1: tuning range +41 cases, held out +69; 5 attempts on 45 tuning
                               # trees that still missed after 3: +9, stalks -3; within noise, for 2 more fits)
 REGROUP_MAX_BRANCHES = 1000   # ... for trees of at most this many branches (each attempt is a level-1 fit)
+REGROUP_MISFIT_WEIGHT = (150.0, 150.0)  # where every attempt above misses: level 1 grouped again with the
+                              # mode misfit priced at level 1 too (`MODE_MISFIT_WEIGHT`'s later levels' weight)
+REGROUP_MISFIT_ATTEMPTS = 3   # ... this many fits at most (the first, then groups kept apart as above; diagnosis range
+                              # 2000-2399, sympodial level 1: 633 cases without, 650 with 1, 659 with 3 of 815)
 KEPT_APART_COST = 1e12        # added to the cost of a merge kept apart: level 1 takes it after every other
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------

@@ -115,8 +115,8 @@ def level_counts(tree: Tree, ratio: float = LEVEL_RATIO) -> list[int]:
 
 
 def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
-                 kept_apart: frozenset[int] = frozenset(), up_to: int | None = None
-                 ) -> list[Grouping]:
+                 kept_apart: frozenset[int] = frozenset(), up_to: int | None = None,
+                 misfit_weight: tuple[float, float] = MODE_MISFIT_WEIGHT) -> list[Grouping]:
     """Level 0 (every branch alone) to the last level (one group per root branch), or to
     level ``up_to`` where given (the levels before it are the same either way).
 
@@ -125,6 +125,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
     kept_apart: branches whose merge into their parent's group level 1 takes last, after
     every other merge (`regroup`: the main paths of level-1 groups whose fit missed); the
     count of every level stays the same.
+    misfit_weight: W_f while level 1 is merged and after it (`regroup` tries level 1 priced
+    with the mode misfit too, where the default grouping's level misses).
     """
     b = tree.n_branches
     parent = np.asarray(tree.parent, dtype=np.int64).tolist()
@@ -222,10 +224,10 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
         # paths): its periods beat against nothing, and u's level branch stays as it was
         gap = 0.0 if beside else apart(r, u)
         spread = 0.0 if beside or share_weight == 0 else shares(u, new_end)
-        misfit = 0.0 if beside or misfit_weight == 0 else modes(u, new_end)
+        misfit = 0.0 if beside or level_misfit == 0 else modes(u, new_end)
         skew = 0.0 if beside or skews is None else skews(u, new_end)
         factor = max(MIN_MERGE_FACTOR, 1.0 + weight * gap + share_weight * spread
-                     + misfit_weight * misfit + skew_weight * skew
+                     + level_misfit * misfit + skew_weight * skew
                      + FRAME_TURN_WEIGHT * (after - before) + tip_weight * missed)
         last = KEPT_APART_COST if len(levels) == 1 and r in kept_apart else 0.0
         return last + (size[r] if beside else size[r] + size[u]) * factor, new_end
@@ -250,7 +252,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
         tip_weight = 0.0 if misses is None else at_level(TIP_MISS_WEIGHT)
         weight = at_level(STRENGTH_MISMATCH_WEIGHT)
         share_weight = SHARE_SPREAD_WEIGHT if stalk else at_level(SHARE_SPREAD_BRANCHING_WEIGHT)
-        misfit_weight = at_level(MODE_MISFIT_WEIGHT)
+        level_misfit = at_level(misfit_weight)
         skew_weight = at_level(CROSSING_SKEW_WEIGHT)
         count = len(roots_left)
         target = math.floor(ratio * count)

@@ -16,6 +16,16 @@ the level that ranks best in the same winds (`bounds.form_rank`: the winds it mi
 its worst ratio; the first attempt on a tie) is kept, with the levels above it grouped on
 it (nested as before). Trees of more than `REGROUP_MAX_BRANCHES` branches are grouped as
 they are (each attempt costs a level-1 fit).
+
+Where every such attempt still misses in some wind, level 1 is grouped once more with a second
+pricing, the mode misfit weighed while level 1 is merged too (`REGROUP_MISFIT_WEIGHT`, for
+`REGROUP_MISFIT_ATTEMPTS` fits, kept apart as above): a group whose members' bend and rotation
+parts cancel across their two periods answers with more than one branch can (`merge_costs.
+ModeMisfit`, family sympodial trees whose k_bs and k_rs differ). Weighed for every tree it
+cost other kinds as many cases as it gained (docs/simplify.md, "Limits"); tried as one more
+candidate, it is kept only where its level ranks better. A grouping already fitted is not
+fitted again (where no merge's misfit differs, as along a straight chain, the second pricing
+groups as the first).
 """
 
 from __future__ import annotations
@@ -28,7 +38,8 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
-from .constants import REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES, SMALL_ANGLE_LIMIT
+from .constants import (MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES,
+                        REGROUP_MISFIT_ATTEMPTS, REGROUP_MISFIT_WEIGHT, SMALL_ANGLE_LIMIT)
 from .evaluate import Runs
 from .grouping import Grouping, merge_levels
 from .motion_fit import group_scores
@@ -71,21 +82,30 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
         return groupings, None
     stalk = is_stalk(original)
     up_to = len(groupings) - 1                    # (a single level's caller groups no coarser)
-    kept_apart: set[int] = set()
     best = None                                   # (rank, groupings, level)
-    for attempt in range(REGROUP_ATTEMPTS):
-        if attempt:
-            groupings = merge_levels(original, kept_apart=frozenset(kept_apart), up_to=up_to)
-        try:
-            level = fit(groupings[1])
-            rank, missing = missing_paths(level[1], runs_for(level[1]), stalk)
-        except InputError:
-            if best is None:
-                raise
+    tried: set[bytes] = set()                     # level-1 groupings fitted
+    for weight, attempts in ((MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS),
+                             (REGROUP_MISFIT_WEIGHT, REGROUP_MISFIT_ATTEMPTS)):
+        if best is not None and best[0][0] == 0:  # it holds in every wind: nothing to try
             break
-        if best is None or rank < best[0]:
-            best = (rank, groupings, level)
-        if not missing - kept_apart:              # nothing missing, or nothing new to keep apart
-            break
-        kept_apart |= missing
+        kept_apart: set[int] = set()
+        for attempt in range(attempts):
+            if attempt or weight != MODE_MISFIT_WEIGHT:
+                groupings = merge_levels(original, kept_apart=frozenset(kept_apart), up_to=up_to,
+                                         misfit_weight=weight)
+            if groupings[1].group.tobytes() in tried:
+                break                             # (fitted already: the same level)
+            tried.add(groupings[1].group.tobytes())
+            try:
+                level = fit(groupings[1])
+                rank, missing = missing_paths(level[1], runs_for(level[1]), stalk)
+            except InputError:
+                if best is None:
+                    raise
+                break
+            if best is None or rank < best[0]:
+                best = (rank, groupings, level)
+            if not missing - kept_apart:          # nothing missing, or nothing new to keep apart
+                break
+            kept_apart |= missing
     return best[1], best[2]

@@ -127,3 +127,47 @@ def test_runs_of_two_groupings_of_one_shape_are_their_own():
         want = group_map(tree, level).paths
         got = runs_for(level).gmap.paths
         assert [p.tolist() for p in got] == [p.tolist() for p in want]
+
+
+def _level_one_misfit(tree, grouping) -> float:
+    """Σ over level 1's groups of `merge_costs.ModeMisfit` (root, end of the main path)."""
+    from plantlod.compare.groups import main_paths
+    from plantlod.simplify.merge_costs import ModeMisfit, ShareSpread
+    from plantlod.simplify.static import rest_frames
+
+    parent = np.asarray(tree.parent).tolist()
+    modes = ModeMisfit(ShareSpread(tree, parent, rest_frames(tree)), parent)
+    return sum(modes(int(p[0]), int(p[-1])) for p in main_paths(tree, grouping.group, grouping.count))
+
+
+def test_the_second_pricing_weighs_level_ones_mode_misfit():
+    # family sympodial-2378 (63 branches, k_rs / k_bs 1.31): priced with the mode misfit at
+    # level 1 too, level 1's groups misfit less in sum, and every level keeps its count
+    from plantlod.simplify.constants import MODE_MISFIT_WEIGHT, REGROUP_MISFIT_WEIGHT
+
+    assert MODE_MISFIT_WEIGHT[0] < REGROUP_MISFIT_WEIGHT[0]
+    _, tree = family_tree("sympodial", 2378)
+    plain = merge_levels(tree)
+    priced = merge_levels(tree, misfit_weight=REGROUP_MISFIT_WEIGHT)
+    assert [lv.count for lv in priced] == [lv.count for lv in plain]
+    assert _level_one_misfit(tree, priced[1]) < 0.5 * _level_one_misfit(tree, plain[1])
+    _nested_and_connected(tree, priced)
+
+
+def test_a_level_that_misses_after_every_attempt_tries_the_second_pricing(monkeypatch):
+    # sympodial-2378's level 1 misses some measurement wind after REGROUP_ATTEMPTS fits; the
+    # grouping of the second pricing ranks better, and is kept
+    import plantlod.simplify.regroup as regroup
+    from plantlod.simplify.constants import REGROUP_MISFIT_WEIGHT
+
+    tree, fit, runs_for = _level_one("sympodial", 2378)
+    plain = merge_levels(tree)
+    monkeypatch.setattr(regroup, "REGROUP_MISFIT_ATTEMPTS", 0)
+    _, (_, first) = regrouped(tree, plain, fit, runs_for)
+    assert _rank(tree, first, runs_for)[0] > 0
+    monkeypatch.undo()
+    levels, (_, level) = regrouped(tree, plain, fit, runs_for)
+    priced = merge_levels(tree, misfit_weight=REGROUP_MISFIT_WEIGHT)
+    assert np.array_equal(levels[1].group, priced[1].group)
+    assert _rank(tree, level, runs_for) < _rank(tree, first, runs_for)
+    assert [lv.count for lv in levels] == [lv.count for lv in plain]
