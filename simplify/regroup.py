@@ -84,13 +84,13 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
     up_to = len(groupings) - 1                    # (a single level's caller groups no coarser)
     best = None                                   # (rank, groupings, level)
     tried: set[bytes] = set()                     # level-1 groupings fitted
-    for weight, attempts in ((MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS),
-                             (REGROUP_MISFIT_WEIGHT, REGROUP_MISFIT_ATTEMPTS)):
+    pricings = ((MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS), (REGROUP_MISFIT_WEIGHT, REGROUP_MISFIT_ATTEMPTS))
+    for pricing, (weight, attempts) in enumerate(pricings):
         if best is not None and best[0][0] == 0:  # it holds in every wind: nothing to try
             break
         kept_apart: set[int] = set()
         for attempt in range(attempts):
-            if attempt or weight != MODE_MISFIT_WEIGHT:
+            if attempt or pricing:                # (the first: the caller's groupings)
                 groupings = merge_levels(original, kept_apart=frozenset(kept_apart), up_to=up_to,
                                          misfit_weight=weight)
             if groupings[1].group.tobytes() in tried:
