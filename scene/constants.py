@@ -7,6 +7,7 @@ MAX_SCENE_STEPS = 1_000_000    # time steps of one scene (duration / dt): 10,000
 MAX_SCENE_BRANCH_STEPS = 100_000_000_000
 # trees x steps: every tree's wind is held for the whole scene (24 bytes a tree-step, 2.4 GB)
 MAX_SCENE_TREE_STEPS = 100_000_000
+MAX_SCATTER_CELLS = 1e15       # a scatter's spacing grid: at most this many cells along the area's longer side
 MAX_SCATTER_TRIES = 200        # random draws per tree before a scatter gives up on its spacing
 FRAME_RATE = 30.0              # frames per second: levels are chosen, and errors verified, per frame
 # Directions (deg, relative to the wind) over which a level's tip error is taken, the worst

@@ -27,8 +27,9 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
+from plantlod.simplify.constants import SIMPLIFY_EVERY
 
-from .constants import MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
+from .constants import MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
 
 TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
@@ -112,17 +113,35 @@ class Scene:
         return int(round(self.duration / self.dt))
 
 
-def _line_of(text: str, key: str) -> int | None:
-    m = re.search(rf"(?m)^\s*{re.escape(key)}\s*=", text)
-    return text.count("\n", 0, m.start()) + 1 if m else None
+_ANY = object()
+
+
+def _line_of(text: str, key: str, value=_ANY) -> int | None:
+    """The line of ``key = …`` in ``text``: of the first one whose value reads as ``value``
+    where given (a key that several tables set: `[[tree]]`'s scale, a camera key's position),
+    else of the first one."""
+    found = list(re.finditer(rf"(?m)^\s*{re.escape(key)}\s*=(.*)$", text))
+    if not found:
+        return None
+    chosen = found[0]
+    if value is not _ANY and len(found) > 1:
+        for m in found:
+            try:
+                if tomllib.loads(f"v ={m.group(1)}")["v"] == value:
+                    chosen = m
+                    break
+            except (tomllib.TOMLDecodeError, RecursionError):   # (an array over several lines)
+                continue
+    return text.count("\n", 0, chosen.start()) + 1
 
 
 class _Reader:
     def __init__(self, text: str, source: str):
         self.text, self.source = text, source
 
-    def error(self, message: str, key: str | None = None) -> InputError:
-        line = _line_of(self.text, key) if key else None
+    def error(self, message: str, key: str | None = None, value=_ANY) -> InputError:
+        """InputError at the line of ``key`` (the one holding ``value`` where given)."""
+        line = _line_of(self.text, key, value) if key else None
         return InputError(message, self.source, line, 1 if line else None)
 
     def keys(self, table: dict, allowed: set[str], where: str) -> None:
@@ -141,11 +160,12 @@ class _Reader:
         ok = isinstance(value, int) if integer else isinstance(value, (int, float))
         if isinstance(value, bool) or not ok or not math.isfinite(value):
             kind = "a whole number" if integer else "a finite number"
-            raise self.error(f"'{key}' must be {kind}, got {value!r}", key)
+            raise self.error(f"'{key}' must be {kind}, got {value!r}", key, value)
         if low is not None and (value <= low if low_open else value < low):
-            raise self.error(f"'{key}' must be {'>' if low_open else '>='} {low:g}, got {value!r}", key)
+            raise self.error(f"'{key}' must be {'>' if low_open else '>='} {low:g}, got {value!r}",
+                             key, value)
         if high is not None and value > high:
-            raise self.error(f"'{key}' must be <= {high:g}, got {value!r}", key)
+            raise self.error(f"'{key}' must be <= {high:g}, got {value!r}", key, value)
         return value
 
     def vector(self, table: dict, key: str, size: int, default=None) -> tuple[float, ...]:
@@ -157,20 +177,21 @@ class _Reader:
         if (not isinstance(value, list) or len(value) != size
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
                            and math.isfinite(v) for v in value)):
-            raise self.error(f"'{key}' must be a list of {size} finite numbers, got {value!r}", key)
+            raise self.error(f"'{key}' must be a list of {size} finite numbers, got {value!r}",
+                             key, value)
         return tuple(float(v) for v in value)
 
     def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
         if not isinstance(name, str) or not name or "\0" in name:
-            raise self.error(f"'{key}' must name an .lsys file, got {name!r}", key)
+            raise self.error(f"'{key}' must name an .lsys file, got {name!r}", key, name)
         try:
             path = (folder / name).resolve()
             found = path.is_file()
         except OSError as exc:               # a name too long for the system, a loop of links
             raise self.error(f"tree file {name[:80]!r}{'…' if len(name) > 80 else ''}: "
-                             f"{exc.strerror or exc}", key) from None
+                             f"{exc.strerror or exc}", key, name) from None
         if not found:
-            raise self.error(f"tree file {name!r} not found (looked in {folder})", key)
+            raise self.error(f"tree file {name!r} not found (looked in {folder})", key, name)
         return path
 
 
@@ -198,6 +219,10 @@ def read_scene(path: str) -> Scene:
         raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {steps:,.3g} steps, more than "
                       f"the limit of {MAX_SCENE_STEPS:,}; expected a shorter scene or a larger dt",
                       "duration" if "duration" in data else "dt")
+    if steps < 2 * SIMPLIFY_EVERY:                   # (the levels' motion fit reads periods)
+        raise r.error(f"duration {duration:g} s at dt = {dt:g} s is fewer than "
+                      f"{2 * SIMPLIFY_EVERY} steps, too short to fit levels in; expected a "
+                      "longer scene or a smaller dt", "duration" if "duration" in data else "dt")
     damping_ratio = r.number(data, "damping_ratio", 0.0, low=0, high=MAX_DAMPING_RATIO)
     budget = r.number(data, "budget_px", 1.0, low=0)
     if budget == 0:
@@ -305,7 +330,10 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
                           "min_spacing")
     rng = np.random.default_rng(seed)
     points: list[tuple[float, float]] = []
-    cell = max(spacing, 1e-9)
+    # the spacing grid: cells at least the spacing (neighbours are then in the 3 x 3 cells
+    # around), and at most MAX_SCATTER_CELLS a side, so cell numbers stay integers however
+    # small the spacing against the area (1e-300 m across 1e300 m overflowed int())
+    cell = max(spacing, max(x1 - x0, y1 - y0) / MAX_SCATTER_CELLS)
     grid: dict[tuple[int, int], list[int]] = {}
     tries = 0
     while len(points) < count:
@@ -315,7 +343,10 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
                           f"(placed {len(points):,}); expected a larger area or a smaller spacing",
                           "min_spacing")
         x, y = float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1))
-        gx, gy = int(x // cell), int(y // cell)
+        if spacing == 0:                             # nothing to keep apart
+            points.append((x, y))
+            continue
+        gx, gy = int((x - x0) // cell), int((y - y0) // cell)
         near = [j for dx in (-1, 0, 1) for dy in (-1, 0, 1) for j in grid.get((gx + dx, gy + dy), [])]
         if spacing > 0 and any(math.hypot(points[j][0] - x, points[j][1] - y) < spacing
                                for j in near):

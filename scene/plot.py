@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 
+from plantlod.lsys.errors import RunFailure
+
 from .file import Scene
 
 
@@ -43,9 +45,14 @@ def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
         top.plot(cam.key_position[:, 0], cam.key_position[:, 1], color="tab:red", lw=1,
                  ls="--", marker=".")
     seen = np.vstack([xy, (cam.key_position if cam.moving else cam.position[None])[:, :2]])
-    pad = 0.05 * max(np.ptp(seen[:, 0]), np.ptp(seen[:, 1]), 1.0)
-    top.set_xlim(seen[:, 0].min() - pad, seen[:, 0].max() + pad)
-    top.set_ylim(seen[:, 1].min() - pad, seen[:, 1].max() + pad)
+    with np.errstate(over="ignore"):
+        pad = 0.05 * max(np.ptp(seen[:, 0]), np.ptp(seen[:, 1]), 1.0)
+        far = seen.min(axis=0) - pad, seen.max(axis=0) + pad
+    if not (np.isfinite(far[0]).all() and np.isfinite(far[1]).all()):
+        raise RunFailure("cannot draw the plot: the trees and the camera span more than a "
+                         "float can hold (the camera or a tree placed near ±1e308 m)")
+    top.set_xlim(far[0][0], far[1][0])
+    top.set_ylim(far[0][1], far[1][1])
     top.set_aspect("equal")
     top.set_title(f"{len(scene.trees):,} trees, budget {scene.budget_px:g} px (levels at t = 0)")
     top.set_xlabel("x (m)")
@@ -53,7 +60,8 @@ def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
     t = np.arange(len(in_use)) * frame_s
     cost.step(t, np.full_like(t, float(full)), where="post", label="full detail")
     cost.step(t, in_use, where="post", label="at the chosen levels")
-    cost.set_yscale("log")
+    if full > 0 or np.any(in_use > 0):               # (a tree without branches costs none)
+        cost.set_yscale("log")
     cost.set_xlabel("t (s)")
     cost.set_ylabel("branches simulated")
     cost.legend()

@@ -4,6 +4,7 @@ way out, and random scene files that may only ever end in exit 0, 1 or 2 with on
 
 from __future__ import annotations
 
+import json
 import os
 import time
 
@@ -436,3 +437,52 @@ def test_toml_nested_thousands_deep_names_the_file(tmp_path):
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     "nested too deeply")
     assert line.startswith(f"{path}: error:")
+
+
+@pytest.mark.parametrize("spacing", ["0", "1e-300"])
+def test_a_scatter_over_an_area_of_1e300_m_places_its_trees(tmp_path, spacing):
+    """Grid cells of 1e-9 m (or the spacing) across 1e300 m overflowed int(): an internal
+    error (session 22, found by fuzzing). The spacing grid now has at most MAX_SCATTER_CELLS
+    cells a side, and no grid without a spacing."""
+    path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 2\nseed = 1\n'
+                                f'area = [0, 0, 1e300, 1e300]\nmin_spacing = {spacing}\n')
+    result = run_cli("scene", path, "--no-cache", "--report", "-", exit_code=None)
+    assert result.exit_code == 0 and "internal error" not in result.stderr
+    assert json.loads(result.stdout)["trees"] == 2
+
+
+def test_a_scene_too_short_to_fit_levels_in_is_located_bad_input(tmp_path):
+    """3 steps: the levels' motion fit raised compare's 'expected times (K,) matching a
+    signal', exit 2 without a place (session 22, found by fuzzing)."""
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration="0.034")
+    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+                    "is fewer than 8 steps, too short to fit levels in")
+    assert line.startswith(f"{path}:2:")
+
+
+def test_a_plot_of_a_camera_near_1e308_m_is_one_line_and_leaves_nothing(tmp_path):
+    """matplotlib's 'Axis limits cannot be NaN or Inf' was an internal error (session 22)."""
+    path = tmp_path / "s.toml"
+    path.write_text("dt = 0.01\nduration = 1\n[wind]\nspeed = 5\n[camera]\n"
+                    "[[camera.key]]\nt = 0\nposition = [0, -1e308, 1]\ntarget = [0, 0, 1]\n"
+                    "[[camera.key]]\nt = 1\nposition = [0, 1e308, 1]\ntarget = [0, 1e308, 2]\n"
+                    f'[[tree]]\nfile = "{STALK}"\n')
+    report, plot = tmp_path / "r.json", tmp_path / "p.png"
+    one_line(run_cli("scene", str(path), "--no-cache", "--report", str(report), "--plot",
+                     str(plot), exit_code=None), 1, "cannot draw the plot")
+    assert not report.exists() and not plot.exists()
+
+
+@pytest.mark.parametrize("second, line, message", [
+    ('file = "{stalk}"\nposition = [5, 0, 0]\nscale = -2\n', 14, "'scale' must be > 0, got -2"),
+    ('file = "{stalk}"\nposition = [5, 0]\n', 13, "'position' must be a list of 3 finite"),
+    ('file = "nope.lsys"\n', 12, "tree file 'nope.lsys' not found"),
+])
+def test_a_bad_value_in_a_second_table_is_located_at_its_own_line(tmp_path, second, line, message):
+    """The line was that of the key's first appearance in the file (another tree's, or the
+    camera's position) before session 22 (found by fuzzing)."""
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration="1") + f'[[tree]]\nfile = "{STALK}"\nscale = 2\n'
+                    + "[[tree]]\n" + second.format(stalk=STALK))
+    result = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    assert result.startswith(f"{path}:{line}:1:")
