@@ -28,6 +28,9 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
                          f"frames than the limit of {MAX_EXPORT_SAMPLES:,} frames x branches "
                          f"({tree.n_branches:,} branches); expected a shorter run or a lower --fps",
                          angles_name)
+    if not span >= 0:
+        raise InputError(f"the angles end at {float(times[-1]):g} s, before 0 s: frames are at "
+                         f"k / fps from 0 s; expected times that reach 0", angles_name)
     if not (np.isfinite(bend).all() and np.isfinite(rot).all()):
         raise InputError("the angles hold values that are not finite numbers", angles_name)
     if frames is not None:

@@ -90,6 +90,13 @@ def test_bad_input_raises_input_error():
         plantlod.simulate(tree, wind=(1.0, 0.0), dt=0.01, steps=10)
     with pytest.raises(plantlod.InputError):
         plantlod.simulate(tree, wind=(1.0, 0.0, 0.0), dt=0.01)        # neither steps nor duration
+    # steps from a dt below the documented 1e-9 s, or a duration of 1e300 s: OverflowError
+    # from round() before session 22 (found by fuzzing)
+    for dt, duration in ((5e-324, 1.0), (1e-10, 1.0), (0.01, 1e300)):
+        with pytest.raises(plantlod.InputError):
+            plantlod.simulate(tree, wind=(1.0, 0.0, 0.0), dt=dt, duration=duration)
+        with pytest.raises(plantlod.InputError):
+            plantlod.compare(tree, tree, wind=(5.0, 0.0, 0.0), dt=dt, duration=duration)
 
 
 def test_import_is_lazy_and_public_names_are_listed():
