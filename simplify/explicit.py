@@ -46,6 +46,7 @@ from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITU
 from plantlod.compare.groups import main_paths
 from .grouping import Grouping, merge_levels  # noqa: F401  (callers import them from here too)
 from .static import rest_frames
+from .finite import finite_fit
 
 
 def is_stalk(tree: Tree) -> bool:
@@ -225,7 +226,7 @@ def explicit_skeleton(original: Tree, grouping: Grouping, frames, ch: Chords,
         offset_world = base[g] - parent_tip
         if np.linalg.norm(offset_world) > 1e-12 * max(1.0, float(np.abs(base[g]).max())):
             local = parent_frame.T @ offset_world
-            d = float(np.linalg.norm(local))
+            d = math.hypot(*local.tolist())         # (no overflow where a root sits 1e300 m out)
             # turn z to the offset direction, move, turn back
             to = _zyz(_chord_frame(np.eye(3), local / d))
             emit(_turn(to) + f"f({format_number(d)})" + _unturn(to))
@@ -534,6 +535,7 @@ def level_header(system) -> dict:
     return {key: getattr(system, key) for key in LEVEL_HEADER_KEYS}
 
 
+@finite_fit
 def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, header: dict,
                          level: int, dt: float, duration: float = 20.0,
                          refine: bool = True, gains: bool = True,

@@ -41,6 +41,7 @@ from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
 from .levels import check_level, level_system, round_sig, write_parameters
 from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
+from .finite import finite_fit
 
 if TYPE_CHECKING:
     from .grouping import Grouping
@@ -154,30 +155,6 @@ def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, so
         raise InputError("nothing to merge: the level-n tree has the same branches and leaves as "
                          "the original; expected productions that add branches in the last steps",
                          source)
-
-
-def _finite_fit(fit: Callable) -> Callable:
-    """``fit`` (a form's fit of one level), where linear algebra that meets numbers that are
-    not finite (a strength of 1e-300 makes 1000 / k overflow) is a RunFailure saying so,
-    not numpy's or scipy's error."""
-    import functools
-
-    from plantlod.lsys.errors import RunFailure
-
-    @functools.wraps(fit)
-    def guarded(*args, **kwargs):
-        try:
-            return fit(*args, **kwargs)
-        except np.linalg.LinAlgError as exc:
-            raise RunFailure(f"simplify's fit failed ({exc}); the tree's strengths, lengths or "
-                             "forces are far outside what it fits") from None
-        except ValueError as exc:
-            if "infs or NaNs" not in str(exc):
-                raise
-            raise RunFailure("simplify's fit met numbers that are not finite; the tree's "
-                             "strengths, lengths or forces are far outside what it fits") from None
-
-    return guarded
 
 
 def simplify(system: LSystem, options: Options,
@@ -403,7 +380,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     return ChainShare(original, groupings, InBackground(runs))
 
 
-@_finite_fit
+@finite_fit
 def simplify_explicit(system: LSystem, options: Options,
                       progress: Callable[[str, float], None] | None = None,
                       grouping: int | None = None, shared: ChainShare | None = None,
@@ -505,7 +482,7 @@ def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
             f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
 
 
-@_finite_fit
+@finite_fit
 def simplify_grammar(system: LSystem, options: Options,
                      progress: Callable[[str, float], None] | None = None) -> Result:
     """The grammar form: the same productions, derivation length N - n, new parameters."""

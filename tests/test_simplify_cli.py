@@ -161,3 +161,20 @@ def test_a_fit_meeting_numbers_that_are_not_finite_is_a_run_failure(tmp_path):
                      str(tmp_path / "o.lsys"), exit_code=1)
     assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
     assert not (tmp_path / "o.lsys").exists()
+
+
+def test_a_chain_whose_fit_meets_numbers_that_are_not_finite_is_a_run_failure(tmp_path):
+    """--levels reached level 1's regrouping without the guard of --level: a branch symbol that
+    absorbs no force (force_absorbed=0, a legal value) left scipy's nnls "infs or NaNs", an
+    internal error (session 22, found by fuzzing). Every explicit fit is guarded now
+    (`simplify.finite`)."""
+    lsys = tmp_path / "t.lsys"
+    lsys.write_text("name: a\nderivation_length: 3\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+                    "force_propagated: 0.7\n"
+                    "branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20 "
+                    "force_absorbed=0\n"
+                    "branch G: length=1 radius=0.02 bend_strength=20 rotation_strength=20\n"
+                    "leaf L: area=0.01\naxiom: G F L\nproductions:\n  F -> F [+G L] F\n")
+    result = run_cli("simplify", str(lsys), "--levels", str(tmp_path / "lv"), exit_code=1)
+    assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
