@@ -79,6 +79,11 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     check_scene(spec)
     check_frame_rate(spec, frame_rate)
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
+    if cache is not None and cache.exists() and not cache.is_dir():
+        from plantlod.lsys.errors import InputError
+
+        raise InputError("not a folder; expected a folder for the cached level chains (--cache "
+                         "DIR, $PLANTLOD_CACHE) or --no-cache", str(cache))
     show = sys.stderr.isatty()
     bar = _ProgressBar() if show else None
 

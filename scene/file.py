@@ -121,8 +121,9 @@ def _line_of(text: str, key: str, value=_ANY) -> int | None:
     where given (a key that several tables set: `[[tree]]`'s scale, a camera key's position),
     else of the first one."""
     found = list(re.finditer(rf"(?m)^\s*{re.escape(key)}\s*=(.*)$", text))
-    if not found:
-        return None
+    if not found:                                # a table of that name: [wind.extra]
+        table = re.search(rf"(?m)^\s*\[\[?[^\]\n]*\b{re.escape(key)}\s*\]", text)
+        return text.count("\n", 0, table.start()) + 1 if table else None
     chosen = found[0]
     if value is not _ANY and len(found) > 1:
         for m in found:

@@ -486,3 +486,23 @@ def test_a_bad_value_in_a_second_table_is_located_at_its_own_line(tmp_path, seco
                     + "[[tree]]\n" + second.format(stalk=STALK))
     result = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
     assert result.startswith(f"{path}:{line}:1:")
+
+
+def test_an_unknown_sub_table_is_located_at_its_header(tmp_path):
+    """'[wind.extra]' was named without a line (session 22, found by fuzzing)."""
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration="1").replace("speed = 5\n", "speed = 5\n[wind.extra]\nx = 1\n")
+                    + f'[[tree]]\nfile = "{STALK}"\n')
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+                    "unknown key 'extra' in [wind]")
+    assert line.startswith(f"{path}:5:1:")
+
+
+def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path):
+    """It was exit 1, 'File exists', once the chain was fitted (session 22, found by fuzzing)."""
+    cache = tmp_path / "cache"
+    cache.write_text("not a folder\n")
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    line = one_line(run_cli("scene", path, "--cache", str(cache), exit_code=None), 2,
+                    "not a folder; expected a folder for the cached level chains")
+    assert line.startswith(f"{cache}:") and cache.read_text() == "not a folder\n"
