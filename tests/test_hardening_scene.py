@@ -387,14 +387,18 @@ def test_a_spacing_below_the_smallest_normal_double_still_places_trees(tmp_path)
     assert run_cli("scene", path, "--no-cache", exit_code=None).exit_code == 0
 
 
-def test_a_wind_past_1000_m_s_is_located_bad_input(tmp_path):
-    """speed = 1e300 overflowed to inf inside the run, reported without the file (session 21)."""
+@pytest.mark.parametrize("edit, message, where", [
+    # speed = 1e300 overflowed to inf inside the run, reported without the file (session 21)
+    (("speed = 5", "speed = 1e300"), "'speed' must be <= 1000, got 1e+300", 4),
+    # '[wind.extra]' was named without a line (session 22)
+    (("speed = 5\n", "speed = 5\n[wind.extra]\nx = 1\n"), "unknown key 'extra' in [wind]", 5),
+])
+def test_a_bad_wind_is_located_bad_input(tmp_path, edit, message, where):
+    """Both found by fuzzing."""
     path = tmp_path / "s.toml"
-    path.write_text(HEAD.format(duration="1").replace("speed = 5", "speed = 1e300")
-                    + f'[[tree]]\nfile = "{STALK}"\n')
-    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
-                    "'speed' must be <= 1000, got 1e+300")
-    assert line.startswith(f"{path}:4:")
+    path.write_text(HEAD.format(duration="1").replace(*edit) + f'[[tree]]\nfile = "{STALK}"\n')
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    assert line.startswith(f"{path}:{where}:")
 
 
 @pytest.mark.parametrize("options", [("--angles", "x.zarr", "--report", "x.zarr"),
@@ -486,16 +490,6 @@ def test_a_bad_value_in_a_second_table_is_located_at_its_own_line(tmp_path, seco
                     + "[[tree]]\n" + second.format(stalk=STALK))
     result = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
     assert result.startswith(f"{path}:{line}:1:")
-
-
-def test_an_unknown_sub_table_is_located_at_its_header(tmp_path):
-    """'[wind.extra]' was named without a line (session 22, found by fuzzing)."""
-    path = tmp_path / "s.toml"
-    path.write_text(HEAD.format(duration="1").replace("speed = 5\n", "speed = 5\n[wind.extra]\nx = 1\n")
-                    + f'[[tree]]\nfile = "{STALK}"\n')
-    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
-                    "unknown key 'extra' in [wind]")
-    assert line.startswith(f"{path}:5:1:")
 
 
 def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path):
