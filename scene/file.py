@@ -349,7 +349,7 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
             continue
         gx, gy = int((x - x0) // cell), int((y - y0) // cell)
         near = [j for dx in (-1, 0, 1) for dy in (-1, 0, 1) for j in grid.get((gx + dx, gy + dy), [])]
-        if spacing > 0 and any(math.hypot(points[j][0] - x, points[j][1] - y) < spacing
+        if any(math.hypot(points[j][0] - x, points[j][1] - y) < spacing
                                for j in near):
             continue
         grid.setdefault((gx, gy), []).append(len(points))

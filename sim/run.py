@@ -12,6 +12,7 @@ The kernel (numba) is imported on first use, so importing this module is cheap.
 
 from __future__ import annotations
 
+import math
 from typing import Iterator, NamedTuple
 
 import numpy as np
@@ -34,6 +35,22 @@ class Samples(NamedTuple):
     times: np.ndarray
     bend: np.ndarray
     rot: np.ndarray
+
+
+def step_count(dt: float, duration: float, dt_name: str = "dt",
+               duration_name: str = "duration") -> int:
+    """round(duration / dt): the steps of a run of ``duration`` s at ``dt`` s (finite floats).
+    InputError, naming the options as the caller calls them, where dt is below MIN_TIME_STEP
+    or the run is longer than MAX_TIME_STEPS (the one check for the API and simplify)."""
+    from .constants import MAX_TIME_STEPS, MIN_TIME_STEP
+
+    if not MIN_TIME_STEP <= dt < math.inf:
+        raise InputError(f"{dt_name} {dt:g} s: expected a time step of at least "
+                         f"{MIN_TIME_STEP:g} s")
+    if not 0 <= duration / dt <= MAX_TIME_STEPS:
+        raise InputError(f"{duration_name} {duration:g} s at {dt_name} {dt:g} s gives more than "
+                         f"{MAX_TIME_STEPS:,} steps, the limit of one run")
+    return int(round(duration / dt))
 
 
 def default_chunk(n_branches: int) -> int:

@@ -79,8 +79,9 @@ class Options:
     damping_ratio: float = 0.0
 
     def __post_init__(self) -> None:
-        from plantlod.sim.constants import MAX_TIME_STEPS, MIN_TIME_STEP
+        from plantlod.sim.constants import MAX_TIME_STEPS
         from plantlod.sim.damping import as_damping
+        from plantlod.sim.run import step_count
 
         whole("level", self.level, low=1, high=MAX_LEVEL)    # (no tree has that many levels)
         for name, value, choices in (("method", self.method, METHODS), ("form", self.form, FORMS)):
@@ -97,12 +98,7 @@ class Options:
         as_damping(0.0, self.damping_ratio or None)      # ζ checked as every run checks it
         whole("every", self.every, low=1, high=MAX_TIME_STEPS)
         whole("max_evaluations", self.max_evaluations, low=1, high=MAX_TIME_STEPS)
-        if not MIN_TIME_STEP <= self.dt < math.inf:
-            raise InputError(f"--dt {self.dt:g} s: expected a time step of at least "
-                             f"{MIN_TIME_STEP:g} s")
-        if not 0 <= self.duration / self.dt <= MAX_TIME_STEPS:
-            raise InputError(f"--duration {self.duration:g} / --dt {self.dt:g} gives more than "
-                             f"{MAX_TIME_STEPS:,} steps, the limit of one run")
+        step_count(self.dt, self.duration, "--dt", "--duration")
         if self.duration < 2 * self.every * self.dt:    # (a period needs two kept samples)
             raise InputError(f"--duration {self.duration:g} s at --dt {self.dt:g} s gives fewer "
                              f"than {2 * self.every} steps to measure the motion in; expected a "
