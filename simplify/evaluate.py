@@ -174,7 +174,7 @@ class Runs:
                                                     downward_periods(run.times, bend, rot))
             except RunFailure as exc:
                 raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
-                                 simplified.source or None) from None
+                                 self.original.source or simplified.source or None) from None
         return [known[id(run)] for run in self.runs]
 
     def downward(self, simplified: Tree) -> list[tuple[np.ndarray, np.ndarray]]:

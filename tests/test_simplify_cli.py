@@ -178,3 +178,19 @@ def test_a_chain_whose_fit_meets_numbers_that_are_not_finite_is_a_run_failure(tm
     result = run_cli("simplify", str(lsys), "--levels", str(tmp_path / "lv"), exit_code=1)
     assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
+
+
+def test_a_level_that_diverges_is_reported_against_the_input_file(tmp_path):
+    """A root moved 1e300 m out (`f(1e300)`, legal) gives a level whose chord reaches there and
+    diverges in simplify's winds: bad input, exit 2, one line. It was named by the system's
+    `name:` ('far:'), not by the file given (session 23, found by fuzzing in session 22)."""
+    lsys = tmp_path / "far.lsys"
+    lsys.write_text("name: far\nderivation_length: 2\nbranching_angle: 30\nforce_absorbed: 0.001\n"
+                    "force_propagated: 0.6\n"
+                    "branch F: length=0.5 radius=0.01 bend_strength=30 rotation_strength=30\n"
+                    "axiom: F [f(1e300) F A] A\nproductions:\n  A -> F [+F] [-F] A\n")
+    result = run_cli("simplify", str(lsys), "--level", "1", "--form", "explicit", "-o",
+                     str(tmp_path / "o.lsys"), exit_code=2)
+    assert result.stderr.startswith(f"{lsys}: error: the simplified tree is unstable")
+    assert result.stderr.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["far.lsys"]
