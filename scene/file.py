@@ -27,6 +27,7 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
+from plantlod.sim.wind import gust_peak_factor
 from plantlod.simplify.constants import SIMPLIFY_EVERY
 
 from .constants import MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
@@ -239,6 +240,11 @@ def read_scene(path: str) -> Scene:
                 r.number(wind_t, "gust_strength", 0.0, low=0),
                 int(r.number(wind_t, "gust_seed", 0, low=0, integer=True)),
                 r.number(wind_t, "front_speed", 0.0, low=0))
+    peak = wind.speed * gust_peak_factor(wind.gust_strength)
+    if peak > MAX_WIND_SPEED:      # the levels are fitted at the strongest gust (scene.run)
+        raise r.error(f"'gust_strength' {wind.gust_strength:g} lets a {wind.speed:g} m/s wind gust "
+                      f"to {peak:.4g} m/s, over the largest wind speed {MAX_WIND_SPEED:g} m/s; "
+                      "expected a weaker gust_strength or speed", "gust_strength")
 
     cam_t = data.get("camera")
     if not isinstance(cam_t, dict):

@@ -187,6 +187,14 @@ def _parse_float(text: str) -> float | None:
         return None
 
 
+def gust_peak_factor(strength: float, components: int = GUST_COMPONENTS) -> float:
+    """An upper bound of `GustyWind`'s factor max(0, 1 + strength g(t)) at any time: g is
+    sqrt(2 / M) times a sum of M sines, so |g| <= sqrt(2 M) and the factor is at most
+    1 + strength sqrt(2 M) (the gusts a scene's levels must be fitted for, checked before
+    any run)."""
+    return 1.0 + float(strength) * math.sqrt(2.0 * components)
+
+
 class GustyWind:
     """A base wind scaled by a seeded gust factor: V(t) = base(t) * max(0, 1 + strength * g(t)).
 

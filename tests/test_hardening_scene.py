@@ -392,9 +392,11 @@ def test_a_spacing_below_the_smallest_normal_double_still_places_trees(tmp_path)
     (("speed = 5", "speed = 1e300"), "'speed' must be <= 1000, got 1e+300", 4),
     # '[wind.extra]' was named without a line (session 22)
     (("speed = 5\n", "speed = 5\n[wind.extra]\nx = 1\n"), "unknown key 'extra' in [wind]", 5),
+    # gusts of 2e7 m/s were refused inside the levels' fit, with no file or line (session 23)
+    (("speed = 5\n", "speed = 5\ngust_strength = 1e6\n"), "lets a 5 m/s wind gust to 2e+07 m/s", 5),
 ])
 def test_a_bad_wind_is_located_bad_input(tmp_path, edit, message, where):
-    """Both found by fuzzing."""
+    """All found by fuzzing."""
     path = tmp_path / "s.toml"
     path.write_text(HEAD.format(duration="1").replace(*edit) + f'[[tree]]\nfile = "{STALK}"\n')
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)

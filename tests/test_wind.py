@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from plantlod.lsys.errors import InputError
-from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, wind_from_speed
+from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, gust_peak_factor, wind_from_speed
 
 
 def test_constant_wind_repeats_its_vector():
@@ -88,6 +88,20 @@ def test_gust_strength_is_the_rms_relative_fluctuation():
     strong = GustyWind(ConstantWind((2.0, 0, 0)), seed=3, strength=3.0).sample(t)
     assert strong[:, 0].min() == 0.0
 
+
+
+@pytest.mark.parametrize("seed", [0, 3, 11])
+def test_gust_peak_factor_bounds_every_gust_and_is_nearly_reached(seed):
+    """`gust_peak_factor` (what a scene checks before fitting levels for its gusts) is an
+    upper bound of the factor at any time, and not a loose one: over a long run the factor
+    comes within 40 % of it (M = 8 sines rarely all peak together)."""
+    strength = 0.5
+    t = np.arange(0.0, 20000.0, 0.05)
+    factor = GustyWind(ConstantWind((1.0, 0.0, 0.0)), seed=seed, strength=strength).factor(t)
+    bound = gust_peak_factor(strength)
+    assert bound == 1.0 + strength * 4.0                 # sqrt(2 M), M = 8
+    assert factor.max() <= bound
+    assert factor.max() >= 1.0 + 0.6 * (bound - 1.0)
 
 def test_gust_rejects_bad_parameters():
     base = ConstantWind((1.0, 0.0, 0.0))
