@@ -264,8 +264,8 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
 # --- levels of detail ----------------------------------------------------------------------
 
 def simplify(system: LSystem | PathOrText, level: int = 1, **options: Any) -> LSystem:
-    """The level-``level`` L-system standing for ``system`` (an `LSystem` or the path of an
-    .lsys file; docs/simplify.md).
+    """The level-``level`` L-system standing for ``system`` (an `LSystem`, the path of an
+    .lsys file, or its text as `read_lsystem` reads it; docs/simplify.md).
 
     options : those of `plantlod.simplify.pipeline.Options` (method, calibrate,
               wind_range, dt, duration, max_evaluations, form, damping_ratio). Its header comment
@@ -411,12 +411,13 @@ def _labels(items: tuple) -> list[str]:
 
 
 def _as_system(item: Any) -> LSystem:
-    """An `LSystem`, or one read from a path."""
+    """An `LSystem`, or one read from a path or text (`read_lsystem`)."""
     if isinstance(item, LSystem):
         return item
     if isinstance(item, (str, os.PathLike)):
         return read_lsystem(item)
-    raise InputError(f"expected an LSystem or the path of an .lsys file, got {type(item).__name__}")
+    raise InputError(f"expected an LSystem, the path of an .lsys file or its text, got "
+                     f"{type(item).__name__}")
 
 
 def _as_tree(item: Any) -> Tree:

@@ -12,16 +12,11 @@ import types as _types
 
 class _CallablePackage(_types.ModuleType):
     def __call__(self, system, level=1, **options):
-        """The level-``level`` L-system standing for ``system`` (plantlod.api.simplify)."""
-        import os
+        """The level-``level`` L-system standing for ``system`` (plantlod.api.simplify: an
+        `LSystem`, a path, or the text of an L-system, as `plantlod.read_lsystem` reads it)."""
+        from plantlod.api import simplify   # the API's function; a call, not a dependency
 
-        from .pipeline import simplified_system
-
-        if isinstance(system, (str, os.PathLike)):        # a path, as plantlod.api.simplify
-            from plantlod.formats.lsys_file import read_lsys
-
-            system = read_lsys(os.fspath(system))
-        return simplified_system(system, level, **options)
+        return simplify(system, level, **options)
 
 
 _sys.modules[__name__].__class__ = _CallablePackage

@@ -560,8 +560,7 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
     import dataclasses
 
     if not isinstance(system, LSystem):
-        raise InputError(f"expected an LSystem or the path of an .lsys file, got "
-                         f"{type(system).__name__}")
+        raise InputError(f"expected an LSystem, got {type(system).__name__}")
     known = {f.name for f in dataclasses.fields(Options)} - {"level"}
     unknown = sorted(set(options) - known)
     if unknown:

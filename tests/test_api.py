@@ -45,6 +45,18 @@ def test_simplify_gives_the_commands_bytes(stalk, form):
     assert level.comment and plantlod.write_lsystem(level) == cli_text
 
 
+
+def test_simplify_reads_a_path_a_text_and_a_system_alike(stalk):
+    """plantlod.simplify (the callable package) read any string as a path, so the text of an
+    L-system, which read_lsystem and derive take, ended in 'File name too long' (session 23)."""
+    text = (stalk / "stalk8.lsys").read_text()
+    by_path, by_text = plantlod.simplify("stalk8.lsys"), plantlod.simplify(text)
+    by_system = plantlod.simplify(plantlod.read_lsystem(text))
+    body = [plantlod.write_lsystem(s).split("\nname:", 1)[1] for s in (by_path, by_text, by_system)]
+    assert body[0] == body[1] == body[2]
+    with pytest.raises(plantlod.InputError, match="expected an LSystem, the path"):
+        plantlod.simplify(3)
+
 def test_simplify_and_compare_give_the_commands_bytes(stalk):
     from plantlod.compare.report import dumps
 

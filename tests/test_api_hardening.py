@@ -132,7 +132,7 @@ def test_simplify_options_are_checked_before_any_work(options, fragment):
     fuzzing the API); `simplify.pipeline.Options` checks every field, for the command too."""
     with pytest.raises(InputError, match=__import__("re").escape(fragment)):
         plantlod.simplify(STALK, **({"level": 1} | options))
-    with pytest.raises(InputError, match="expected an LSystem or the path"):
+    with pytest.raises(InputError, match="expected an LSystem, the path"):
         plantlod.simplify(None, level=1)
 
 

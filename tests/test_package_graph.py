@@ -18,9 +18,11 @@ FOLDERS = {"lsys": "lsys", "sim": "sim", "compare": "compare", "simplify": "simp
            "export": "export", "formats": "formats", "api": "plantlod", "cli": "cli"}
 RANK = {"lsys": 0, "formats": 0, "sim": 1, "compare": 2, "simplify": 3, "scene": 4, "export": 4,
         "api": 5, "cli": 6}
-# plantlod.compare is also the function plantlod.compare (as plantlod.simplify is): its
-# __call__ hands the call to the API, the one upward import allowed, in that file only.
-CALLABLE_PACKAGE_SHIMS = {("compare", "api", "compare/__init__.py")}
+# plantlod.compare and plantlod.simplify are also the functions of those names: each
+# package's __call__ hands the call to the API, the one upward import allowed, in that
+# file only (so a path, a text or an LSystem is read the same whichever way it is reached).
+CALLABLE_PACKAGE_SHIMS = {("compare", "api", "compare/__init__.py"),
+                          ("simplify", "api", "simplify/__init__.py")}
 # formats sits beside lsys: it may read lsys' Tree and errors, nothing else above it
 ALLOWED_FROM_FORMATS = {"lsys"}
 
