@@ -214,6 +214,9 @@ class GustyWind:
                  components: int = GUST_COMPONENTS,
                  min_frequency: float = GUST_MIN_FREQUENCY,
                  max_frequency: float = GUST_MAX_FREQUENCY):
+        if not callable(getattr(base, "sample", None)):
+            raise InputError(f"a gust's base must be a wind object (one with .sample(times)), "
+                             f"got {type(base).__name__}")
         if not (isinstance(seed, (int, np.integer)) and seed >= 0):
             raise InputError(f"gust seed must be an integer >= 0, got {seed!r}")
         strength = float(strength)

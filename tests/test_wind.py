@@ -105,6 +105,8 @@ def test_gust_peak_factor_bounds_every_gust_and_is_nearly_reached(seed):
 
 def test_gust_rejects_bad_parameters():
     base = ConstantWind((1.0, 0.0, 0.0))
+    with pytest.raises(InputError, match="base must be a wind object"):
+        GustyWind("abc")          # an AttributeError once the run began (session 22's fuzzing)
     with pytest.raises(InputError, match="seed"):
         GustyWind(base, seed=-1)
     with pytest.raises(InputError, match="strength"):
