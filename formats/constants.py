@@ -9,6 +9,8 @@ MAX_LINE_BYTES = 1_000_000          # .lsys lines, tree-file records, wind keyfr
 MAX_CSV_LINE_BYTES = 100_000_000
 MAX_JSON_DEPTH = 8                  # nesting of arrays/objects in one tree-file record
 READ_CHUNK_BYTES = 1 << 20          # read inputs a MiB at a time
+MAX_TEXT_BYTES = 2 << 30            # a text input in all (as MAX_NPZ_BYTES for archives): an endless
+                                    # pipe or /dev/urandom is refused, not held until memory runs out
 # .npz archives: every member's declared shape and uncompressed size is checked against
 # these before anything is decompressed (a 390,625-branch tree is about 90 MB; a zip bomb
 # of a few MB can declare gigabytes).

@@ -7,13 +7,14 @@ whichever command read them. A UTF-8 byte-order mark is accepted and dropped.
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import sys
 from typing import BinaryIO, Iterator
 
 from plantlod.lsys.errors import InputError
 
-from .constants import MAX_LINE_BYTES, READ_CHUNK_BYTES
+from .constants import MAX_LINE_BYTES, MAX_TEXT_BYTES, READ_CHUNK_BYTES
 
 _BOM = b"\xef\xbb\xbf"
 # Binary files a user may hand to a text reader, and what to say of them.
@@ -30,32 +31,35 @@ def source_name(path: str) -> str:
     return "<stdin>" if path == "-" else path
 
 
-def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES) -> str:
+def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
+              max_bytes: int = MAX_TEXT_BYTES) -> str:
     """The whole text of ``path`` (``-``: stdin), decoded as UTF-8.
 
-    Read in chunks; a line longer than ``max_line_bytes`` stops the reading at
-    once (`InputError` at file:line), so a hostile input is never held whole.
+    Read in chunks, each checked as it comes: a line longer than ``max_line_bytes``, more
+    than ``max_bytes`` in all, or a byte that is not UTF-8 stops the reading at once
+    (`InputError` at file:line[:col]), so a hostile input (/dev/urandom, an endless pipe) is
+    never held whole.
     """
     name = source_name(path)
     with reading(name):
         if path == "-":
-            data = _read_capped(stdin_bytes(name), name, max_line_bytes)
-        else:
-            with open(path, "rb") as handle:
-                data = _read_capped(handle, name, max_line_bytes)
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        for magic, what in BINARY_KINDS:
-            if data.startswith(magic):
-                raise InputError(f"not text but {what}", name) from None
-        bom = len(_BOM) if data.startswith(_BOM) else 0
-        offset = exc.start + bom
-        line = data.count(b"\n", 0, offset) + 1
-        line_start = max(data.rfind(b"\n", 0, offset) + 1, bom)
-        col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
-        raise InputError(f"not UTF-8 text (byte {offset}), 0x{data[offset]:02x} cannot be "
-                         "decoded; expected a UTF-8 file", name, line, col) from None
+            return _read_capped(stdin_bytes(name), name, max_line_bytes, max_bytes)
+        with open(path, "rb") as handle:
+            return _read_capped(handle, name, max_line_bytes, max_bytes)
+
+
+def _not_utf8(data: bytes, offset: int, name: str) -> InputError:
+    """The error for the byte at ``offset`` of ``data`` (the file's bytes up to and past it),
+    located at its line and column (characters, a leading byte-order mark not counted)."""
+    for magic, what in BINARY_KINDS:
+        if data.startswith(magic):
+            return InputError(f"not text but {what}", name)
+    bom = len(_BOM) if data.startswith(_BOM) else 0
+    line = data.count(b"\n", 0, offset) + 1
+    line_start = max(data.rfind(b"\n", 0, offset) + 1, bom)
+    col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
+    return InputError(f"not UTF-8 text (byte {offset}), 0x{data[offset]:02x} cannot be "
+                      "decoded; expected a UTF-8 file", name, line, col)
 
 
 @contextlib.contextmanager
@@ -81,17 +85,26 @@ def stdin_bytes(name: str = "<stdin>") -> BinaryIO:
     return sys.stdin.buffer
 
 
-def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int) -> bytes:
-    """All bytes of ``handle``, refusing a line longer than ``max_line_bytes``.
+def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int,
+                 max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The text of ``handle``: its bytes decoded as UTF-8 (a leading byte-order mark
+    dropped), refusing a line longer than ``max_line_bytes``, more than ``max_bytes`` in
+    all, and the first byte that is not UTF-8, each as soon as its chunk is read.
 
-    Chunks are no longer than the cap, so only the line running across a chunk
+    Chunks are no longer than the line cap, so only the line running across a chunk
     boundary (the run before a chunk's first newline plus the carry) can exceed it.
     """
     chunk_size = max(1, min(max_line_bytes, READ_CHUNK_BYTES))
+    decoder = codecs.getincrementaldecoder("utf-8")()
     chunks: list[bytes] = []
+    text: list[str] = []
+    total = 0         # bytes read before this chunk
     run = 0           # bytes since the last newline
     lines = 0         # newlines read so far
     while chunk := handle.read(chunk_size):
+        if total + len(chunk) > max_bytes:
+            raise InputError(f"more than {max_bytes:,} bytes; expected a smaller file "
+                             "(docs/errors.md, \"Limits\")", name)
         first = chunk.find(b"\n")
         if first < 0:
             run += len(chunk)
@@ -104,4 +117,15 @@ def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int) -> bytes:
                              "lines (docs/errors.md, \"Limits\")", name, lines + 1)
         lines += chunk.count(b"\n")
         chunks.append(chunk)
-    return b"".join(chunks)
+        fed = chunk[len(_BOM):] if total == 0 and chunk.startswith(_BOM) else chunk
+        try:
+            text.append(decoder.decode(fed))
+        except UnicodeDecodeError as exc:   # exc.object: the decoder's carried bytes + fed
+            raise _not_utf8(b"".join(chunks), total + len(chunk) - len(exc.object) + exc.start,
+                            name) from None
+        total += len(chunk)
+    try:
+        text.append(decoder.decode(b"", final=True))
+    except UnicodeDecodeError as exc:       # a sequence cut short by the end of the file
+        raise _not_utf8(b"".join(chunks), total - len(exc.object) + exc.start, name) from None
+    return "".join(text)

@@ -240,6 +240,44 @@ def test_long_line_stops_reading_early():
     assert info.value.line == 1 and data.tell() <= 2000     # read at most two chunks
 
 
+
+class _Endless(io.RawIOBase):
+    """A stream that never ends (an endless pipe, /dev/urandom): ``unit`` repeated."""
+
+    def __init__(self, unit: bytes):
+        self.unit, self.given = unit, 0
+
+    def readable(self):
+        return True
+
+    def read(self, n=-1):
+        self.given += n
+        return (self.unit * (n // len(self.unit) + 1))[:n]
+
+
+@pytest.mark.parametrize("unit, message, most", [
+    (b"F F F\n", "more than 100,000 bytes", 100_000),           # valid text, no end
+    (bytes(range(256)), "not UTF-8 text (byte 128), 0x80", 1000),  # binary: the first chunk
+])
+def test_an_endless_input_is_refused_without_being_held(unit, message, most):
+    """Both were read until memory ran out (scene /dev/urandom hung, session 22's fuzzing):
+    the bytes are checked as UTF-8 chunk by chunk, and a total past the cap stops the reading."""
+    stream = _Endless(unit)
+    with pytest.raises(InputError, match=re.escape(message)):
+        _read_capped(stream, "x.lsys", 1000, max_bytes=100_000)
+    assert stream.given <= most + 1000                            # at most a chunk more
+
+
+def test_utf8_is_checked_across_chunk_boundaries():
+    """A two-byte character split by a chunk boundary is text; a sequence cut short by the
+    end of the file is not, located at its first byte (line and column in characters)."""
+    text = (("é" * 400 + "\n") * 5).encode()        # lines of 801 bytes: chunks of 1000 split 'é'
+    assert _read_capped(io.BytesIO(text), "x", 1000) == text.decode()
+    assert _read_capped(io.BytesIO(b"\xef\xbb\xbfab\n" + text), "x", 1000) == "ab\n" + text.decode()
+    with pytest.raises(InputError, match=r"byte 7\), 0xc3") as info:
+        _read_capped(io.BytesIO(b"ab\ncd\xc3\xa9\xc3"), "x", 1000)
+    assert (info.value.line, info.value.col) == (2, 4)
+
 def test_long_line_cap_names_the_line(tmp_path):
     path = tmp_path / "x.csv"
     path.write_bytes(b"t\n0\n" + b"1" * 300 + b"\n")
