@@ -33,7 +33,10 @@ class InputError(PlantlodError):
         return (type(self), (self.message, self.file, self.line, self.col))
 
     def __str__(self) -> str:
-        where = [str(p) for p in (self.file, self.line, self.col) if p is not None]
+        # a file name with a line break or other control character is shown quoted, so the
+        # message stays one line (the API's read_tree("\n"))
+        where = [str(p) if str(p).isprintable() else repr(str(p))
+                 for p in (self.file, self.line, self.col) if p is not None]
         prefix = ":".join(where)
         return f"{prefix}: {self.message}" if prefix else self.message
 

@@ -395,11 +395,14 @@ def _wind(wind: Any):
 
 
 def _labels(items: tuple) -> list[str]:
-    """A label per compared item: its file; where that repeats an earlier label (a level
-    `simplify` made keeps its original's file name), its name, else "simplified k"."""
+    """A label per compared item: its file (``<text>`` for a text); where that repeats an
+    earlier label (a level `simplify` made keeps its original's file name), its name, else
+    "<label> (simplified k)"."""
     out: list[str] = []
     for k, item in enumerate(items):
-        if isinstance(item, (str, os.PathLike)):
+        if isinstance(item, str) and ("\n" in item or "\r" in item):
+            label = "<text>"                                   # a text read as its tree
+        elif isinstance(item, (str, os.PathLike)):
             label = os.fspath(item)
         else:
             label = getattr(item, "source", "") or ("original" if k == 0 else f"simplified {k}")
@@ -422,21 +425,26 @@ def _as_system(item: Any) -> LSystem:
 
 def _as_tree(item: Any) -> Tree:
     """A `Tree`: as given, derived from an `LSystem`, or read from a path (an .lsys file, a
-    tree file, a tree .npz), as the commands read their TREE argument."""
+    tree file, a tree .npz), as the commands read their TREE argument; a string with a line
+    break is the text of an .lsys file or a tree file itself (as `read_lsystem` reads it)."""
     if isinstance(item, Tree):
         return item
     if isinstance(item, LSystem):
         return derive(item)
     if not isinstance(item, (str, os.PathLike)):
-        raise InputError(f"expected a Tree, an LSystem or a path, got {type(item).__name__}")
-    path = os.fspath(item)
-    from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
+        raise InputError(f"expected a Tree, an LSystem, a path or the text of either, got "
+                         f"{type(item).__name__}")
+    if isinstance(item, str) and ("\n" in item or "\r" in item):
+        text, path = item, "<text>"       # the text itself, as `read_lsystem` takes it
+    else:
+        path = path_of(item)
+        from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
 
-    if is_npz(path):
-        return read_tree_bytes(read_npz_file(path), path)
-    from plantlod.formats.text_input import read_text
+        if is_npz(path):
+            return read_tree_bytes(read_npz_file(path), path)
+        from plantlod.formats.text_input import read_text
 
-    text = read_text(path)
+        text = read_text(path)
     if text.lstrip().startswith("{"):
         from plantlod.formats.treefile import read_tree as _read
 

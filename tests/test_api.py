@@ -57,6 +57,23 @@ def test_simplify_reads_a_path_a_text_and_a_system_alike(stalk):
     with pytest.raises(plantlod.InputError, match="expected an LSystem, the path"):
         plantlod.simplify(3)
 
+
+def test_simulate_and_compare_read_a_text_as_derive_does(stalk):
+    """simulate and compare read any string as a path, so the text of an L-system (which
+    derive takes) or of a tree file became a many-line 'no such file' (session 23, found by
+    fuzzing); a file name with a line break is quoted, so a message stays one line."""
+    text = (stalk / "stalk8.lsys").read_text()
+    by_path = plantlod.simulate("stalk8.lsys", wind=(5.0, 0.0, 0.0), dt=0.01, steps=50)
+    for item in (text, plantlod.write_tree(plantlod.derive(text))):
+        by_text = plantlod.simulate(item, wind=(5.0, 0.0, 0.0), dt=0.01, steps=50)
+        assert by_text.bend.tobytes() == by_path.bend.tobytes()
+    doc = plantlod.compare(text, text, wind=(5.0, 0.0, 0.0), dt=0.01, duration=3.0)
+    assert doc["original"]["file"] == "<text>" and doc["passed"]
+    assert doc["comparisons"][0]["simplified"]["file"] == "<text> (simplified 1)"
+    with pytest.raises(plantlod.InputError) as info:
+        plantlod.read_tree("\n")
+    assert str(info.value) == "'\\n': no such file"
+
 def test_simplify_and_compare_give_the_commands_bytes(stalk):
     from plantlod.compare.report import dumps
 

@@ -37,7 +37,7 @@ def test_a_missing_file_is_reported_missing(tmp_path):
         with pytest.raises(InputError) as info:
             call()
         assert str(info.value) == "nope.lsys: no such file"
-    with pytest.raises(InputError, match="expected a Tree, an LSystem or a path"):
+    with pytest.raises(InputError, match="expected a Tree, an LSystem, a path"):
         plantlod.simulate(42, dt=0.01, steps=2)
 
 
