@@ -40,14 +40,17 @@ class Samples(NamedTuple):
 def step_count(dt: float, duration: float, dt_name: str = "dt",
                duration_name: str = "duration") -> int:
     """round(duration / dt): the steps of a run of ``duration`` s at ``dt`` s (finite floats).
-    InputError, naming the options as the caller calls them, where dt is below MIN_TIME_STEP
-    or the run is longer than MAX_TIME_STEPS (the one check for the API and simplify)."""
+    InputError, naming the options as the caller calls them, where dt is below MIN_TIME_STEP,
+    the duration negative, or the run longer than MAX_TIME_STEPS (the one check for the API
+    and simplify)."""
     from .constants import MAX_TIME_STEPS, MIN_TIME_STEP
 
     if not MIN_TIME_STEP <= dt < math.inf:
         raise InputError(f"{dt_name} {dt:g} s: expected a time step of at least "
                          f"{MIN_TIME_STEP:g} s")
-    if not 0 <= duration / dt <= MAX_TIME_STEPS:
+    if not duration >= 0:                             # (NaN included)
+        raise InputError(f"{duration_name} {duration:g} s: expected a duration of at least 0 s")
+    if not duration / dt <= MAX_TIME_STEPS:
         raise InputError(f"{duration_name} {duration:g} s at {dt_name} {dt:g} s gives more than "
                          f"{MAX_TIME_STEPS:,} steps, the limit of one run")
     return int(round(duration / dt))

@@ -126,6 +126,7 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     ({"calibrate": "yes"}, "calibrate must be True or False"),             # accepted
     ({"foo": 1}, "unknown option 'foo'"),                                  # TypeError
     ({"dt": 10}, "gives fewer than 8 steps to measure the motion in"),     # signal shape error
+    ({"duration": -1}, "--duration -1 s: expected a duration of at least 0 s"),  # "more than 10^10 steps"
 ])
 def test_simplify_options_are_checked_before_any_work(options, fragment):
     """Each of these raised another exception, hung or was accepted (session 21, found by
