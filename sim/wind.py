@@ -57,6 +57,7 @@ class ConstantWind:
         v = np.asarray(vector, dtype=np.float64).reshape(-1)
         if v.shape != (3,) or not np.all(np.isfinite(v)):
             raise InputError(f"a wind vector must be three finite numbers, got {vector!r}")
+        check_speed(float(np.linalg.norm(v)), "a wind")
         self.vector = v
 
     def sample(self, times) -> np.ndarray:
@@ -65,6 +66,13 @@ class ConstantWind:
 
     def __repr__(self) -> str:
         return "ConstantWind(({:g}, {:g}, {:g}))".format(*self.vector)
+
+
+def check_speed(speed: float, what: str) -> None:
+    """InputError where ``what`` blows faster than MAX_WIND_SPEED m/s (every wind of a run:
+    a vector, a keyframe, a gust's peak)."""
+    if speed > MAX_WIND_SPEED:
+        raise InputError(f"{what} of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s")
 
 
 def wind_from_speed(speed: float, direction_deg: float) -> ConstantWind:
@@ -110,6 +118,7 @@ class KeyframeWind:
             raise InputError("keyframe times and wind vectors must be finite")
         if np.any(np.diff(t) <= 0):
             raise InputError("keyframe times must be strictly increasing")
+        check_speed(float(np.linalg.norm(v, axis=1).max()), "a keyframe wind")
         self.times = t
         self.vectors = v
 
@@ -154,6 +163,10 @@ class KeyframeWind:
                     raise InputError(f"expected a finite number for {name}, got {text.strip()!r}",
                                      source, line_no, col)
                 values.append(value)
+            speed = math.hypot(*values[1:])
+            if speed > MAX_WIND_SPEED:
+                raise InputError(f"a wind of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s",
+                                 source, line_no, starts[1])
             if times and values[0] <= times[-1]:
                 raise InputError(f"times must be strictly increasing: {values[0]:g} after {times[-1]:g}",
                                  source, line_no, starts[0])
@@ -226,6 +239,11 @@ class GustyWind:
             raise InputError(f"gust components must be >= 1, got {components}")
         if not (0 < min_frequency <= max_frequency and math.isfinite(max_frequency)):
             raise InputError("gust frequencies must satisfy 0 < min_frequency <= max_frequency")
+        if isinstance(base, (ConstantWind, KeyframeWind)):   # (any other wind is its own)
+            steady = base.sample([0.0])[0] if isinstance(base, ConstantWind) else base.vectors
+            peak = float(np.linalg.norm(np.atleast_2d(steady), axis=1).max())
+            check_speed(peak * gust_peak_factor(strength, components),
+                        f"gusts of strength {strength:g} reach a wind")
         self.base = base
         self.seed = int(seed)
         self.strength = strength

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from plantlod.lsys.errors import InputError
+from plantlod.sim.constants import MAX_WIND_SPEED
 from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, gust_peak_factor, wind_from_speed
 
 
@@ -102,6 +103,25 @@ def test_gust_peak_factor_bounds_every_gust_and_is_nearly_reached(seed):
     assert bound == 1.0 + strength * 4.0                 # sqrt(2 M), M = 8
     assert factor.max() <= bound
     assert factor.max() >= 1.0 + 0.6 * (bound - 1.0)
+
+
+def test_every_kind_of_wind_is_held_to_the_largest_speed(tmp_path):
+    """Only --wind-speed was held to MAX_WIND_SPEED: a vector, a keyframe row and gusts
+    of 1e6 m/s or more ran with exit 0 and angles of 1e36 rad (session 23, found by fuzzing).
+    A gust's bound is its peak factor times the base's fastest keyframe."""
+    fast = MAX_WIND_SPEED * 1.001
+    with pytest.raises(InputError, match="a wind of 1001 m/s; expected at most 1000"):
+        ConstantWind((0.0, fast, 0.0))
+    ConstantWind((0.0, MAX_WIND_SPEED, 0.0))
+    with pytest.raises(InputError, match="a keyframe wind of 1001 m/s"):
+        KeyframeWind([0.0, 1.0], [(1.0, 0, 0), (0, 0, fast)])
+    with pytest.raises(InputError) as info:
+        KeyframeWind.from_csv(io.StringIO("t,vx,vy,vz\n0,1,0,0\n1, 600,800.8,0\n"), "w.csv")
+    assert (info.value.file, info.value.line, info.value.col) == ("w.csv", 3, 4)
+    base = KeyframeWind([0.0, 1.0], [(1.0, 0, 0), (200.0, 0, 0)])
+    GustyWind(base, strength=1.0)                             # 200 (1 + 4) = 1000
+    with pytest.raises(InputError, match="gusts of strength 1.01 reach a wind of 1008 m/s"):
+        GustyWind(base, strength=1.01)
 
 def test_gust_rejects_bad_parameters():
     base = ConstantWind((1.0, 0.0, 0.0))
