@@ -458,8 +458,9 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
         out.append(Module(c, args, cur.pos(start)))
 
 
-def _check_brackets(modules: tuple[Module, ...]) -> None:
-    """Brackets must balance; points at an unmatched ']' or the last unclosed '['."""
+def _check_brackets(modules: tuple[Module, ...], closing: str = "on this line") -> None:
+    """Brackets must balance; points at an unmatched ']' or the last unclosed '['
+    (``closing``: where its ']' belongs, for the message)."""
     open_stack: list[Module] = []
     for m in modules:
         if m.name == "[":
@@ -469,7 +470,7 @@ def _check_brackets(modules: tuple[Module, ...]) -> None:
                 raise _error(m.pos, "unmatched ']'; expected a '[' before it")
             open_stack.pop()
     if open_stack:
-        raise _error(open_stack[-1].pos, "'[' is never closed; expected a matching ']' on this line")
+        raise _error(open_stack[-1].pos, f"'[' is never closed; expected a matching ']' {closing}")
 
 
 def _patterns(cur: _Cursor) -> list[tuple[Pattern, list[tuple[str, Pos]]]]:
@@ -726,6 +727,16 @@ class _FileParser:
             self.rules[self.section].append(_production(cur, self.defines))
             return None
         cur.skip_ws()
+        after = m.end(1) if m else 0
+        if word and after < len(line) and not (line[after].isspace() or line[after] in ":=("):
+            if not line[after].isascii() or not line[after].isprintable():   # 'béranching_angle'
+                raise cur.error(f"unexpected {line[after]!r} in a name; expected ASCII letters, "
+                                "digits and '_'", after)
+        if word in _DECLARATIONS and not _has_arrow(line):     # 'define^ x = 1'
+            raise cur.error(f"unexpected {line[after:after + 1]!r} after '{word}'; expected "
+                            f"'{word} NAME ...' with a space after '{word}'", after)
+        if word in _STATEMENT_WORDS and not _has_arrow(line):  # 'force_propagated 0.7'
+            raise cur.error(f"expected ':' after '{word}'", after)
         if len(word) > 1 and not _has_arrow(line):     # a misspelled statement keyword
             raise cur.error(f"unknown statement '{word}'{hint}; expected {_STATEMENTS_HELP}")
         if _has_arrow(line):
@@ -826,8 +837,8 @@ class _FileParser:
                                 f"expected ':' after '{c}'")
             raise cur.error(f"expected ':' after '{kind} {c}', found {cur.describe()}")
         if c in self.declared:
-            raise cur.error(f"unknown symbol in a declaration: '{c}' is already declared at "
-                            f"{_where(self.declared[c])}; expected each symbol declared once", sym_i)
+            raise cur.error(f"'{c}' is already declared at {_where(self.declared[c])}; expected "
+                            "each symbol declared once", sym_i)
         cur.i += 1
         keys = BRANCH_KEYS if kind == "branch" else LEAF_KEYS
         values = self._key_values(cur, keys, f"a {kind} declaration")
@@ -915,7 +926,7 @@ class _FileParser:
     def _set_axiom(self, cur: _Cursor, modules: tuple[Module, ...]) -> None:
         if not modules:
             raise cur.error("the axiom is empty; expected at least one module")
-        _check_brackets(modules)
+        _check_brackets(modules, "in the axiom")      # (which may run on over indented lines)
         for module in modules:
             for arg in module.args:
                 _check_names(arg, frozenset(), self.defines,

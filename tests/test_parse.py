@@ -381,7 +381,7 @@ def _check(body: str, line: int, col: int, fragment: str, head: str = HEAD):
     ("leaf FF: area=1\naxiom: F\n", 5, 7, "unknown symbol in a declaration: a symbol is one character"),
     ("leaf (: area=1\naxiom: F\n", 5, 6, "unknown symbol in a declaration: '(' is reserved"),
     ("branch F: length=1 radius=1 bend_strength=1 rotation_strength=1\nleaf F: area=1\naxiom: F\n",
-     6, 6, "unknown symbol in a declaration: 'F' is already declared at 5:8"),
+     6, 6, "'F' is already declared at 5:8; expected each symbol declared once"),
     ("leaf L: aera=1\naxiom: F\n", 5, 9, "unknown key 'aera' in a leaf declaration (did you mean 'area'?)"),
     ("leaf L: area=1 area=2\naxiom: F\n", 5, 16, "duplicate key 'area'"),
     ("branch F: length=1 radius=1 bend_strength=1\naxiom: F\n", 5, 8,
@@ -437,6 +437,14 @@ def _check(body: str, line: int, col: int, fragment: str, head: str = HEAD):
     ("axiom: F\nproductions:\n  A\n", 7, 4, "expected '>', ':' or '->', found end of line"),
     ("axiom: F\nproductions: F -> FF\n", 6, 14, "after 'productions:'; expected end of line"),
     ("axiom: F\n*\n", 6, 1, "unexpected '*' outside a section"),
+    # a keyword without its colon was "unknown ... (did you mean itself?)"; a non-ASCII letter
+    # in a keyword was blamed on the word's first letter (session 23, found by fuzzing)
+    ("seed 3\naxiom: F\n", 5, 5, "expected ':' after 'seed'"),
+    ("axiom: F\nproductions\n  F -> FF\n", 6, 12, "expected ':' after 'productions'"),
+    ("define^ x = 1\naxiom: F\n", 5, 7, "unexpected '^' after 'define'"),
+    ("séed: 3\naxiom: F\n", 5, 2, "unexpected 'é' in a name; expected ASCII letters"),
+    ("s\u200beed: 3\naxiom: F\n", 5, 2, "unexpected '\\u200b' in a name"),
+    ("axiom:\n  F [F\n  F\n", 6, 5, "'[' is never closed; expected a matching ']' in the axiom"),
     ("axiom: F\nproductions:\n  F -> FF\ndefine x = 1\n  F -> F\n", 9, 3, "production outside a section"),
     # overrides
     ("axiom: F\noverrides:\n  0.-1: length=2\n", 7, 3, "override address '0.-1' is not valid; expected dotted non-negative integers"),
