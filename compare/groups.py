@@ -298,31 +298,21 @@ def combined_angles(original: Tree, paths: list[np.ndarray],
     k = bend2.shape[0]
     members = _concatenate(paths)
     m = path_rotations(original, paths)
-    coef = {name: np.ascontiguousarray(c) for name, c in   # (M,) each, contiguous for speed
-            (("bb", m[:, 1, 1]), ("br", -m[:, 1, 0]), ("rb", -m[:, 0, 1]), ("rr", m[:, 0, 0]))}
     lengths = np.array([len(p) for p in paths], dtype=np.int64)
     filled = np.flatnonzero(lengths > 0)                  # groups with a path
-    starts = (np.cumsum(lengths) - lengths)[filled]       # their first member in `members`
-
     theta_b = np.zeros((k, len(paths)))
     theta_r = np.zeros((k, len(paths)))
-    if len(members) == 0:
-        return (theta_b[0], theta_r[0]) if bend.ndim == 1 else (theta_b, theta_r)
-    # Small blocks of samples stay in cache; the buffers are reused block to block.
-    rows = min(k, max(1, _CHUNK_ELEMENTS // len(members)))
-    # the members' angles taken in their own precision; the products are float64 (a float32
-    # angle widens exactly), so float32 runs give the bits their float64 copies would
-    bj, rj = np.empty((rows, len(members)), bend.dtype), np.empty((rows, len(members)), rot.dtype)
-    acc, tmp = np.empty((rows, len(members))), np.empty((rows, len(members)))
-    for lo in range(0, k, rows):
-        n = min(rows, k - lo)
-        np.take(bend2[lo:lo + n], members, axis=1, out=bj[:n])  # (n, M) member angles
-        np.take(rot2[lo:lo + n], members, axis=1, out=rj[:n])
-        for out, cb, cr in ((theta_b, coef["bb"], coef["br"]), (theta_r, coef["rb"], coef["rr"])):
-            np.multiply(bj[:n], cb, out=acc[:n])
-            np.multiply(rj[:n], cr, out=tmp[:n])
-            acc[:n] += tmp[:n]
-            out[lo:lo + n, filled] = np.add.reduceat(acc[:n], starts, axis=1)
+    if len(members):
+        from .combined_kernel import combined
+
+        # each member's angles in their own precision, the products float64 (a float32
+        # angle widens exactly), so float32 runs give the bits their float64 copies would
+        out_b, out_r = np.empty((k, len(filled))), np.empty((k, len(filled)))
+        combined(np.ascontiguousarray(bend2), np.ascontiguousarray(rot2), members,
+                 (np.cumsum(lengths) - lengths)[filled], lengths[filled],
+                 *(np.ascontiguousarray(c) for c in (m[:, 1, 1], -m[:, 1, 0], -m[:, 0, 1], m[:, 0, 0])),
+                 out_b, out_r)
+        theta_b[:, filled], theta_r[:, filled] = out_b, out_r
     if bend.ndim == 1:
         return theta_b[0], theta_r[0]
     return theta_b, theta_r
