@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import math
+import tokenize
 import zipfile
 
 import numpy as np
@@ -80,8 +81,11 @@ def _header(member, name: str, source: str) -> tuple[tuple[int, ...], np.dtype]:
             shape, _, dtype = npy.read_array_header_2_0(member)
         else:
             raise ValueError(f"unsupported .npy version {version}")
-    except (ValueError, SyntaxError, TypeError, EOFError) as exc:
-        raise InputError(f"{name!r} in the archive is not a readable array: {exc}", source) from None
+    except (ValueError, SyntaxError, TypeError, EOFError, tokenize.TokenError) as exc:
+        # (a header cut short inside its dict: numpy's tokenizer raises TokenError)
+        reason = "its header is cut short" if isinstance(exc, tokenize.TokenError) else _reason(exc)
+        raise InputError(f"{name!r} in the archive is not a readable array: {reason}",
+                         source) from None
     return tuple(int(n) for n in shape), dtype
 
 

@@ -71,6 +71,17 @@ def test_a_huge_declared_shape_is_refused_before_allocating():
     refused(archive(angles_members(address=forged_npy("<U1000000000", (1,)))), "'address'")
 
 
+def test_an_npy_header_cut_short_is_bad_input(tmp_path):
+    """A header dict cut short ("{'descr': '<f8',") made numpy's tokenizer raise TokenError,
+    an internal error (session 23, found by fuzzing)."""
+    header = b"{'descr': '<f8',"
+    member = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(archive({"format": member}))
+    one_line(run_cli("simulate", str(bad), *SIM, exit_code=None), 2, f"{bad}: error:",
+             "'format' in the archive is not a readable array: its header is cut short")
+
+
 def test_a_zip_bomb_is_refused_from_its_directory(monkeypatch):
     import plantlod.formats.npz as npz
 
