@@ -216,6 +216,9 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     values["leaf_address"] = _strings(arrays, "leaf_address", source, _LEAF_ADDRESS)
     values["group_root"] = (_strings(arrays, "group_root", source, _LEAF_ADDRESS)
                             if "group_root" in arrays else [])
+    if values["group_root"] and len(values["group_root"]) != b:
+        raise InputError(f"'group_root' in the archive holds {len(values['group_root'])} "
+                         f"addresses for {b} branches; expected one a branch (or none)", source)
     # a level's gain matrices (model.md 5): optional, (B, 6)
     values["force_gain"] = (_numbers(arrays, "force_gain", source, (b, 6))
                             if "force_gain" in arrays else None)

@@ -379,7 +379,7 @@ def _read(lines: _Lines) -> Tree:
                          "in the first record", "format" if "format" in head.record else None)
     version = head.record.get("version")
     if type(version) is not int or version not in (FORMAT_VERSION, LEVEL_FORMAT_VERSION):
-        raise head.error(f"tree file version {version} is not supported; "
+        raise head.error(f"tree file version {json.dumps(version)} is not supported; "
                          f"expected {FORMAT_VERSION} or {LEVEL_FORMAT_VERSION}",
                          "version" if "version" in head.record else None)
     head.keys(LEVEL_HEADER_KEYS if version == LEVEL_FORMAT_VERSION else HEADER_KEYS)

@@ -20,3 +20,5 @@ STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
 WORKER_CHAINS = 16              # level chains a process (a Dask worker) keeps read, one per tree file
+CACHE_ENTRY_MAX_BYTES = 256 << 20   # a cache's KEY.json read at most (a forest's chains: a few MB);
+                                    # a larger one, or one that is not a regular file, is a miss

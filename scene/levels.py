@@ -32,7 +32,7 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
-from .constants import CACHE_ENV, TIP_ERROR_DIRECTIONS, WORKER_CHAINS
+from .constants import CACHE_ENTRY_MAX_BYTES, CACHE_ENV, TIP_ERROR_DIRECTIONS, WORKER_CHAINS
 
 
 @dataclass
@@ -179,13 +179,13 @@ def _cached_chain(path: pathlib.Path, data: bytes, speed: float, dt: float, dura
     if stored is None:
         return None
     texts, errors = stored
-    built = _read_built(entry.with_suffix(".trees.zip"), len(texts))
+    built = _read_built(entry.with_suffix(".trees.zip"), texts)
     try:
         chain = _chain(path, data, texts, errors, damping_ratio, built)
     except InputError:                    # a level damaged in the cache: fitted again (an
         return None                       # error of the original's own is raised by the fit)
     if built is None:
-        _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
+        _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:], texts)
     return chain
 
 
@@ -193,9 +193,13 @@ def _stored_entry(entry: pathlib.Path) -> tuple[list[str], np.ndarray] | None:
     """The level texts and (levels + 1,) tip errors (max, m; level 0's first) that
     `_new_chain` stored at ``entry``; None where there is no entry or it is not one whole
     (a damaged cache is a miss: the chain is fitted again and the entry written anew)."""
+    from plantlod.formats.text_input import read_text
+
+    if not entry.is_file():               # (a FIFO or a device in its place: never opened)
+        return None
     try:
-        stored = json.loads(entry.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
+        stored = json.loads(read_text(str(entry), max_bytes=CACHE_ENTRY_MAX_BYTES))
+    except (InputError, ValueError, RecursionError):
         return None
     if not isinstance(stored, dict):
         return None
@@ -209,7 +213,7 @@ def _stored_entry(entry: pathlib.Path) -> tuple[list[str], np.ndarray] | None:
         errors = np.array(errors, dtype=np.float64)
     except OverflowError:                 # an integer past a double's range
         return None
-    if errors[0] != 0 or np.any(errors < 0) or np.any(np.isinf(errors)):
+    if errors[0] != 0 or not np.all(np.isfinite(errors)) or np.any(errors < 0):
         return None                       # (level 0, the original, misses by nothing)
     return texts, errors
 
@@ -224,7 +228,7 @@ def _new_chain(path: pathlib.Path, data: bytes, texts: list[str], errors, speed:
         entry.parent.mkdir(parents=True, exist_ok=True)
         _store(entry, json.dumps({"file": str(path), "levels": texts,
                                   "tip_error_m": [float(e) for e in errors]}).encode("utf-8"))
-        _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:])
+        _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:], texts)
     return chain
 
 
@@ -233,13 +237,22 @@ def _store(path: pathlib.Path, data: bytes) -> None:
     a signal handler removes (`formats.atomic.atomic_path`)."""
     from plantlod.formats.atomic import atomic_path, write_whole
 
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        path.unlink()                     # a FIFO or a device in the cache: replaced, not written
     with atomic_path(str(path)) as tmp:
         write_whole(tmp, data)
 
 
-def _write_built(path: pathlib.Path, trees: list[Tree]) -> None:
+def _texts_digest(texts: list[str]) -> bytes:
+    """SHA-256 of the level texts, the comment of the archive built from them: an archive
+    is read only beside the texts it was built from (a text changed in KEY.json is read)."""
+    return hashlib.sha256("\0".join(texts).encode("utf-8")).hexdigest().encode("ascii")
+
+
+def _write_built(path: pathlib.Path, trees: list[Tree], texts: list[str]) -> None:
     """The levels' trees as one `.npz` archive each (`formats.npz.tree_bytes`) in an
-    uncompressed zip (`_store`; a cache: a failure to write is ignored)."""
+    uncompressed zip (`_store`; a cache: a failure to write is ignored), marked with the
+    digest of the ``texts`` they were built from."""
     import io
     import zipfile
 
@@ -247,6 +260,7 @@ def _write_built(path: pathlib.Path, trees: list[Tree]) -> None:
 
     out = io.BytesIO()
     with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as archive:
+        archive.comment = _texts_digest(texts)
         for k, tree in enumerate(trees, start=1):
             archive.writestr(f"level{k}.npz", tree_bytes(tree))
     try:
@@ -255,10 +269,10 @@ def _write_built(path: pathlib.Path, trees: list[Tree]) -> None:
         pass
 
 
-def _read_built(path: pathlib.Path, count: int) -> list[Tree] | None:
-    """The ``count`` level trees `_write_built` kept at ``path``, every one checked as a tree
-    archive is (`formats.npz.read_tree_bytes`); None where the file is missing, unreadable
-    or holds anything else."""
+def _read_built(path: pathlib.Path, texts: list[str]) -> list[Tree] | None:
+    """The level trees `_write_built` kept at ``path`` from ``texts``, every one checked as a
+    tree archive is (`formats.npz.read_tree_bytes`); None where the file is missing,
+    unreadable, built from other texts or holds anything else."""
     import zipfile
 
     from plantlod.formats.npz import read_tree_bytes
@@ -266,8 +280,10 @@ def _read_built(path: pathlib.Path, count: int) -> list[Tree] | None:
     if not path.is_file():
         return None
     try:
+        count = len(texts)
         with zipfile.ZipFile(path) as archive:
-            if archive.namelist() != [f"level{k}.npz" for k in range(1, count + 1)]:
+            if archive.comment != _texts_digest(texts) or \
+                    archive.namelist() != [f"level{k}.npz" for k in range(1, count + 1)]:
                 return None
             return [read_tree_bytes(archive.read(f"level{k}.npz"), str(path))
                     for k in range(1, count + 1)]

@@ -152,6 +152,8 @@ def test_bad_tree_archives():
         ({"source": npy(np.array([1, 2]))}, "'source' in the archive must be one text"),
         ({"address": npy(np.array(["0"] * tree.n_branches))}, "repeats a branch address"),
         ({"format": npy(np.array(TREE_FORMAT + "x"))}, "not a plantlod-tree-npz archive"),
+        # three group roots for eight branches were read (session 23, found by fuzzing)
+        ({"group_root": npy(np.array(["0", "0", "0"]))}, "holds 3 addresses for 8 branches"),
     ]:
         refused(archive({**members, **change}), fragment, reader=read_tree_bytes)
 

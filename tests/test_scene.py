@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import pathlib
 
 from dataclasses import replace
@@ -499,7 +500,10 @@ def test_a_damaged_cache_entry_is_a_miss_fitted_again(tmp_path):
                json.dumps({**good, "tip_error_m": good["tip_error_m"][:1]}),
                json.dumps({**good, "tip_error_m": [0.0] + [-1.0] * len(good["levels"])}),
                json.dumps({**good, "tip_error_m": [0.0] + [10 ** 400] * len(good["levels"])}),
-               json.dumps({**good, "levels": ["axiom: {"] + good["levels"][1:]})]
+               json.dumps({**good, "levels": ["axiom: {"] + good["levels"][1:]}),
+               # NaN tip errors were a hit, a nesting 10^5 deep an error naming no file
+               json.dumps({**good, "tip_error_m": [0.0] + [math.nan] * len(good["levels"])}),
+               "[" * 100_000 + "]" * 100_000]
     for text in damaged:
         archive.unlink()
         entry.write_text(text)
@@ -508,6 +512,28 @@ def test_a_damaged_cache_entry_is_a_miss_fitted_again(tmp_path):
         assert again.texts == first.texts and np.array_equal(again.tip_error_m, first.tip_error_m)
         assert json.loads(entry.read_text()) == good              # written again, whole
     assert level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)[1]
+
+
+def test_a_cache_entry_that_is_no_file_or_whose_texts_changed_is_a_miss(tmp_path):
+    """An entry that is a FIFO (a hang) or /dev/zero (24 GB read) is never opened, and a
+    level text changed beside a good archive is read, not passed over for the archive: each
+    is a miss, fitted again (session 23, found by fuzzing)."""
+    from plantlod.scene.levels import level_chain
+
+    cache = tmp_path / "cache"
+    first, _ = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    (entry,) = cache.glob("*.json")
+    good = entry.read_text()
+    for make in (lambda: os.mkfifo(entry), lambda: entry.symlink_to("/dev/zero")):
+        entry.unlink()
+        make()
+        again, hit = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+        assert not hit and again.texts == first.texts
+        assert entry.is_file() and entry.read_text() == good        # written again, whole
+    stored = json.loads(good)
+    entry.write_text(json.dumps({**stored, "levels": ["garbage {"] + stored["levels"][1:]}))
+    again, hit = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    assert not hit and again.texts == first.texts and entry.read_text() == good
 
 
 def test_a_worker_reads_each_chain_once(tmp_path, chains):

@@ -103,6 +103,20 @@ def test_surrounding_white_space_and_crlf_are_accepted():
     assert write(read(text)) == VALID
 
 
+def test_a_tree_file_that_names_no_source_names_itself_in_messages(tmp_path):
+    """The header's source names the file a tree was derived from, for messages; where it is
+    empty the tree file names itself (a bend strength of 0 was refused naming no file)."""
+    from golden_util import run_cli
+
+    path = tmp_path / "k0.jsonl"
+    path.write_text(edit(2, '"bend_strength": 20.0', '"bend_strength": 0')
+                    .replace('"source": "examples/demo.lsys"', '"source": ""'))
+    result = run_cli("simulate", str(path), "--dt", "0.01", "--steps", "5", "--wind-speed", "5",
+                     exit_code=2)
+    assert result.stderr.startswith(f"{path}: error: branch symbol 'F'")
+    assert result.stderr.count("\n") == 1
+
+
 def test_empty_tree_round_trip():
     tree = read('{"format": "plantlod-tree", "version": 1, "source": "", "branches": 0, '
                 '"leaves": 0, "leaf_force_scale": 1.0, "depth": 0}\n')
@@ -146,6 +160,9 @@ ERRORS = [
     ("no header", drop_line(1), 1, None, r"not a plantlod tree file"),
     ("version", edit(1, '"version": 1', '"version": 3'), 1, '"version"',
      r"version 3 is not supported; expected 1 or 2"),
+    # a string was shown as the number ("version 1 is not supported; expected 1 or 2")
+    ("version as text", edit(1, '"version": 1', '"version": "1"'), 1, '"version"',
+     r'version "1" is not supported; expected 1 or 2'),
     ("version 2 without extras", edit(1, '"version": 1', '"version": 2'), 1, None,
      r'missing key "extras"'),
     ("bad extras", edit(1, '"version": 1', '"version": 2, "extras": ["gain", "group_root"]'),
