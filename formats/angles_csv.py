@@ -109,7 +109,8 @@ def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = F
             raise InputError(f"expected {width} fields like the header, got {len(parts)}",
                              source, line_no, 1)
         try:
-            values = None if "_" in line else [float(p) for p in parts]   # float("1_0") is 10
+            # float() also reads "1_0" as 10 and "\u0661" (Arabic-Indic one) or "１" as 1
+            values = None if "_" in line or not line.isascii() else [float(p) for p in parts]
         except ValueError:
             values = None
         if values is None or not all(map(math.isfinite, values)):
@@ -150,7 +151,7 @@ def _field_starts(fields: list[str]) -> list[int]:
 def _raise_bad_field(parts: list[str], source: str | None, line_no: int) -> None:
     for text, col in zip(parts, _field_starts(parts)):
         try:
-            value = math.nan if "_" in text else float(text)
+            value = math.nan if "_" in text or not text.isascii() else float(text)
         except ValueError:
             value = math.nan
         if not math.isfinite(value):

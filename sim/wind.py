@@ -192,7 +192,7 @@ def _field_starts(fields: list[str]) -> list[int]:
 
 def _parse_float(text: str) -> float | None:
     text = text.strip()
-    if not text or "_" in text:
+    if not text or "_" in text or not text.isascii():     # (float() reads "١" and "１" as 1)
         return None
     try:
         return float(text)

@@ -73,6 +73,10 @@ def test_round_trip_to_ten_significant_digits(b, m, data, degrees):
     ("t,b:0,r:0\n0,1,abc\n", 2, 5, "expected a finite number, got 'abc'"),
     ("t,b:0,r:0\n0,inf,1\n", 2, 3, "finite number"),
     ("t,b:0,r:0\n0,1,1\n0,2,2\n", 3, 1, "expected times to increase"),
+    # float() reads these as 10 and 1: digits are ASCII, as written (session 23, fuzzing)
+    ("t,b:0,r:0\n0,1_0,1\n", 2, 3, "got '1_0'"),
+    ("t,b:0,r:0\n0,0,\u0661\n", 2, 5, "got '\u0661'"),
+    ("t,b:0,r:0\n0,\uff11,0\n", 2, 3, "got '\uff11'"),
 ])
 def test_reader_errors_are_located(text, line, col, pattern):
     with pytest.raises(InputError, match=pattern) as err:

@@ -118,6 +118,9 @@ def test_every_kind_of_wind_is_held_to_the_largest_speed(tmp_path):
     with pytest.raises(InputError) as info:
         KeyframeWind.from_csv(io.StringIO("t,vx,vy,vz\n0,1,0,0\n1, 600,800.8,0\n"), "w.csv")
     assert (info.value.file, info.value.line, info.value.col) == ("w.csv", 3, 4)
+    with pytest.raises(InputError, match="expected a finite number for vy") as info:
+        KeyframeWind.from_csv(io.StringIO("0,1,\u0661,0\n"), "w.csv")   # (float() reads 1)
+    assert (info.value.line, info.value.col) == (1, 5)
     base = KeyframeWind([0.0, 1.0], [(1.0, 0, 0), (200.0, 0, 0)])
     GustyWind(base, strength=1.0)                             # 200 (1 + 4) = 1000
     with pytest.raises(InputError, match="gusts of strength 1.01 reach a wind of 1008 m/s"):
