@@ -10,10 +10,11 @@ from .io import display_name, read_text
 
 
 def load_system(path: str):
-    """Parse an .lsys file (``-``: stdin) into an `LSystem`."""
-    from plantlod.lsys.parse import parse_lsys
+    """Parse an .lsys file (``-``: stdin) into an `LSystem` (a tree file is refused by what
+    it is, `formats.lsys_file.parse_lsys_text`)."""
+    from plantlod.formats.lsys_file import parse_lsys_text
 
-    return parse_lsys(read_text(path), display_name(path))
+    return parse_lsys_text(read_text(path), display_name(path))
 
 
 def looks_like_tree_file(text: str) -> bool:

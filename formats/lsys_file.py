@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from .constants import AXIOM_LINE_CHARS
 
+from plantlod.lsys.errors import InputError
 from plantlod.lsys.expr import format_expr, format_number
 from plantlod.lsys.parse import HEADER_KEYS, parse_lsys
 from plantlod.lsys.system import (
@@ -156,4 +157,13 @@ def read_lsys(path: str) -> LSystem:
     A missing or unreadable file, or one that is not UTF-8, is an `InputError`
     naming the file (at the line and column of the first bad byte for UTF-8).
     """
-    return parse_lsys(read_text(path), source_name(path))
+    return parse_lsys_text(read_text(path), source_name(path))
+
+
+def parse_lsys_text(text: str, name: str) -> LSystem:
+    """`parse_lsys` of a file's ``text``; a tree file (JSON Lines, first non-blank character
+    ``{``) is refused by what it is, not as an L-system's first bad character."""
+    if text.lstrip().startswith("{"):
+        raise InputError("a tree file (JSON Lines), not an L-system; expected an .lsys file "
+                         "(simulate, compare and export also read tree files)", name, 1, 1)
+    return parse_lsys(text, name)

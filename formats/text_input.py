@@ -51,6 +51,10 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
 def _not_utf8(data: bytes, offset: int, name: str) -> InputError:
     """The error for the byte at ``offset`` of ``data`` (the file's bytes up to and past it),
     located at its line and column (characters, a leading byte-order mark not counted)."""
+    if data.startswith(b"PK\x03\x04") and name.lower().endswith(".npz"):
+        return InputError("an .npz archive (a tree or angles), which is not read here; expected "
+                          "a text file (an .lsys file: simulate, compare and export also read "
+                          "tree archives)", name)
     for magic, what in BINARY_KINDS:
         if data.startswith(magic):
             return InputError(f"not text but {what}", name)

@@ -27,6 +27,7 @@ from typing import Iterator
 
 import numpy as np
 
+from plantlod.formats.lsys_file import parse_lsys_text
 from plantlod.lsys.build import build
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
@@ -314,7 +315,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
     trees where the cache kept them (`_read_built`), else each text is read and built."""
     from plantlod.compare.groups import assign_groups, main_paths
 
-    original = build(parse_lsys(data.decode("utf-8"), str(path))).tree
+    original = build(parse_lsys_text(data.decode("utf-8"), str(path))).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
     for k, text in enumerate(texts, start=1):
         tree = (built[k - 1] if built is not None
@@ -337,7 +338,7 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     from plantlod.simplify.motion_fit import measurement_runs_for
     from plantlod.simplify.regroup import regrouped
 
-    system = parse_lsys(data.decode("utf-8"), str(path))
+    system = parse_lsys_text(data.decode("utf-8"), str(path))
     original = build(system).tree
     header = level_header(system)
     levels = merge_levels(original)

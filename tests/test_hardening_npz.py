@@ -235,6 +235,13 @@ def test_binary_files_given_to_a_text_reader_are_named(tmp_path):
     (tmp_path / "x.glb").write_bytes(b"glTF\x02\x00\x00\x00\xff\xff")
     one_line(run_cli("derive", str(tmp_path / "x.glb"), exit_code=None), 2,
              "not text but a binary glTF (.glb)")
+    # a tree archive named .npz where an L-system is read was told to be named .npz, and a
+    # tree file was refused at its first '{' (session 23, found by fuzzing)
+    one_line(run_cli("simplify", str(tmp_path / "t.npz"), "--level", "1", exit_code=None), 2,
+             "t.npz: error: an .npz archive (a tree or angles), which is not read here")
+    run_cli("derive", STALK, "-o", str(tmp_path / "t.jsonl"))
+    one_line(run_cli("simplify", str(tmp_path / "t.jsonl"), "--level", "1", exit_code=None), 2,
+             "t.jsonl:1:1: error: a tree file (JSON Lines), not an L-system")
 
 
 def test_derive_refuses_text_into_an_archive(tmp_path):
