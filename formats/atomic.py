@@ -105,6 +105,12 @@ def write_all(stream, data, name: str | None = None) -> None:
 
 
 def write_whole(path: str, data: bytes) -> None:
-    """Write ``data`` to ``path``, every byte or an OSError (`write_all`)."""
-    with open(path, "wb", buffering=0) as out:
-        write_all(out, data, path)
+    """Write ``data`` to ``path``, every byte or an OSError naming ``path`` (`write_all`; a
+    write to /dev/full raised ENOSPC naming no file)."""
+    try:
+        with open(path, "wb", buffering=0) as out:
+            write_all(out, data, path)
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        raise OSError(exc.errno, exc.strerror or str(exc), path) from None

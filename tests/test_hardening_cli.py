@@ -99,9 +99,16 @@ def test_refused_run_prints_no_pending_warning():
 
 # --- output that cannot be written: exit 1, one line, nothing left ----------------------
 
-def test_dev_full_as_output():
+def test_dev_full_as_output(tmp_path):
     one_line(run_cli("derive", STALK8, "-o", "/dev/full", exit_code=None), 1,
              "cannot write /dev/full: No space left on device")
+    # export's glTF through a link to /dev/full named no file (session 23, found by fuzzing)
+    angles = tmp_path / "a.csv"
+    run_cli("simulate", STALK8, "--dt", "0.01", "--steps", "20", "--wind-speed", "5",
+            "-o", str(angles))
+    (tmp_path / "full.glb").symlink_to("/dev/full")
+    one_line(run_cli("export", STALK8, str(angles), "-o", str(tmp_path / "full.glb"),
+                     exit_code=None), 1, "full.glb: No space left on device")
 
 
 @pytest.mark.parametrize("code, reason", [(errno.EROFS, "Read-only file system"),
