@@ -25,6 +25,7 @@ GLB_JSON_CHUNK = 0x4E4F534A
 GLB_BIN_CHUNK = 0x004E4942
 COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+ANIMATION_PATHS = ("translation", "rotation", "scale", "weights")   # glTF 2.0 channel targets
 
 
 def check_glb_container(data: bytes, path: str) -> None:
@@ -149,6 +150,7 @@ def check_document(doc, blob_length: int, path: str) -> None:
         _check_accessor(c, i, acc, views)
     _check_meshes(c)
     _check_nodes(c)
+    _check_references(c)
     for i, anim in enumerate(c.items("animations")):
         samplers = anim.samplers if isinstance(anim.samplers, list) else c.fail(
             f"animations[{i}].samplers must be a list")
@@ -164,6 +166,68 @@ def check_document(doc, blob_length: int, path: str) -> None:
                 c.fail(f"animations[{i}].channels[{j}] has no target")
             c.index(target.node, "nodes", f"animations[{i}].channels[{j}].target.node",
                     optional=True)
+            if target.path not in ANIMATION_PATHS:
+                c.fail(f"animations[{i}].channels[{j}].target.path is {target.path!r}; expected "
+                       f"one of {', '.join(ANIMATION_PATHS)}")
+
+
+def _check_references(c: _Checker) -> None:
+    """The indices a page's loader follows beyond meshes, nodes and animations: a node's skin
+    and camera, a skin's joints and matrices, a texture's image and sampler, an image's
+    buffer view, a material's textures, a sparse accessor's views, a morph target's
+    accessors (a dangling one made a page that failed in the browser)."""
+    for i, node in enumerate(c.items("nodes")):
+        c.index(node.skin, "skins", f"nodes[{i}].skin", optional=True)
+        c.index(node.camera, "cameras", f"nodes[{i}].camera", optional=True)
+    for i, skin in enumerate(c.items("skins")):
+        c.index(skin.inverseBindMatrices, "accessors", f"skins[{i}].inverseBindMatrices",
+                optional=True)
+        c.index(skin.skeleton, "nodes", f"skins[{i}].skeleton", optional=True)
+        for joint in _listed(c, skin.joints, f"skins[{i}].joints"):
+            c.index(joint, "nodes", f"skins[{i}].joints")
+    for i, texture in enumerate(c.items("textures")):
+        c.index(texture.source, "images", f"textures[{i}].source", optional=True)
+        c.index(texture.sampler, "samplers", f"textures[{i}].sampler", optional=True)
+    for i, image in enumerate(c.items("images")):
+        c.index(image.bufferView, "bufferViews", f"images[{i}].bufferView", optional=True)
+    for i, material in enumerate(c.items("materials")):
+        pbr = material.pbrMetallicRoughness
+        refs = [("normalTexture", material.normalTexture),
+                ("occlusionTexture", material.occlusionTexture),
+                ("emissiveTexture", material.emissiveTexture)]
+        if pbr is not None:
+            refs += [("pbrMetallicRoughness.baseColorTexture", pbr.baseColorTexture),
+                     ("pbrMetallicRoughness.metallicRoughnessTexture",
+                      pbr.metallicRoughnessTexture)]
+        for name, ref in refs:
+            if ref is not None:
+                c.index(ref.index, "textures", f"materials[{i}].{name}.index")
+    for i, acc in enumerate(c.items("accessors")):
+        sparse = acc.sparse
+        if sparse is not None:
+            for part in ("indices", "values"):
+                ref = getattr(sparse, part, None)
+                if ref is None:
+                    c.fail(f"accessors[{i}].sparse has no {part}")
+                c.index(ref.bufferView, "bufferViews", f"accessors[{i}].sparse.{part}.bufferView")
+    for i, mesh in enumerate(c.items("meshes")):
+        for j, prim in enumerate(mesh.primitives):
+            for k, target in enumerate(_listed(c, prim.targets, f"meshes[{i}].primitives[{j}].targets")):
+                values = (vars(target) if hasattr(target, "__dict__")
+                          else target if isinstance(target, dict) else c.fail(
+                              f"meshes[{i}].primitives[{j}].targets[{k}] must be an object"))
+                for name, value in values.items():
+                    if value is not None:
+                        c.index(value, "accessors", f"meshes[{i}].primitives[{j}].targets[{k}].{name}")
+
+
+def _listed(c: _Checker, value, what: str) -> list:
+    """``value`` where it is a list, [] where it is absent."""
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        c.fail(f"{what} must be a list")
+    return value
 
 
 def _check_accessor(c: _Checker, i: int, acc, views: list) -> None:

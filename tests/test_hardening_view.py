@@ -86,6 +86,15 @@ def test_a_whole_file_still_makes_a_page(files, tmp_path):
     (lambda d: d["meshes"][0]["primitives"][0].update(indices=77), "indices is 77"),
     (lambda d: d.update(scene=3), "scene is 3"),
     (lambda d: d["buffers"].append({"byteLength": 4}), "2 buffers"),
+    # dangling references the page's loader follows (session 23, found by fuzzing)
+    (lambda d: d["nodes"][1].update(skin=999), "nodes[1].skin is 999"),
+    (lambda d: d["nodes"][1].update(camera=999), "nodes[1].camera is 999"),
+    (lambda d: d.update(textures=[{"source": 999}]), "textures[0].source is 999"),
+    (lambda d: d.update(images=[{"bufferView": 999}]), "images[0].bufferView is 999"),
+    (lambda d: d["accessors"][0].update(sparse={"count": 1, "indices": {"bufferView": 999, "componentType": 5125},
+                                                "values": {"bufferView": 0}}),
+     "accessors[0].sparse.indices.bufferView is 999"),
+    (lambda d: d["animations"][0]["channels"][0]["target"].update(path="zzz"), "target.path is 'zzz'"),
 ])
 def test_indices_and_lengths_are_checked(files, tmp_path, edit, fragment):
     doc, blob = glb_parts(files / "s.glb")
