@@ -129,8 +129,8 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     form_used = "explicit" if result.tree.group_root else "grammar"
     say(f"simplify: {display_name(input_path)} level {level}, {form_used} form ({method}"
         f"{', calibrated' if calibrate else ''}): {result.original.n_branches:,} -> "
-        f"{result.tree.n_branches:,} branches; worst amplitude error {_pct(s.amplitude)}, "
-        f"period {_pct(s.period)}, tip {_pct(s.tip)} of height")
+        f"{result.tree.n_branches:,} branches; worst over every measurement wind: amplitude "
+        f"error {_pct(s.amplitude)}, period {_pct(s.period)}, tip {_pct(s.tip)} of height")
     for note in result.notes:
         say(f"simplify: {note}")
 
