@@ -540,7 +540,8 @@ def simplify_grammar(system: LSystem, options: Options,
         tree = _read_back(out)
         check_stability(tree, options.dt)
         notes.append(f"calibration: worst weighted error (period errors x5) {cal.worst_before:.4f} -> "
-                     f"{cal.worst_after:.4f} in {cal.evaluations} evaluations")
+                     f"{cal.worst_after:.4f} in {cal.evaluations - 1} candidate evaluations "
+                     "after the closed form's")
     if progress:
         progress("measuring", 1.0)
     if runs is None:
