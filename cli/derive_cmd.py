@@ -20,8 +20,9 @@ from .loading import load_system
               show_default=True,
               help="tree: the branch tree as JSON Lines (docs/tree-format.md); "
                    "string: the derived string in ABOP notation.")
-@click.option("-n", "--steps", "steps", type=click.IntRange(min=0), default=None,
-              help="Derivation length (default: the file's derivation_length).")
+@click.option("-n", "--derivation-length", "--steps", "steps", type=click.IntRange(min=0),
+              default=None, help="Derivation length (default: the file's derivation_length; "
+              "--derivation-length as simulate and compare name it, --steps its older name).")
 @click.option("--max-modules", type=click.IntRange(min=1), default=DEFAULT_MAX_MODULES,
               show_default=True, help="Stop before a step would produce more modules.")
 def derive(file, output, fmt, steps, max_modules):
