@@ -174,8 +174,8 @@ def check_document(doc, blob_length: int, path: str) -> None:
 def _check_references(c: _Checker) -> None:
     """The indices a page's loader follows beyond meshes, nodes and animations: a node's skin
     and camera, a skin's joints and matrices, a texture's image and sampler, an image's
-    buffer view, a material's textures, a sparse accessor's views, a morph target's
-    accessors (a dangling one made a page that failed in the browser)."""
+    buffer view, a material's textures, a sparse accessor's views (a dangling one made a
+    page that failed in the browser; a morph target's accessors: `_check_meshes`)."""
     for i, node in enumerate(c.items("nodes")):
         c.index(node.skin, "skins", f"nodes[{i}].skin", optional=True)
         c.index(node.camera, "cameras", f"nodes[{i}].camera", optional=True)
@@ -210,15 +210,6 @@ def _check_references(c: _Checker) -> None:
                 if ref is None:
                     c.fail(f"accessors[{i}].sparse has no {part}")
                 c.index(ref.bufferView, "bufferViews", f"accessors[{i}].sparse.{part}.bufferView")
-    for i, mesh in enumerate(c.items("meshes")):
-        for j, prim in enumerate(mesh.primitives):
-            for k, target in enumerate(_listed(c, prim.targets, f"meshes[{i}].primitives[{j}].targets")):
-                values = (vars(target) if hasattr(target, "__dict__")
-                          else target if isinstance(target, dict) else c.fail(
-                              f"meshes[{i}].primitives[{j}].targets[{k}] must be an object"))
-                for name, value in values.items():
-                    if value is not None:
-                        c.index(value, "accessors", f"meshes[{i}].primitives[{j}].targets[{k}].{name}")
 
 
 def _listed(c: _Checker, value, what: str) -> list:
@@ -256,15 +247,21 @@ def _check_meshes(c: _Checker) -> None:
             f"meshes[{i}].primitives must be a list")
         for j, prim in enumerate(primitives):
             what = f"meshes[{i}].primitives[{j}]"
-            attributes = prim.attributes
-            values = (vars(attributes) if hasattr(attributes, "__dict__")
-                      else attributes if isinstance(attributes, dict) else c.fail(
-                          f"{what}.attributes must be an object"))
-            for name, value in values.items():
-                if value is not None:
-                    c.index(value, "accessors", f"{what}.attributes.{name}")
+            _check_attributes(c, prim.attributes, f"{what}.attributes")
+            for k, target in enumerate(_listed(c, prim.targets, f"{what}.targets")):
+                _check_attributes(c, target, f"{what}.targets[{k}]")      # morph targets
             c.index(prim.indices, "accessors", f"{what}.indices", optional=True)
             c.index(prim.material, "materials", f"{what}.material", optional=True)
+
+
+def _check_attributes(c: _Checker, attributes, what: str) -> None:
+    """An attribute map (name -> accessor index) whose every index is an accessor."""
+    values = (vars(attributes) if hasattr(attributes, "__dict__")
+              else attributes if isinstance(attributes, dict) else c.fail(
+                  f"{what} must be an object"))
+    for name, value in values.items():
+        if value is not None:
+            c.index(value, "accessors", f"{what}.{name}")
 
 
 def _check_nodes(c: _Checker) -> None:

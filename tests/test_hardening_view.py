@@ -95,6 +95,8 @@ def test_a_whole_file_still_makes_a_page(files, tmp_path):
                                                 "values": {"bufferView": 0}}),
      "accessors[0].sparse.indices.bufferView is 999"),
     (lambda d: d["animations"][0]["channels"][0]["target"].update(path="zzz"), "target.path is 'zzz'"),
+    (lambda d: d["meshes"][0]["primitives"][0].update(targets=[{"POSITION": 999}]),
+     "primitives[0].targets[0].POSITION is 999"),
 ])
 def test_indices_and_lengths_are_checked(files, tmp_path, edit, fragment):
     doc, blob = glb_parts(files / "s.glb")
