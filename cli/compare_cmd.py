@@ -17,7 +17,7 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import check_output_path, display_name, open_output, say, warn, warn_once_running
+from .io import check_output_path, display_name, is_terminal, open_output, say, warn, warn_once_running
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
@@ -256,7 +256,7 @@ def _write_report(comparisons, bounds, violations, as_json: bool, output: str | 
 
     if as_json:
         text = fmt.dumps(fmt.comparison_document(comparisons, bounds, violations))
-    elif output in (None, "-") and sys.stdout.isatty():
+    elif output in (None, "-") and is_terminal(sys.stdout):
         from rich.console import Console
 
         fmt.print_rich(comparisons, Console(file=sys.stdout))

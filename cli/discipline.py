@@ -33,7 +33,8 @@ from typing import Callable
 import click
 
 from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning
-from plantlod.sim.constants import CAUGHT_SIGNALS  # noqa: F401  (cli.io reads it from here)
+from plantlod.formats.atomic import remove_pending
+from plantlod.sim.constants import CAUGHT_SIGNALS  # (cli.io reads it from here too)
 
 # Signals that end a command: temporary files removed, exit 128 + n.
 INT64_MAX = 2**63 - 1
@@ -57,9 +58,11 @@ def set_current_command(name: str | None) -> None:
 
 
 def _end_on_signal(signum, _frame):
-    from .io import remove_temporary_files
-
-    remove_temporary_files()
+    # nothing imported here: a signal while a module loads (cli.io) met a circular import,
+    # whose ImportError printed a traceback or was swallowed and the run went on
+    for other in CAUGHT_SIGNALS:                # once: a group-wide signal arrives twice
+        signal.signal(other, signal.SIG_IGN)
+    remove_pending()
     code, line = describe_failure(_named(Terminated(signum), _current["command"]))
     _say(line)
     os._exit(code)

@@ -52,8 +52,10 @@ def say(message: str) -> None:
     """One line for people, on stderr (never markup-interpreted). A stderr that cannot be
     written (closed, a full disk) loses the line but never fails the command: it is
     not the command's data."""
+    if sys.stderr is None:               # closed (2>&-): the line has nowhere to go
+        return
     try:
-        if _console is None and not _is_terminal(sys.stderr):
+        if _console is None and not is_terminal(sys.stderr):
             # what rich would write to a file or pipe, without importing it (~0.1 s)
             sys.stderr.write(message + "\n")
             sys.stderr.flush()
@@ -63,7 +65,8 @@ def say(message: str) -> None:
         pass
 
 
-def _is_terminal(stream) -> bool:
+def is_terminal(stream) -> bool:
+    """Whether ``stream`` is a terminal (False where it is closed: ``2>&-`` makes it None)."""
     try:
         return stream is not None and stream.isatty()
     except (AttributeError, ValueError, OSError):
@@ -203,12 +206,6 @@ class WholeWrites:
         self.close()
 
 
-def remove_temporary_files() -> None:
-    """Remove every temporary file and folder being written (`open_output`, `output_folder`,
-    the exporters: all register with formats.atomic); the signal handler calls this."""
-    remove_pending()
-
-
 @contextlib.contextmanager
 def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[str]:
     """A new, empty temporary folder ``.plantlod-*SUFFIX`` to fill, beside ``path`` (or
@@ -217,7 +214,7 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
     When the block ends normally the missing folders on the way are made and the temporary
     one becomes ``path`` (renamed), or with ``merge`` and an existing folder ``path``, its
     files are moved into that folder; on any exception, and on a signal
-    (`remove_temporary_files`), it is removed with everything in it, so a failed run leaves
+    (`formats.atomic.remove_pending`), it is removed with everything in it, so a failed run leaves
     no folder behind, not even the ones on the way.
     """
     if not path:

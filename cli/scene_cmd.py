@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from .io import check_output_path, open_output, output_folder, say
+from .io import check_output_path, is_terminal, open_output, output_folder, say
 
 
 @click.command()
@@ -84,7 +84,7 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
 
         raise InputError("not a folder; expected a folder for the cached level chains (--cache "
                          "DIR, $PLANTLOD_CACHE) or --no-cache", str(cache))
-    show = sys.stderr.isatty()
+    show = is_terminal(sys.stderr)
     bar = _ProgressBar() if show else None
 
     def progress(stage: str, done: int, total: int, what: str) -> None:

@@ -13,7 +13,7 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import check_merge_targets, display_name, open_output, output_folder, say
+from .io import check_merge_targets, display_name, is_terminal, open_output, output_folder, say
 
 
 def _wind_range(ctx, param, value):
@@ -118,7 +118,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
                       dt=dt, duration=duration, max_evaluations=evaluations, form=form,
                       damping_ratio=damping_ratio)
-    show = sys.stderr.isatty() if progress is None else progress
+    show = is_terminal(sys.stderr) if progress is None else progress
     if show:
         result = _with_progress(run_simplify, system, options)
     else:

@@ -7,7 +7,7 @@ import time
 
 import click
 
-from .io import count, display_name, open_output, say, warn
+from .io import count, display_name, is_terminal, open_output, say, warn
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
@@ -46,7 +46,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     from plantlod.sim.stability import check_stability
 
     check_stability(tree, settings.dt, settings.damping)
-    show = sys.stderr.isatty() if progress is None else progress
+    show = is_terminal(sys.stderr) if progress is None else progress
     begin = time.perf_counter()
     from plantlod.sim import kernel
 

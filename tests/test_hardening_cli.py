@@ -179,6 +179,53 @@ def test_closed_and_full_stdout_exit_1():
                                                else " on device")]
 
 
+def test_a_closed_stdout_table_and_a_closed_stderr(tmp_path):
+    """compare's table asked a closed stdout whether it was a terminal (an internal error),
+    and with stderr closed (2>&-) every command that reads whether stderr is a terminal, or
+    says a line, ended with exit 1: their data is still written, exit 0 (session 23, fuzzing)."""
+    level = tmp_path / "l1.lsys"
+    run_cli("simplify", STALK8, "--level", "1", "-o", str(level))
+    run = "--dt 0.01 --duration 2 --wind-speed 5"
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} compare {STALK8} {level} {run} >&-"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1 and done.stderr.splitlines() == [
+        "plantlod compare: error: standard output is closed; give -o FILE or redirect it"]
+    for command in (f"simulate {STALK8} {run} -o {tmp_path}/a.csv",
+                    f"simulate {STALK8} --dt 0.01 --steps 5 -o {tmp_path}/b.csv",   # a warning
+                    f"simplify {STALK8} --level 1 -o {tmp_path}/c.lsys",
+                    f"compare {STALK8} {level} {run} -o {tmp_path}/d.txt"):
+        done = subprocess.run(["bash", "-c", f"{PLANTLOD} {command} 2>&-"], cwd=ROOT,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, command
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "b.csv", "c.lsys", "d.txt",
+                                                          "l1.lsys"]
+
+
+def test_a_signal_handler_imports_nothing():
+    """A signal that landed while cli.io was still loading met a circular import in the
+    handler's own import: a traceback, exit 1, or the signal swallowed and the run finished
+    (session 23, found by fuzzing). The handler needs no import now, and a module installed
+    first (`cli.early_signals`) ends a command still starting with one line."""
+    import ast
+    import inspect
+
+    from plantlod.cli import discipline, early_signals
+
+    for handler in (discipline._end_on_signal, early_signals._end_early):
+        body = ast.parse(inspect.getsource(handler))
+        assert not [n for n in ast.walk(body) if isinstance(n, (ast.Import, ast.ImportFrom))]
+    main = (ROOT / "cli" / "main.py").read_text()
+    first = [line for line in main.splitlines() if line.startswith(("import ", "from "))][:2]
+    assert first[0] == "from __future__ import annotations"
+    assert first[1].startswith("from . import early_signals")
+    code = ("import os, signal, subprocess, sys\n"
+            "from plantlod.cli import early_signals\n"
+            "os.kill(os.getpid(), signal.SIGTERM)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 128 + signal.SIGTERM
+    assert done.stderr == "plantlod: ended by SIGTERM\n"
+
+
 # --- signals: 128 + n, and the temporary file removed -------------------------------------
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
