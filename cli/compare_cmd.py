@@ -17,7 +17,8 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import check_output_path, display_name, is_terminal, open_output, say, warn, warn_once_running
+from .io import (check_output_path, display_name, distinct_paths, is_terminal, open_output, say,
+                 warn, warn_once_running)
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
@@ -114,6 +115,12 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
       plantlod compare --angles golden.csv new.csv --atol 1e-9
     """
     require_together(ctx, {"degrees": ("original_angles", "simplified_angles", "angles_mode")})
+    inputs = {"ORIGINAL": original, "--original-angles": original_angles}
+    for k, path in enumerate(simplified):
+        inputs[f"SIMPLIFIED {k + 1}"] = path
+    for k, path in enumerate(simplified_angles or ()):
+        inputs[f"--simplified-angles {k + 1}"] = path
+    distinct_paths({"-o": output, "--obj": obj_dir, "--plot": plot_path}, inputs)
     if angles_mode:
         _check_angles_mode(ctx, simplified)
         _compare_csvs(original, simplified[0], degrees, atol, as_json, output)

@@ -8,7 +8,7 @@ import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-from .io import count, display_name, open_output, say, warn_once_running
+from .io import count, display_name, distinct_paths, open_output, say, warn_once_running
 from .loading import load_system
 
 
@@ -43,6 +43,7 @@ def derive(file, output, fmt, steps, max_modules):
     if is_npz(output) and fmt == "string":
         raise click.UsageError("--format string writes text; an .npz archive holds a tree "
                                "(give -o FILE.txt, or drop --format string)")
+    distinct_paths({"-o": output}, {"FILE": file})
     start = time.perf_counter()
     system = load_system(file)
     built = build(system, steps, max_modules=max_modules)

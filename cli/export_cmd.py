@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .io import check_output_path, display_name, say
+from .io import check_output_path, display_name, distinct_paths, say
 from .loading import load_tree
 
 
@@ -32,6 +32,7 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     from plantlod.compare.runs import angles_in_tree_order
 
     check_output_path(output)                     # a missing folder is refused before any work
+    distinct_paths({"-o": output}, {"TREE": tree_path, "ANGLES": angles_path})
     frames = None
     if frames_text is not None:
         try:

@@ -19,6 +19,8 @@ import tempfile
 import threading
 from typing import IO, Iterator
 
+import click
+
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
@@ -135,6 +137,42 @@ def check_output_path(path: str | None) -> None:
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
     special_target(path)
+
+
+def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None] | None = None) -> None:
+    """Refuse, before any work, two outputs naming one path (one would overwrite the other,
+    or a failure of the second would leave the first's file where the second wanted a
+    folder), and an output naming an input (the input would be written over: `derive x.lsys
+    -o x.lsys` replaced its own L-system). ``outputs`` and
+    ``inputs`` map an option's name to its path (None or ``-``: none); a device or a pipe
+    (``/dev/null``) may take several outputs."""
+    seen: dict[str, str] = {}
+    for option, path in outputs.items():
+        if path is None or path == "-":
+            continue
+        key = os.path.realpath(path)
+        if key in seen and not _device(path):
+            raise click.UsageError(f"{seen[key]} and {option} name the same file {path}; "
+                                   "expected a path for each")
+        seen[key] = option
+    for what, path in (inputs or {}).items():
+        if path is None or path == "-" or not os.path.exists(path) or _device(path):
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise click.UsageError(f"{seen[key]} would write over the input {path} ({what}); "
+                                   "expected another path")
+
+
+def _device(path: str) -> bool:
+    """Whether ``path`` is a device or a pipe (not a file, not a folder, not missing)."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return False
+    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
 
 
 @contextlib.contextmanager

@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from .io import check_output_path, is_terminal, open_output, output_folder, say
+from .io import check_output_path, distinct_paths, is_terminal, open_output, output_folder, say
 
 
 @click.command()
@@ -63,8 +63,8 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         check_scheduler_address(scheduler)
     for path in (report_path, plot_path):
         check_output_path(path)                 # refuse an unwritable output before running
-    _distinct_outputs({"--report": None if report_path == "-" else report_path,
-                       "--plot": plot_path, "--angles": angles_path})
+    distinct_paths({"--report": report_path, "--plot": plot_path, "--angles": angles_path},
+                   {"SCENE.toml": scene_path})
     if sample is not None and not verify:
         raise click.UsageError("--verify-sample N goes with --verify")
     if angles_path is not None:
@@ -110,22 +110,6 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
         + f", {report['wall_s']:.1f} s")
-
-
-def _distinct_outputs(paths: dict) -> None:
-    """Refuse two options naming one output (one would overwrite the other, or a failure
-    of the second would leave the first's file where the second wanted a folder)."""
-    import os
-
-    seen: dict[str, str] = {}
-    for option, path in paths.items():
-        if path is None:
-            continue
-        key = os.path.realpath(path)
-        if key in seen:
-            raise click.UsageError(f"{seen[key]} and {option} name the same file {path}; "
-                                   "expected a path for each")
-        seen[key] = option
 
 
 def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float) -> None:

@@ -13,7 +13,8 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import check_merge_targets, display_name, is_terminal, open_output, output_folder, say
+from .io import (check_merge_targets, display_name, distinct_paths, is_terminal, open_output,
+                 output_folder, say)
 
 
 def _wind_range(ctx, param, value):
@@ -100,6 +101,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
         warn("simplify -n N is now --level N (or -l N): -n means the derivation length in "
              "derive, simulate and compare")
         level = level_n
+    distinct_paths({"-o": output, "--levels": levels_dir}, {"FILE": input_path})
     if (level is None) == (levels_dir is None):
         raise click.UsageError("give --level N, or --levels DIR for every level of the explicit form")
     if levels_dir is not None and form == "grammar":
@@ -151,8 +153,11 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     original = build(system).tree
     groupings = merge_levels(original)
     last = len(groupings) - 1
+    names = [f"level{k}.lsys" for k in range(1, last + 1)]
     if os.path.isdir(folder):                # refused before the fit, not after it
-        check_merge_targets(folder, [f"level{k}.lsys" for k in range(1, last + 1)])
+        check_merge_targets(folder, names)
+        distinct_paths({f"--levels ({name})": os.path.join(folder, name) for name in names},
+                       {"FILE": input_path})     # (simplify DIR/level1.lsys --levels DIR)
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",
                        damping_ratio=damping_ratio) for k in range(1, last + 1)]
     # every level into a temporary folder beside DIR, moved into DIR only when all are

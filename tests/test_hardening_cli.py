@@ -226,6 +226,36 @@ def test_a_signal_handler_imports_nothing():
     assert done.stderr == "plantlod: ended by SIGTERM\n"
 
 
+@pytest.mark.parametrize("make, args, message", [
+    (None, ["derive", "{s}", "-o", "{s}"], "-o would write over the input"),
+    (None, ["simulate", "{s}", "--dt", "0.01", "--steps", "5", "--wind-speed", "5", "-o", "{s}"],
+     "-o would write over the input"),
+    (None, ["simplify", "{s}", "--level", "1", "-o", "{s}"], "-o would write over the input"),
+    ("level", ["simplify", "{d}/level1.lsys", "--levels", "{d}"], "--levels (level1.lsys) would write over"),
+    ("level", ["compare", "{s}", "{d}/level1.lsys", "--dt", "0.01", "--steps", "50", "--wind-speed",
+               "5", "-o", "{d}/level1.lsys"], "-o would write over the input"),
+    ("level", ["compare", "{s}", "{d}/level1.lsys", "--dt", "0.01", "--steps", "50", "--wind-speed",
+               "5", "-o", "{d}/x.png", "--plot", "{d}/x.png"], "-o and --plot name the same file"),
+    ("level", ["compare", "{s}", "{d}/level1.lsys", "--dt", "0.01", "--steps", "50", "--wind-speed",
+               "5", "-o", "{d}/xd", "--obj", "{d}/xd", "--at", "0.1"], "-o and --obj name the same file"),
+])
+def test_an_output_over_an_input_or_another_output_is_refused_before_any_work(tmp_path, make, args,
+                                                                              message):
+    """Every one of these exited 0 having replaced its input (derive x.lsys -o x.lsys), or
+    left one output's file where the other wanted a folder (session 23, found by fuzzing)."""
+    s = tmp_path / "s.lsys"
+    s.write_text((ROOT / STALK8).read_text())
+    if make:
+        (tmp_path / "lv").mkdir()
+        run_cli("simplify", str(s), "--level", "1", "-o", str(tmp_path / "lv" / "level1.lsys"))
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    line = one_line(run_cli(*[a.format(s=s, d=tmp_path / "lv") for a in args], exit_code=None), 2,
+                    message)
+    assert "expected" in line
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert sorted(tmp_path.rglob("*")) == sorted([*before, *([tmp_path / "lv"] if make else [])])
+
+
 # --- signals: 128 + n, and the temporary file removed -------------------------------------
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
