@@ -77,16 +77,21 @@ def atomic_path(path: str, suffix: str = ".tmp") -> Iterator[str]:
         yield path
         return
     folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=suffix, dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".plantlod-", suffix=suffix, dir=folder)
+    except OSError as exc:                  # (named by the target, not the temporary's name)
+        raise OSError(exc.errno, exc.strerror, path) from None
     hold(tmp)
     try:
         os.close(fd)
         yield tmp
         os.chmod(tmp, usual_file_mode())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and exc.filename == tmp:   # a write to the temporary failed
+            raise OSError(exc.errno, exc.strerror, path) from None
         raise
     finally:
         release(tmp)

@@ -457,3 +457,30 @@ def test_numpy_floating_point_warnings_never_reach_stderr_raw(tmp_path):
                            "--wind-speed", "5"], capture_output=True, text=True, cwd=ROOT)
     assert done.returncode == 1
     assert done.stderr.count("\n") == 1 and "simulation diverged" in done.stderr, done.stderr
+
+
+def test_a_failed_atomic_write_names_the_target_not_its_temporary(tmp_path, monkeypatch):
+    """export into a folder that cannot take a file said '…/.plantlod-o7jsvca7.glb: Operation
+    not permitted', the temporary's name (session 23, found by fuzzing): a failure to make or
+    write the temporary is reported against the file asked for."""
+    import tempfile
+
+    from plantlod.formats.atomic import atomic_path, write_whole
+
+    target = str(tmp_path / "x.glb")
+
+    def refused(*args, **kwargs):
+        raise PermissionError(errno.EPERM, "Operation not permitted",
+                              str(tmp_path / ".plantlod-abc.glb"))
+
+    with monkeypatch.context() as m:
+        m.setattr(tempfile, "mkstemp", refused)
+        with pytest.raises(OSError) as info:
+            with atomic_path(target, ".glb"):
+                pass
+    assert info.value.filename == target and info.value.errno == errno.EPERM
+    with pytest.raises(OSError) as info:
+        with atomic_path(target, ".glb") as tmp:
+            write_whole(tmp, b"x")
+            raise OSError(errno.ENOSPC, "No space left on device", tmp)
+    assert info.value.filename == target and os.listdir(tmp_path) == []
