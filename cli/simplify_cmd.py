@@ -148,6 +148,12 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
 
     from plantlod.lsys.errors import InputError
 
+    try:
+        os.stat(folder)
+    except (FileNotFoundError, NotADirectoryError):
+        pass
+    except (OSError, ValueError) as exc:     # a name too long: refused before the fit, not after
+        raise InputError(f"cannot write: {getattr(exc, 'strerror', None) or exc}", folder) from None
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise InputError("--levels needs a directory; this is a file", folder)
     original = build(system).tree

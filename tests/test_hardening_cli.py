@@ -484,3 +484,11 @@ def test_a_failed_atomic_write_names_the_target_not_its_temporary(tmp_path, monk
             write_whole(tmp, b"x")
             raise OSError(errno.ENOSPC, "No space left on device", tmp)
     assert info.value.filename == target and os.listdir(tmp_path) == []
+
+
+def test_a_levels_folder_name_too_long_is_refused_before_the_fit(tmp_path):
+    """It was refused only after every level was fitted (session 23, found by fuzzing)."""
+    folder = str(tmp_path / ("a" * 300))
+    one_line(run_cli("simplify", STALK8, "--levels", folder, exit_code=None), 2,
+             "cannot write: File name too long")
+    assert list(tmp_path.iterdir()) == []
