@@ -1,10 +1,11 @@
 """Signals that arrive while the command is still starting (importing click and its own
 modules), before `discipline.install_signal_handlers` takes over.
 
-Imported first by `cli.main`, with nothing but the standard library and the signal list:
-a SIGINT in that window printed a KeyboardInterrupt traceback, and a SIGTERM or SIGHUP
-ended the process without a line. No file can be half written yet, so the handler only
-says why and exits 128 + n.
+`install` is the first thing the console script does (`cli.entry`), with nothing loaded but
+the standard library and the signal list: a SIGINT in that window printed a
+KeyboardInterrupt traceback, and a SIGTERM or SIGHUP ended the process without a line. No
+file can be half written yet, so the handler only says why and exits 128 + n. (Importing
+`cli.main`, as tests and benchmarks do, installs nothing.)
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ def _end_early(signum, _frame) -> None:
     os._exit(128 + signum)
 
 
-for _signum in CAUGHT_SIGNALS:
-    if signal.getsignal(_signum) != signal.SIG_IGN:        # (nohup's SIGHUP stays ignored)
-        signal.signal(_signum, _end_early)
+def install() -> None:
+    """`_end_early` for every caught signal the parent did not ignore (nohup's SIGHUP)."""
+    for signum in CAUGHT_SIGNALS:
+        if signal.getsignal(signum) != signal.SIG_IGN:
+            signal.signal(signum, _end_early)

@@ -150,7 +150,9 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
     for option, path in outputs.items():
         if path is None or path == "-":
             continue
-        key = os.path.realpath(path)
+        # where the output lands: a link at the path is replaced, not followed (os.replace)
+        key = os.path.join(os.path.realpath(os.path.dirname(os.path.abspath(path))),
+                           os.path.basename(os.path.abspath(path)))
         if key in seen and not _device(path):
             raise click.UsageError(f"{seen[key]} and {option} name the same file {path}; "
                                    "expected a path for each")

@@ -6,8 +6,6 @@ in `compare`); 2 bad input or usage (one line naming file, line and column).
 
 from __future__ import annotations
 
-from . import early_signals  # noqa: F401  (first: a signal while starting ends cleanly)
-
 import importlib
 import signal
 import sys

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 # numpy's pairwise summation (numpy/_core/src/umath/loops_utils.h.src): below 8 terms a
-# plain loop from 0, up to this many eight running sums, beyond it halves
+# plain loop from -0.0, up to this many eight running sums, beyond it halves
 _PAIRWISE_BLOCK = 128
 
 
@@ -25,7 +25,7 @@ _PAIRWISE_BLOCK = 128
 def _pairwise(terms, lo, n):
     """Σ terms[lo:lo + n] added as numpy's pairwise_sum adds them."""
     if n < 8:
-        res = 0.0
+        res = -0.0                  # (numpy's start: a sum of -0.0 terms stays -0.0)
         for i in range(lo, lo + n):
             res += terms[i]
         return res

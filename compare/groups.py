@@ -33,9 +33,6 @@ from plantlod.lsys.tree import Tree
 
 # How many offending addresses an error message lists before "…".
 _MESSAGE_EXAMPLES = 3
-# combined_angles works on blocks of about this many (sample, member) pairs:
-# four buffers of 8 bytes per pair that stay in cache (measured fastest near 1 MB).
-_CHUNK_ELEMENTS = 1 << 17
 
 AddressKey = tuple[tuple[int, ...], int]
 

@@ -728,7 +728,8 @@ class _FileParser:
             return None
         cur.skip_ws()
         after = m.end(1) if m else 0
-        if word and after < len(line) and not (line[after].isspace() or line[after] in ":=("):
+        if word and after < len(line) and not (line[after].isspace() or line[after] in ":=(") \
+                and not _has_arrow(line):
             if not line[after].isascii() or not line[after].isprintable():   # 'béranching_angle'
                 raise cur.error(f"unexpected {line[after]!r} in a name; expected ASCII letters, "
                                 "digits and '_'", after)

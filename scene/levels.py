@@ -199,7 +199,9 @@ def _stored_entry(entry: pathlib.Path) -> tuple[list[str], np.ndarray] | None:
     if not entry.is_file():               # (a FIFO or a device in its place: never opened)
         return None
     try:
-        stored = json.loads(read_text(str(entry), max_bytes=CACHE_ENTRY_MAX_BYTES))
+        # (one line: json.dumps writes the whole entry on it)
+        stored = json.loads(read_text(str(entry), max_line_bytes=CACHE_ENTRY_MAX_BYTES,
+                                      max_bytes=CACHE_ENTRY_MAX_BYTES))
     except (InputError, ValueError, RecursionError):
         return None
     if not isinstance(stored, dict):

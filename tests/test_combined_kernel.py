@@ -45,3 +45,19 @@ def test_the_kernel_gives_numpys_bits_on_ragged_paths(dtype):
     terms = bend[:, members].astype(np.float64) * coefficients[0] + rot[:, members] * coefficients[1]
     plain = np.array([[terms[s, a:a + n].sum() for a, n in zip(starts, lengths)] for s in range(k)])
     np.testing.assert_allclose(out_b, plain, rtol=1e-9, atol=1e-9 * np.abs(terms).max())
+
+
+def test_sums_of_negative_zeros_stay_negative_zero():
+    """numpy's pairwise sum starts from -0.0: a path whose terms are all -0.0 sums to -0.0
+    (a start from 0.0 gave +0.0 for paths of 2 to 8 members; found in review)."""
+    lengths = np.arange(1, 12, dtype=np.int64)
+    members = np.arange(lengths.sum(), dtype=np.int64)
+    starts = (np.cumsum(lengths) - lengths).astype(np.int64)
+    bend = np.full((2, len(members)), -0.0)
+    rot = np.full((2, len(members)), -0.0)
+    ones = [np.ones(len(members)) for _ in range(4)]
+    out_b, out_r = np.empty((2, len(lengths))), np.empty((2, len(lengths)))
+    combined(bend, rot, members, starts, lengths, *ones, out_b, out_r)
+    want_b, want_r = _reference(bend, rot, members, starts, ones)
+    assert np.all(np.signbit(want_b)) and out_b.tobytes() == want_b.tobytes()
+    assert out_r.tobytes() == want_r.tobytes()

@@ -204,8 +204,10 @@ def test_a_closed_stdout_table_and_a_closed_stderr(tmp_path):
 def test_a_signal_handler_imports_nothing():
     """A signal that landed while cli.io was still loading met a circular import in the
     handler's own import: a traceback, exit 1, or the signal swallowed and the run finished
-    (session 23, found by fuzzing). The handler needs no import now, and a module installed
-    first (`cli.early_signals`) ends a command still starting with one line."""
+    (session 23, found by fuzzing). The handler needs no import now, and the console script
+    installs a first handler before anything else loads (`cli.entry`, `cli.early_signals`),
+    which ends a command still starting with one line; importing cli.main (tests, benchmarks)
+    installs none."""
     import ast
     import inspect
 
@@ -214,16 +216,27 @@ def test_a_signal_handler_imports_nothing():
     for handler in (discipline._end_on_signal, early_signals._end_early):
         body = ast.parse(inspect.getsource(handler))
         assert not [n for n in ast.walk(body) if isinstance(n, (ast.Import, ast.ImportFrom))]
-    main = (ROOT / "cli" / "main.py").read_text()
-    first = [line for line in main.splitlines() if line.startswith(("import ", "from "))][:2]
-    assert first[0] == "from __future__ import annotations"
-    assert first[1].startswith("from . import early_signals")
-    code = ("import os, signal, subprocess, sys\n"
+    assert 'plantlod = "plantlod.cli.entry:main"' in (ROOT / "pyproject.toml").read_text()
+    code = ("import os, signal\n"
+            "import plantlod.cli.main\n"
+            "assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL\n"
             "from plantlod.cli import early_signals\n"
+            "early_signals.install()\n"
             "os.kill(os.getpid(), signal.SIGTERM)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert done.returncode == 128 + signal.SIGTERM
+    assert done.returncode == 128 + signal.SIGTERM, done.stderr
     assert done.stderr == "plantlod: ended by SIGTERM\n"
+
+
+def test_an_output_that_is_a_link_to_the_input_replaces_the_link(tmp_path):
+    """A link at the output path is replaced (os.replace), never followed, so the input it
+    points at is not written over: refusing it was a false positive (found in review)."""
+    s = tmp_path / "s.lsys"
+    s.write_text((ROOT / STALK8).read_text())
+    (tmp_path / "link.jsonl").symlink_to(s)
+    run_cli("derive", str(s), "-o", str(tmp_path / "link.jsonl"))
+    assert not (tmp_path / "link.jsonl").is_symlink()
+    assert s.read_text() == (ROOT / STALK8).read_text()
 
 
 @pytest.mark.parametrize("make, args, message", [

@@ -445,6 +445,8 @@ def _check(body: str, line: int, col: int, fragment: str, head: str = HEAD):
     ("séed: 3\naxiom: F\n", 5, 2, "unexpected 'é' in a name; expected ASCII letters"),
     ("s\u200beed: 3\naxiom: F\n", 5, 2, "unexpected '\\u200b' in a name"),
     ("axiom:\n  F [F\n  F\n", 6, 5, "'[' is never closed; expected a matching ']' in the axiom"),
+    # ... but an arrow outside a section is still a production outside one (found in review)
+    ("axiom: F\nF\u2192FF\n", 6, 1, "production outside a section"),
     ("axiom: F\nproductions:\n  F -> FF\ndefine x = 1\n  F -> F\n", 9, 3, "production outside a section"),
     # overrides
     ("axiom: F\noverrides:\n  0.-1: length=2\n", 7, 3, "override address '0.-1' is not valid; expected dotted non-negative integers"),

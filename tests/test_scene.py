@@ -536,6 +536,20 @@ def test_a_cache_entry_that_is_no_file_or_whose_texts_changed_is_a_miss(tmp_path
     assert not hit and again.texts == first.texts and entry.read_text() == good
 
 
+def test_a_cache_entry_of_more_than_a_million_bytes_is_a_hit(tmp_path):
+    """A tree of about 1,000 branches writes an entry over 1 MB on one line (json.dumps): the
+    entry was read with the 1,000,000-byte line cap of other text, so it was always a miss
+    and the chain fitted anew every run (session 23, found in review)."""
+    from plantlod.scene.levels import _stored_entry
+
+    entry = tmp_path / "key.json"
+    texts = ["# level\n" + "x" * 1_200_000, "# level 2\n"]
+    entry.write_text(json.dumps({"file": "t.lsys", "levels": texts, "tip_error_m": [0.0, 0.1, 0.2]}))
+    assert entry.stat().st_size > 1_200_000 and entry.read_text().count("\n") == 0
+    stored = _stored_entry(entry)
+    assert stored is not None and stored[0] == texts
+
+
 def test_a_worker_reads_each_chain_once(tmp_path, chains):
     """`chain_from_texts` (what a Dask worker's batch calls) reads a chain once per process:
     the second batch of the same file gets the same chain, equal to the one read from the
