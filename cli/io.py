@@ -56,6 +56,8 @@ def say(message: str) -> None:
     not the command's data."""
     if sys.stderr is None:               # closed (2>&-): the line has nowhere to go
         return
+    if not message.isprintable():        # a file name holding a line break: still one line
+        message = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
     try:
         if _console is None and not is_terminal(sys.stderr):
             # what rich would write to a file or pipe, without importing it (~0.1 s)

@@ -505,3 +505,17 @@ def test_a_levels_folder_name_too_long_is_refused_before_the_fit(tmp_path):
     one_line(run_cli("simplify", STALK8, "--levels", folder, exit_code=None), 2,
              "cannot write: File name too long")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_summary_naming_a_file_with_a_line_break_stays_one_line(tmp_path):
+    """view's summary printed the raw line break of its output's name (found by fuzzing)."""
+    import plantlod
+
+    glb = tmp_path / "s.glb"
+    tree = plantlod.derive(str(ROOT / STALK8))
+    plantlod.export_animation(tree, plantlod.simulate(tree, wind=(5.0, 0.0, 0.0), dt=0.01,
+                                                      steps=20), glb)
+    out = tmp_path / "x\ny.html"
+    result = run_cli("view", str(glb), "-o", str(out))
+    assert result.stderr.count("\n") == 1 and "x\\ny.html" in result.stderr
+    assert out.exists()
