@@ -40,7 +40,7 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
             warnings.simplefilter("ignore")
             doc = g.GLTF2.load(path)
     except Exception as exc:                   # pygltflib raises what its parsers raise
-        raise InputError(f"not a glTF file ({type(exc).__name__}: {exc})", path) from None
+        raise InputError(f"not a glTF file ({_why(exc)})", path) from None
     if doc is None or not isinstance(doc.nodes, list) or not doc.nodes:
         raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)
     check_buffer_uris(doc, path, VIEW_MAX_FILE_BYTES)
@@ -50,13 +50,13 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
             doc.convert_buffers(g.BufferFormat.BINARYBLOB)
         blob = doc.binary_blob() or b""
     except Exception as exc:
-        raise InputError(f"cannot read the glTF's buffers ({type(exc).__name__}: {exc})",
+        raise InputError(f"cannot read the glTF's buffers ({_why(exc)})",
                          path) from None
     check_document(doc, len(blob), path)
     try:
         glb = b"".join(doc.save_to_bytes())
     except Exception as exc:
-        raise InputError(f"not a glTF file plantlod can carry ({type(exc).__name__}: {exc})",
+        raise InputError(f"not a glTF file plantlod can carry ({_why(exc)})",
                          path) from None
     asset = doc.asset
     extras = asset.extras if asset is not None and isinstance(asset.extras, dict) else {}
@@ -64,6 +64,18 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     branches = mine.get("branches") if isinstance(mine, dict) else None
     ok = isinstance(branches, int) and not isinstance(branches, bool) and branches >= 0
     return glb, (branches if ok else None)
+
+
+def _why(exc: BaseException) -> str:
+    """What pygltflib's parsers raised, said for a reader of the message, not as a Python
+    exception's name (`RecursionError: maximum recursion depth exceeded …`)."""
+    if isinstance(exc, RecursionError):
+        return "its JSON is nested too deeply"
+    if isinstance(exc, UnicodeError):
+        return "its JSON is not UTF-8 text"
+    if isinstance(exc, (AttributeError, TypeError, KeyError, IndexError)):
+        return "a member is not of the kind glTF 2.0 gives it"
+    return str(exc) or "unreadable"
 
 
 def _read_bytes(path: str) -> bytes:

@@ -246,3 +246,18 @@ def test_a_disk_filling_up_during_export_is_exit_1(files, tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 1 and "File too large" in done.stderr, done.stderr
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("text, reason", [
+    ('{"asset": {"version": "2.0"}, "nodes": ' + "[" * 100_000 + "]" * 100_000 + "}",
+     "its JSON is nested too deeply"),
+    ('{"asset": {"version": "2.0"}, "nodes": {"a": 1}}', "a member is not of the kind glTF 2.0"),
+])
+def test_a_gltf_that_does_not_parse_is_said_in_words(tmp_path, text, reason):
+    """The messages named Python's exceptions ('RecursionError: maximum recursion depth
+    exceeded', 'AttributeError: 'list' object has no attribute …'; found by fuzzing)."""
+    path = tmp_path / "x.gltf"
+    path.write_text(text)
+    line = one_line(run_cli("view", str(path), "-o", str(tmp_path / "p.html"), exit_code=None), 2,
+                    f"{path}: error: not a glTF file ({reason}")
+    assert "Error" not in line
