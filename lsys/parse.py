@@ -26,7 +26,7 @@ import sys
 from typing import Iterable, Iterator, NamedTuple
 
 from .checks import digits_past_limit
-from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
+from .constants import MAX_DERIVATION_STEPS, MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
 from .errors import InputError, PlantlodWarning
 from .expr import (
     FUNCTIONS, PRECEDENCE, RIGHT_ASSOCIATIVE, UNARY_OPS, UNARY_PRECEDENCE,
@@ -781,6 +781,12 @@ class _FileParser:
                         raise cur.error(f"{key} must be a non-negative integer, got "
                                         f"{format_number(value)}", value_start)
                     value = int(value)
+        if key == "derivation_length" and value > MAX_DERIVATION_STEPS:
+            # (derive refuses it too, but by then without the line)
+            shown = f"{value:,}" if value < 10**15 else f"about 10^{len(str(int(value))) - 1}"
+            raise cur.error(f"derivation length {shown} is more than the limit of "
+                            f"{MAX_DERIVATION_STEPS:,} steps; expected a smaller derivation_length",
+                            value_start)
         self.header[key] = (value, key_pos)
 
     def _ignore_list(self, cur: _Cursor) -> tuple[str, ...]:

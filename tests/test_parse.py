@@ -532,3 +532,13 @@ def test_plain_key_values_read_as_the_expression_parser_reads_them(pairs):
             P._FileParser._plain_key_values = saved
 
     assert read(True) == read(False)
+
+
+@pytest.mark.parametrize("value", ["1000000000", "1e9"])
+def test_a_derivation_length_past_the_limit_is_refused_at_its_value(value):
+    """derive refused it naming the file but no line (session 23, found by fuzzing)."""
+    text = HEAD.replace("derivation_length: 2", f"derivation_length: {value}") + "axiom: F\n"
+    with pytest.raises(InputError, match="derivation length 1,000,000,000 is more than the "
+                                         "limit of 10,000 steps") as info:
+        parse_lsys(text, "d.lsys")
+    assert (info.value.file, info.value.line, info.value.col) == ("d.lsys", 1, 20)
