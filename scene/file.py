@@ -36,7 +36,7 @@ TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "t
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
 CAMERA_KEYS = {"position", "target", "fov_deg", "height_px", "key"}
 CAMERA_KEY_KEYS = {"t", "position", "target"}
-TREE_KEYS = {"file", "seed", "position", "heading", "scale"}
+TREE_KEYS = {"file", "position", "heading", "scale"}   # (a 'seed' was accepted and unused)
 SCATTER_KEYS = {"files", "count", "seed", "area", "min_spacing", "scale"}
 
 
@@ -117,6 +117,15 @@ class Scene:
 _ANY = object()
 
 
+def _finite(value: int | float) -> bool:
+    """A finite number that a float can hold (an integer of 400 digits overflowed
+    math.isfinite: an internal error)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def _line_of(text: str, key: str, value=_ANY) -> int | None:
     """The line of ``key = …`` in ``text``: of the first one whose value reads as ``value``
     where given (a key that several tables set: `[[tree]]`'s scale, a camera key's position),
@@ -160,7 +169,7 @@ class _Reader:
             return default
         value = table[key]
         ok = isinstance(value, int) if integer else isinstance(value, (int, float))
-        if isinstance(value, bool) or not ok or not math.isfinite(value):
+        if isinstance(value, bool) or not ok or not _finite(value):
             kind = "a whole number" if integer else "a finite number"
             raise self.error(f"'{key}' must be {kind}, got {value!r}", key, value)
         if low is not None and (value <= low if low_open else value < low):
@@ -178,7 +187,7 @@ class _Reader:
         value = table[key]
         if (not isinstance(value, list) or len(value) != size
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           and math.isfinite(v) for v in value)):
+                           and _finite(v) for v in value)):
             raise self.error(f"'{key}' must be a list of {size} finite numbers, got {value!r}",
                              key, value)
         return tuple(float(v) for v in value)
@@ -189,9 +198,10 @@ class _Reader:
         try:
             path = (folder / name).resolve()
             found = path.is_file()
-        except OSError as exc:               # a name too long for the system, a loop of links
+        except (OSError, RuntimeError) as exc:   # a name too long, a loop of links (RuntimeError
+                                                 # from Path.resolve on Python 3.11)
             raise self.error(f"tree file {name[:80]!r}{'…' if len(name) > 80 else ''}: "
-                             f"{exc.strerror or exc}", key, name) from None
+                             f"{getattr(exc, 'strerror', None) or exc}", key, name) from None
         if not found:
             raise self.error(f"tree file {name!r} not found (looked in {folder})", key, name)
         return path
@@ -282,7 +292,7 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
     keys = cam_t.get("key")
     if keys is None:
         pos, tgt = np.array(r.vector(cam_t, "position", 3)), np.array(r.vector(cam_t, "target", 3))
-        if np.allclose(pos, tgt):
+        if np.array_equal(pos, tgt):      # (allclose refused a target 30 m off at 4.6e6 m)
             raise r.error("the camera's target is its position; expected a direction to look in",
                           "target")
         return Camera(pos, tgt, fov, height)
@@ -297,7 +307,7 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
         times.append(r.number(key, "t", low=0))
         positions.append(r.vector(key, "position", 3))
         targets.append(r.vector(key, "target", 3))
-        if np.allclose(positions[-1], targets[-1]):
+        if positions[-1] == targets[-1]:
             raise r.error(f"the camera key at t = {times[-1]:g} s looks at its own position",
                           "target")
     if any(b <= a for a, b in zip(times, times[1:])):

@@ -502,3 +502,43 @@ def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path):
     line = one_line(run_cli("scene", path, "--cache", str(cache), exit_code=None), 2,
                     "not a folder; expected a folder for the cached level chains")
     assert line.startswith(f"{cache}:") and cache.read_text() == "not a folder\n"
+
+
+@pytest.mark.parametrize("edit, tail, message, where", [
+    # an integer past a float's range overflowed math.isfinite: an internal error
+    (("dt = 0.01", "dt = 0.01\nbudget_px = 1" + "0" * 400), "", "'budget_px' must be a finite number", 2),
+    (("position = [0, -40, 1.7]", "position = [0, -40, 1" + "0" * 400 + "]"), "",
+     "'position' must be a list of 3 finite numbers", 6),
+    # [[tree]] seed was accepted and never used
+    (("", ""), "seed = 3\n", "unknown key 'seed' in [[tree]]", 10),
+])
+def test_scene_values_found_by_fuzzing_in_session_23(tmp_path, edit, tail, message, where):
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration="1").replace(*edit) + f'[[tree]]\nfile = "{STALK}"\n'
+                    + tail)
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    assert line.startswith(f"{path}:{where}:")
+
+
+def test_a_tree_file_that_is_a_loop_of_links_is_located_bad_input(tmp_path):
+    """Path.resolve raised RuntimeError ('Symlink loop'): an internal error (fuzzing)."""
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration="1") + '[[tree]]\nfile = "a"\n')
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, "tree file 'a'")
+    assert line.startswith(f"{path}:9:")
+
+
+def test_a_camera_far_from_the_origin_looks_where_it_is_told(tmp_path):
+    """np.allclose's relative tolerance took a target 30 m ahead of a camera at UTM-like
+    coordinates (4.6e6 m) for the camera's own position (found by fuzzing)."""
+    from plantlod.scene.file import read_scene
+
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration="1").replace("position = [0, -40, 1.7]",
+                                                     "position = [500000, 4649700, 1.7]")
+                    .replace("target = [0, 0, 1.7]", "target = [500000, 4649730, 1.7]")
+                    + f'[[tree]]\nfile = "{STALK}"\nposition = [500000, 4649760, 0]\n')
+    scene = read_scene(str(path))
+    assert scene.camera.target[1] - scene.camera.position[1] == 30.0
