@@ -24,8 +24,8 @@ import click
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import (atomic_path, hold, release, remove_pending, special_target,
-                                     usual_file_mode, write_all)
+from plantlod.formats.atomic import (atomic_path, hold, landing, release, remove_pending,
+                                     special_target, usual_file_mode, write_all)
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -152,9 +152,7 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
     for option, path in outputs.items():
         if path is None or path == "-":
             continue
-        # where the output lands: a link at the path is replaced, not followed (os.replace)
-        key = os.path.join(os.path.realpath(os.path.dirname(os.path.abspath(path))),
-                           os.path.basename(os.path.abspath(path)))
+        key = landing(path)             # (a link at the path is replaced, not followed)
         if key in seen and not _device(path):
             raise click.UsageError(f"{seen[key]} and {option} name the same file {path}; "
                                    "expected a path for each")

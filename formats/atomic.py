@@ -66,6 +66,18 @@ def special_target(path: str) -> bool:
     return not stat.S_ISREG(mode)
 
 
+def landing(output: str) -> str:
+    """Where writing ``output`` lands: its folder resolved, its own name kept (a temporary is
+    renamed over it, so a link there is replaced, not followed)."""
+    return os.path.join(os.path.realpath(os.path.dirname(os.path.abspath(output))),
+                        os.path.basename(os.path.abspath(output)))
+
+
+def lands_on(output: str, source: str) -> bool:
+    """Whether writing ``output`` would replace the file ``source`` is read from."""
+    return os.path.exists(source) and landing(output) == os.path.realpath(source)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str, suffix: str = ".tmp") -> Iterator[str]:
     """A temporary path beside ``path`` to write to; renamed to ``path`` (with the usual

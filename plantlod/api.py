@@ -13,6 +13,7 @@ lengths metres, times seconds, winds metres per second (model.md).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import os
@@ -21,7 +22,7 @@ from typing import IO, Any, Union
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
@@ -300,24 +301,26 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
         raise InputError("compare needs at least one simplified tree")
     n = _step_count(dt, steps, duration)
     w = _wind(_wind_option(wind, wind_speed, wind_direction))
+    # every argument checked before any run (a bad bound after a diverging run was a
+    # RunFailure; bounds=5 a TypeError)
+    if window is not None and not (isinstance(window, (tuple, list)) and len(window) == 2):
+        raise InputError(f"window must be (start, end) in seconds (either None), got {window!r}")
+    t0, t1 = ((None if t is None else real("window", t)) for t in window) if window else (None, None)
+    if bounds is not None and not isinstance(bounds, dict):
+        raise InputError(f"bounds must map figure names to limits, got {type(bounds).__name__}")
+    unknown = [name for name in (bounds or {}) if name not in BOUND_OPTIONS]
+    if unknown:
+        raise InputError(f"unknown bound {unknown[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}")
+    bounds = {name: (bounds or {}).get(name) for name in BOUND_OPTIONS}
+    bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
+              for name, b in bounds.items()}
     items = (original,) + simplified
     runs = []
     for item, label in zip(items, _labels(items)):
         tree = _as_tree(item)
         a = simulate(tree, w, dt, n, damping=damping, damping_ratio=damping_ratio)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
-    if window is not None and not (isinstance(window, (tuple, list)) and len(window) == 2):
-        raise InputError(f"window must be (start, end) in seconds (either None), got {window!r}")
-    t0, t1 = ((None if t is None else real("window", t)) for t in window) if window else (None, None)
     comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
-    unknown = set(bounds or {}) - set(BOUND_OPTIONS)
-    if unknown:
-        raise InputError(f"unknown bound {sorted(unknown)[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}")
-    if bounds is not None and not isinstance(bounds, dict):
-        raise InputError(f"bounds must map figure names to limits, got {type(bounds).__name__}")
-    bounds = {name: (bounds or {}).get(name) for name in BOUND_OPTIONS}
-    bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
-              for name, b in bounds.items()}
     violations = [check_bounds(c.report, bounds) for c in comparisons]
     return comparison_document(comparisons, bounds, violations)
 
@@ -344,7 +347,8 @@ def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLi
             raise InputError(f"frames must be (A, B), frames A to B-1, got {frames!r}")
         frames = (whole("frames", frames[0]), whole("frames", frames[1], low=1))
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, "angles")
-    write(path, tree, time, bend, rot, fps, frames)
+    with _writing(path):
+        write(path, tree, time, bend, rot, fps, frames)
 
 
 def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
@@ -364,6 +368,13 @@ def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
     if title is not None and not isinstance(title, str):
         raise InputError(f"title must be text, got {type(title).__name__}")
     output_target(path_or_file)
+    if isinstance(path_or_file, (str, os.PathLike)):
+        from plantlod.formats.atomic import lands_on
+
+        for p in paths:
+            if lands_on(os.fspath(path_or_file), p):
+                raise InputError("the page would be written over its input; expected another path",
+                                 p)
     page = view_page_from_files(paths, wind_direction, title or VIEW_TITLE)
     _write_text(page, path_or_file)
     return page
@@ -475,6 +486,8 @@ def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any
 
 def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
     if hasattr(path_or_file, "read"):
+        if getattr(path_or_file, "closed", False):
+            raise InputError("a closed stream; expected an open one or a path")
         if binary_stream(path_or_file):
             raise InputError("a binary stream; expected a text stream or a path")
         return path_or_file, getattr(path_or_file, "name", "<stream>")  # type: ignore[return-value]
@@ -493,8 +506,20 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
         return
     from plantlod.formats.atomic import atomic_path, write_whole
 
-    with atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
+    with _writing(os.fspath(path_or_file)), \
+            atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
         write_whole(tmp, text.encode("utf-8", "backslashreplace"))
+
+
+@contextlib.contextmanager
+def _writing(path: str):
+    """A file that cannot be written (a full disk, a folder that takes no file) is a
+    `RunFailure` naming it, as the commands say it (it was a raw OSError)."""
+    try:
+        yield
+    except OSError as exc:
+        raise RunFailure(f"cannot write {exc.filename or path}: "
+                         f"{exc.strerror or exc}") from None
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",
            "simulate", "read_angles", "write_angles", "simplify", "compare",

@@ -24,6 +24,8 @@ def output_target(value: Any, name: str = "the target") -> None:
     if value is None:
         return
     if hasattr(value, "write"):
+        if getattr(value, "closed", False):
+            raise InputError(f"{name} is a closed stream; expected an open one or a path")
         if binary_stream(value):
             raise InputError(f"{name} is a binary stream; expected a text stream or a path")
         if getattr(value, "writable", lambda: True)() is False:

@@ -142,6 +142,12 @@ def _angles():
     return tree, plantlod.simulate(tree, wind=(2, 0, 0), dt=0.01, steps=30)
 
 
+def _closed():
+    stream = __import__("io").StringIO()
+    stream.close()
+    return stream
+
+
 @pytest.mark.parametrize("call, fragment", [
     (lambda t, a, d: plantlod.write_tree(t, ""), "must name a file"),
     (lambda t, a, d: plantlod.write_tree(t, str(d / "no" / "x.jsonl")), "output directory does not exist"),
@@ -177,6 +183,14 @@ def _angles():
     (lambda t, a, d: plantlod.write_view(None), "write_view takes the paths"),
     (lambda t, a, d: plantlod.write_view(STALK, wind_direction=float("nan")), "wind_direction must"),
     (lambda t, a, d: plantlod.write_view(STALK, title=42), "title must be text"),
+    # session 23, found by fuzzing the API: raw TypeErrors, a bound checked after the runs,
+    # ValueError on a closed stream
+    (lambda t, a, d: plantlod.compare(t, t, wind=(1, 0, 0), dt=0.01, steps=5, bounds=5),
+     "bounds must map figure names to limits, got int"),
+    (lambda t, a, d: plantlod.compare(t, t, wind=(1, 0, 0), dt=0.01, steps=5, bounds={1: 2, "x": 3}),
+     "unknown bound 1"),
+    (lambda t, a, d: plantlod.write_angles(a, _closed()), "closed stream"),
+    (lambda t, a, d: plantlod.read_angles(_closed()), "closed stream"),
 ])
 def test_api_arguments_of_the_wrong_kind_are_input_errors(tmp_path, call, fragment):
     """Each of these raised TypeError, ValueError, IndexError, KeyError, OverflowError or
@@ -197,3 +211,25 @@ def test_a_wind_object_giving_no_numbers_is_a_run_failure():
     for wind in (words, [narrow, (1, 0, 0)], [words, (1, 0, 0)]):
         with pytest.raises(RunFailure, match="the wind gave"):
             plantlod.simulate(tree, wind=wind, dt=0.01, steps=30)
+
+
+
+def test_api_writes_that_fail_are_run_failures_and_a_page_never_replaces_its_input(tmp_path):
+    """write_view, write_angles and export_animation raised raw OSErrors (/dev/full, a folder
+    that takes no file), and write_view("v.glb", "v.glb") replaced the glTF with the page
+    (session 23, found by fuzzing the API)."""
+    from plantlod.lsys.errors import RunFailure
+
+    tree, angles = _angles()
+    glb = tmp_path / "v.glb"
+    plantlod.export_animation(tree, angles, glb)
+    before = glb.read_bytes()
+    with pytest.raises(InputError, match="the page would be written over its input"):
+        plantlod.write_view(str(glb), str(glb))
+    assert glb.read_bytes() == before
+    for call in (lambda: plantlod.write_view(str(glb), "/dev/full"),
+                 lambda: plantlod.write_angles(angles, "/dev/full")):
+        with pytest.raises(RunFailure, match="cannot write /dev/full: No space left on device"):
+            call()
+    with pytest.raises(RunFailure, match="cannot write /proc/o.glb"):
+        plantlod.export_animation(tree, angles, "/proc/o.glb")
