@@ -12,3 +12,7 @@ MAX_EXPORT_SAMPLES = 500_000_000  # frames x branches of one export (a quaternio
 # --- the view page (export/view.py) ---------------------------------------------------------
 VIEW_TITLE = "plantlod: original and levels side by side"
 VIEW_MAX_FILE_BYTES = 1 << 30  # a .glb / .gltf given to view (the page carries it whole)
+
+# glTF stores keyframe times as float32: a run past float32's largest finite value (the same
+# bound for OpenUSD's time codes, so both formats refuse it alike) has no frame time to write
+GLTF_MAX_TIME = 3.4028234663852886e38

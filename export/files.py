@@ -10,7 +10,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
-from .constants import MAX_EXPORT_SAMPLES
+from .constants import GLTF_MAX_TIME, MAX_EXPORT_SAMPLES
 
 FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
 
@@ -33,6 +33,9 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
                          f"k / fps from 0 s; expected times that reach 0", angles_name)
     if not (np.isfinite(bend).all() and np.isfinite(rot).all()):
         raise InputError("the angles hold values that are not finite numbers", angles_name)
+    if float(times[-1]) > GLTF_MAX_TIME:           # glTF keeps times as float32
+        raise InputError(f"the angles run to {float(times[-1]):g} s, past the {GLTF_MAX_TIME:g} s "
+                         "a glTF or OpenUSD time can hold; expected a shorter run", angles_name)
     if frames is not None:
         count = int(math.floor(span + 1e-9)) + 1
         if not 0 <= frames[0] < frames[1] <= count:

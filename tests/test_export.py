@@ -191,3 +191,16 @@ def test_angles_past_what_an_export_holds_are_bad_input_in_the_angles_file(run, 
     assert result.stderr.startswith(f"{edited}: error:") or result.stderr.startswith("e.csv")
     assert message in result.stderr and result.stderr.count("\n") == 1
     assert not (tmp_path / "x.glb").exists()
+
+
+def test_frame_times_past_float32_are_bad_input_in_the_angles_file(run, tmp_path):
+    """A run to 1e39 s at 1e-38 fps wrote glTF times of inf: json's 'Out of range float
+    values', an internal error (session 23, found by fuzzing)."""
+    folder, _, _ = run
+    lines = (folder / "a.csv").read_text().splitlines()
+    edited = tmp_path / "e.csv"
+    edited.write_text("\n".join([lines[0], lines[1], "1e39," + lines[2].split(",", 1)[1]]) + "\n")
+    result = run_cli("export", str(folder / "t.jsonl"), str(edited), "-o", str(tmp_path / "x.glb"),
+                     "--fps", "1e-38", exit_code=2)
+    assert result.stderr.startswith(f"{edited}: error: the angles run to 1e+39 s, past")
+    assert result.stderr.count("\n") == 1 and not (tmp_path / "x.glb").exists()
