@@ -36,13 +36,24 @@ class Wind(Protocol):
 
 def wind_samples(wind: Wind, times: np.ndarray) -> np.ndarray:
     """(K, 3) m/s: ``wind.sample(times)`` for K = len(times), checked, for a wind object of
-    the caller's too: one that gives no numbers, or another shape, is a RunFailure."""
+    the caller's too: one whose sample() fails, or gives no real numbers, another shape, or
+    values that are not finite is a RunFailure; one faster than MAX_WIND_SPEED an InputError,
+    as every wind is (`check_speed`)."""
     try:
-        out = np.asarray(wind.sample(times), dtype=np.float64)
+        raw = np.asarray(wind.sample(times))
+        if np.iscomplexobj(raw):
+            raise TypeError("complex numbers")
+        out = np.asarray(raw, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise RunFailure(f"the wind gave no array of numbers ({exc})") from None
+    except Exception as exc:                        # the caller's own object failed
+        raise RunFailure(f"the wind's sample() failed: {type(exc).__name__}: {exc}") from None
     if out.shape != (len(times), 3):
         raise RunFailure(f"the wind gave an array of shape {out.shape}, expected ({len(times)}, 3)")
+    if not np.all(np.isfinite(out)):
+        raise RunFailure("the wind gave values that are not finite numbers")
+    if len(out):
+        check_speed(float(np.linalg.norm(out, axis=1).max()), "a wind object's sample")
     return out
 
 
@@ -54,7 +65,10 @@ class ConstantWind:
     """The same wind vector (3,) m/s at every time."""
 
     def __init__(self, vector):
-        v = np.asarray(vector, dtype=np.float64).reshape(-1)
+        try:
+            v = np.asarray(vector, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):          # ConstantWind("abc")
+            v = np.zeros(0)
         if v.shape != (3,) or not np.all(np.isfinite(v)):
             raise InputError(f"a wind vector must be three finite numbers, got {vector!r}")
         check_speed(float(np.linalg.norm(v)), "a wind")

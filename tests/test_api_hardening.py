@@ -233,3 +233,29 @@ def test_api_writes_that_fail_are_run_failures_and_a_page_never_replaces_its_inp
             call()
     with pytest.raises(RunFailure, match="cannot write /proc/o.glb"):
         plantlod.export_animation(tree, angles, "/proc/o.glb")
+
+
+
+def test_a_wind_object_that_fails_or_gives_what_no_wind_is_named_so():
+    """A caller's wind object: NaN was 'simulation diverged' alone and InputError in a list;
+    2000 m/s ran; a ZeroDivisionError in sample() escaped raw; complex values lost their
+    imaginary part; ConstantWind("abc") was a raw ValueError (session 23, found by fuzzing)."""
+    from plantlod.lsys.errors import RunFailure
+    from plantlod.sim.wind import ConstantWind
+
+    tree = plantlod.derive(STALK)
+
+    def wind(f):
+        return type("W", (), {"sample": lambda self, t: f(t)})()
+
+    cases = [(wind(lambda t: np.full((len(t), 3), np.nan)), RunFailure, "not finite numbers"),
+             (wind(lambda t: np.tile([2000.0, 0, 0], (len(t), 1))), InputError,
+              "a wind object's sample of 2000 m/s; expected at most 1000 m/s"),
+             (wind(lambda t: 1 / 0), RunFailure, "sample() failed: ZeroDivisionError"),
+             (wind(lambda t: np.ones((len(t), 3)) * 1j), RunFailure, "complex numbers")]
+    for w, kind, message in cases:
+        for given in (w, [w, (1, 0, 0)]):
+            with pytest.raises(kind, match=__import__("re").escape(message)):
+                plantlod.simulate(tree, wind=given, dt=0.01, steps=20)
+    with pytest.raises(InputError, match="three finite numbers"):
+        ConstantWind("abc")
