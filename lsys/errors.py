@@ -35,10 +35,17 @@ class InputError(PlantlodError):
     def __str__(self) -> str:
         # a file name with a line break or other control character is shown quoted, so the
         # message stays one line (the API's read_tree("\n"))
-        where = [str(p) if str(p).isprintable() else repr(str(p))
-                 for p in (self.file, self.line, self.col) if p is not None]
+        where = [_shown(str(p)) for p in (self.file, self.line, self.col) if p is not None]
         prefix = ":".join(where)
         return f"{prefix}: {self.message}" if prefix else self.message
+
+
+def _shown(name: str, most: int = 200) -> str:
+    """A file name as a message shows it: quoted where it holds a control character, cut to
+    ``most`` characters (a 5,000-character string taken for a path made a 5,000-character
+    line)."""
+    shown = name if name.isprintable() else repr(name)
+    return shown if len(shown) <= most else shown[:most - 1] + "…"
 
 
 class RunFailure(PlantlodError):

@@ -491,6 +491,8 @@ def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
         if binary_stream(path_or_file):
             raise InputError("a binary stream; expected a text stream or a path")
         return path_or_file, getattr(path_or_file, "name", "<stream>")  # type: ignore[return-value]
+    if isinstance(path_or_file, str) and ("\n" in path_or_file or "\r" in path_or_file):
+        return io.StringIO(path_or_file), "<text>"   # the text itself, as read_lsystem takes it
     from plantlod.formats.text_input import read_text
 
     path = path_of(path_or_file)

@@ -71,8 +71,12 @@ def test_simulate_and_compare_read_a_text_as_derive_does(stalk):
     assert doc["original"]["file"] == "<text>" and doc["passed"]
     assert doc["comparisons"][0]["simplified"]["file"] == "<text> (simplified 1)"
     with pytest.raises(plantlod.InputError) as info:
-        plantlod.read_tree("\n")
-    assert str(info.value) == "'\\n': no such file"
+        plantlod.read_lsystem("axiom: Q(\n", name="a\nb")
+    assert str(info.value).startswith("'a\\nb':1:10: ") and "\n" not in str(info.value)
+    assert plantlod.read_angles(plantlod.write_angles(by_path)).bend.shape == by_path.bend.shape
+    with pytest.raises(plantlod.InputError) as info:          # (read as a path: a name cut short)
+        plantlod.read_lsystem("x" * 5000)
+    assert len(str(info.value)) < 300
 
 def test_simplify_and_compare_give_the_commands_bytes(stalk):
     from plantlod.compare.report import dumps
