@@ -328,7 +328,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "dt": scene.dt,
         "damping_ratio": scene.damping_ratio,
         "duration": scene.duration,
-        "frame_rate": frame_rate,
+        "frame_rate": round(1.0 / (every * scene.dt), 9),   # the rate run: whole steps a frame
         "frames": rows,
         "camera": "keyed" if scene.camera.moving else "fixed",
         "branches_full": int(sum(chains[t.file].trees[0].n_branches for t in scene.trees)),
