@@ -81,8 +81,7 @@ def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSyste
     from plantlod.lsys.parse import parse_lsys
 
     if isinstance(path_or_text, os.PathLike) or (
-            isinstance(path_or_text, str) and "\n" not in path_or_text
-            and "\r" not in path_or_text):
+            isinstance(path_or_text, str) and not _is_text(path_or_text)):
         from plantlod.formats.lsys_file import read_lsys
         return read_lsys(path_of(path_or_text))
     if not isinstance(path_or_text, str):
@@ -405,13 +404,19 @@ def _wind(wind: Any):
     return ConstantWind(vector)
 
 
+def _is_text(value: Any) -> bool:
+    """A string with a line break is a file's text itself, any other string a path (no file
+    name of the commands' has a line break, every file they read has one)."""
+    return isinstance(value, str) and ("\n" in value or "\r" in value)
+
+
 def _labels(items: tuple) -> list[str]:
     """A label per compared item: its file (``<text>`` for a text); where that repeats an
     earlier label (a level `simplify` made keeps its original's file name), its name, else
     "<label> (simplified k)"."""
     out: list[str] = []
     for k, item in enumerate(items):
-        if isinstance(item, str) and ("\n" in item or "\r" in item):
+        if _is_text(item):
             label = "<text>"                                   # a text read as its tree
         elif isinstance(item, (str, os.PathLike)):
             label = os.fspath(item)
@@ -445,7 +450,7 @@ def _as_tree(item: Any) -> Tree:
     if not isinstance(item, (str, os.PathLike)):
         raise InputError(f"expected a Tree, an LSystem, a path or the text of either, got "
                          f"{type(item).__name__}")
-    if isinstance(item, str) and ("\n" in item or "\r" in item):
+    if _is_text(item):
         text, path = item, "<text>"       # the text itself, as `read_lsystem` takes it
     else:
         path = path_of(item)
@@ -491,7 +496,7 @@ def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:
         if binary_stream(path_or_file):
             raise InputError("a binary stream; expected a text stream or a path")
         return path_or_file, getattr(path_or_file, "name", "<stream>")  # type: ignore[return-value]
-    if isinstance(path_or_file, str) and ("\n" in path_or_file or "\r" in path_or_file):
+    if _is_text(path_or_file):
         return io.StringIO(path_or_file), "<text>"   # the text itself, as read_lsystem takes it
     from plantlod.formats.text_input import read_text
 
