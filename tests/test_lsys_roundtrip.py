@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from plantlod.formats.lsys_file import read_lsys, write_lsys
+from plantlod.lsys.constants import MAX_DERIVATION_STEPS
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.expr import FUNCTIONS, Binary, Call, Name, Num, Unary, format_expr
 from plantlod.lsys.parse import OVERRIDE_KEYS, parse_expr, parse_lsys
@@ -302,7 +303,7 @@ def systems(draw) -> LSystem:
     name_chars = st.sampled_from("abcXYZ019 :-_.é()")
     return LSystem(
         name=draw(st.text(name_chars, max_size=12).map(str.strip)),
-        derivation_length=draw(st.integers(0, 10**20)),
+        derivation_length=draw(st.integers(0, MAX_DERIVATION_STEPS)),   # (more is refused)
         branching_angle=draw(_FINITE), rotation_angle=draw(_FINITE),
         seed=draw(st.integers(0, 2**80)),
         force_absorbed=draw(_AMOUNT), force_propagated=draw(_AMOUNT),
