@@ -79,7 +79,8 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     check_scene(spec)
     check_frame_rate(spec, frame_rate)
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
-    if cache is not None and cache.exists() and not cache.is_dir():
+    if cache is not None and (cache.exists() or cache.is_symlink()) and not cache.is_dir():
+        # (a link that leads nowhere, or round in a loop, too: it failed at mkdir, exit 1)
         from plantlod.lsys.errors import InputError
 
         raise InputError("not a folder; expected a folder for the cached level chains (--cache "

@@ -494,14 +494,22 @@ def test_a_bad_value_in_a_second_table_is_located_at_its_own_line(tmp_path, seco
     assert result.startswith(f"{path}:{line}:1:")
 
 
-def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path):
-    """It was exit 1, 'File exists', once the chain was fitted (session 22, found by fuzzing)."""
+@pytest.mark.parametrize("make", ["file", "loop"])
+def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path, make):
+    """It was exit 1, 'File exists', once the chain was fitted (session 22, found by fuzzing;
+    a loop of links in session 23)."""
     cache = tmp_path / "cache"
-    cache.write_text("not a folder\n")
+    if make == "file":
+        cache.write_text("not a folder\n")
+    else:
+        cache.symlink_to(tmp_path / "other")
+        (tmp_path / "other").symlink_to(cache)
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
     line = one_line(run_cli("scene", path, "--cache", str(cache), exit_code=None), 2,
                     "not a folder; expected a folder for the cached level chains")
-    assert line.startswith(f"{cache}:") and cache.read_text() == "not a folder\n"
+    assert line.startswith(f"{cache}:")
+    if make == "file":
+        assert cache.read_text() == "not a folder\n"
 
 
 @pytest.mark.parametrize("edit, tail, message, where", [
