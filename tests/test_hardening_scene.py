@@ -550,3 +550,14 @@ def test_a_camera_far_from_the_origin_looks_where_it_is_told(tmp_path):
                     + f'[[tree]]\nfile = "{STALK}"\nposition = [500000, 4649760, 0]\n')
     scene = read_scene(str(path))
     assert scene.camera.target[1] - scene.camera.position[1] == 30.0
+
+
+def test_the_report_gives_the_frame_rate_run(tmp_path):
+    """A frame is whole steps: --frame-rate 10000 at dt 0.01 runs one-step frames (100 a
+    second), and the report said 10000 (session 23, found by fuzzing)."""
+    import json
+
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    for asked, run in (("10000", 100.0), ("30", 33.333333333)):
+        out = run_cli("scene", path, "--no-cache", "--frame-rate", asked, "--report", "-").stdout
+        assert json.loads(out)["frame_rate"] == run
