@@ -36,13 +36,13 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
             raise InputError("-n applies to .lsys input, not to a tree archive", name)
         from plantlod.formats.npz import read_npz_file, read_tree_bytes
 
-        return _named(read_tree_bytes(read_npz_file(path), name), name), None
+        return read_tree_bytes(read_npz_file(path), name).named(name), None
     text = read_text(path)
     if looks_like_tree_file(text):
         if steps is not None:
             raise InputError("-n applies to .lsys input, not to a tree file", name)
         from plantlod.formats.treefile import read_tree
-        return _named(read_tree(io.StringIO(text), name), name), None
+        return read_tree(io.StringIO(text), name).named(name), None
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
     from plantlod.lsys.parse import parse_lsys
@@ -54,12 +54,3 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     for message in built.warnings:
         warn_once_running(f"{name}: {message}")
     return built.tree, system
-
-
-def _named(tree, name: str):
-    """``tree`` as read from ``name``: messages about it name the file its header says it
-    was derived from, or ``name`` where the header names none (a bend strength of 0 in such
-    a file was refused naming no file)."""
-    import dataclasses
-
-    return tree if tree.source else dataclasses.replace(tree, source=name)

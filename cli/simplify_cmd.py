@@ -148,19 +148,21 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
 
     from plantlod.lsys.errors import InputError
 
-    try:
-        os.stat(folder)
+    import stat
+
+    try:                                     # one look at DIR, before the fit, not after it
+        mode = os.stat(folder).st_mode
     except (FileNotFoundError, NotADirectoryError):
-        pass
-    except (OSError, ValueError) as exc:     # a name too long: refused before the fit, not after
+        mode = None
+    except (OSError, ValueError) as exc:     # a name too long
         raise InputError(f"cannot write: {getattr(exc, 'strerror', None) or exc}", folder) from None
-    if os.path.exists(folder) and not os.path.isdir(folder):
+    if mode is not None and not stat.S_ISDIR(mode):
         raise InputError("--levels needs a directory; this is a file", folder)
     original = build(system).tree
     groupings = merge_levels(original)
     last = len(groupings) - 1
     names = [f"level{k}.lsys" for k in range(1, last + 1)]
-    if os.path.isdir(folder):                # refused before the fit, not after it
+    if mode is not None:                     # an existing DIR: merged into
         check_merge_targets(folder, names)
         distinct_paths({f"--levels ({name})": os.path.join(folder, name) for name in names},
                        {"FILE": input_path})     # (simplify DIR/level1.lsys --levels DIR)

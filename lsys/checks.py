@@ -15,15 +15,21 @@ from .errors import InputError
 _REAL = (int, float, np.integer, np.floating)
 
 
+def finite(value: int | float) -> bool:
+    """Whether a number is finite and a float can hold it (an int past a double's range
+    overflows math.isfinite)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def real(name: str, value: Any, *, low: float | None = None, low_open: bool = False,
          high: float | None = None) -> float:
     """``value`` as a finite float in [low, high] (``low_open``: above low)."""
     if isinstance(value, bool) or not isinstance(value, _REAL):
         raise InputError(f"{name} must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except OverflowError:                     # an int past a double's range
-        x = math.inf
+    x = float(value) if finite(value) else math.inf
     if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)) \
             or (high is not None and x > high):
         bounds = f"{'(' if low_open else '['}{'-inf' if low is None else f'{low:g}'}, " \
@@ -39,6 +45,19 @@ def whole(name: str, value: Any, *, low: int = 0, high: int | None = None) -> in
         raise InputError(f"{name} must be a whole number in [{low}, "
                          f"{'inf' if high is None else f'{high:,}'}], got {value!r}")
     return int(value)
+
+
+def steps_past_limit(steps: int) -> str | None:
+    """The message for a derivation length past MAX_DERIVATION_STEPS (None within it): the
+    parser says it at the file's value, `derive` for -n and the API's steps. A huge one is
+    shown by its power of ten (an integer of 4,300 digits would fill the line)."""
+    from .constants import MAX_DERIVATION_STEPS
+
+    if steps <= MAX_DERIVATION_STEPS:
+        return None
+    shown = f"{steps:,}" if steps < 10**15 else f"about 10^{len(str(int(steps))) - 1}"
+    return (f"derivation length {shown} is more than the limit of {MAX_DERIVATION_STEPS:,} "
+            "steps; expected a smaller derivation_length or -n")
 
 
 def digits_past_limit(literal: str) -> int | None:

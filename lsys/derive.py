@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR, MAX_DERIVATION_STEPS
+from .checks import steps_past_limit
+from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR
 from .cut import CUT_SYMBOL, cut_keep_mask, keep_modules
 from .derived import DerivedString
 from .errors import InputError
@@ -125,10 +126,9 @@ def derive(system: LSystem, steps: int | None = None,
     k = system.derivation_length if steps is None else steps
     if k < 0:
         raise InputError(f"the number of derivation steps must be >= 0, got {k}")
-    if k > MAX_DERIVATION_STEPS:
-        raise InputError(f"derivation length {k:,} is more than the limit of "
-                         f"{MAX_DERIVATION_STEPS:,} steps; expected a smaller derivation_length "
-                         "or -n", system.source or None)
+    past = steps_past_limit(k)
+    if past:
+        raise InputError(past, system.source or None)
     _check_system(system)
     alphabet = system_alphabet(system)
     ds = axiom_string(system, alphabet)

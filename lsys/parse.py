@@ -25,8 +25,8 @@ import re
 import sys
 from typing import Iterable, Iterator, NamedTuple
 
-from .checks import digits_past_limit
-from .constants import MAX_DERIVATION_STEPS, MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
+from .checks import digits_past_limit, steps_past_limit
+from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
 from .errors import InputError, PlantlodWarning
 from .expr import (
     FUNCTIONS, PRECEDENCE, RIGHT_ASSOCIATIVE, UNARY_OPS, UNARY_PRECEDENCE,
@@ -727,22 +727,21 @@ class _FileParser:
             self.rules[self.section].append(_production(cur, self.defines))
             return None
         cur.skip_ws()
-        after = m.end(1) if m else 0
-        if word and after < len(line) and not (line[after].isspace() or line[after] in ":=(") \
-                and not _has_arrow(line):
-            if not line[after].isascii() or not line[after].isprintable():   # 'béranching_angle'
-                raise cur.error(f"unexpected {line[after]!r} in a name; expected ASCII letters, "
-                                "digits and '_'", after)
-        if word in _DECLARATIONS and not _has_arrow(line):     # 'define^ x = 1'
-            raise cur.error(f"unexpected {line[after:after + 1]!r} after '{word}'; expected "
-                            f"'{word} NAME ...' with a space after '{word}'", after)
-        if word in _STATEMENT_WORDS and not _has_arrow(line):  # 'force_propagated 0.7'
-            raise cur.error(f"expected ':' after '{word}'", after)
-        if len(word) > 1 and not _has_arrow(line):     # a misspelled statement keyword
-            raise cur.error(f"unknown statement '{word}'{hint}; expected {_STATEMENTS_HELP}")
         if _has_arrow(line):
             raise cur.error("production outside a section; expected a 'productions:' or "
                             "'interpretation:' line before it")
+        after = m.end(1) if m else 0
+        nxt = line[after:after + 1]
+        if word and nxt and not (nxt.isascii() and nxt.isprintable()):   # 'béranching_angle'
+            raise cur.error(f"unexpected {nxt!r} in a name; expected ASCII letters, digits "
+                            "and '_'", after)
+        if word in _DECLARATIONS:                       # 'define^ x = 1'
+            raise cur.error(f"unexpected {nxt!r} after '{word}'; expected '{word} NAME ...' "
+                            f"with a space after '{word}'", after)
+        if word in _STATEMENT_WORDS:                    # 'force_propagated 0.7'
+            raise cur.error(f"expected ':' after '{word}'", after)
+        if len(word) > 1:                               # a misspelled statement keyword
+            raise cur.error(f"unknown statement '{word}'{hint}; expected {_STATEMENTS_HELP}")
         abop = _ABOP_CAPTION.match(line)
         if abop:
             raise cur.error(f"'{abop.group(1)}' is how ABOP's captions write it; expected "
@@ -781,12 +780,9 @@ class _FileParser:
                         raise cur.error(f"{key} must be a non-negative integer, got "
                                         f"{format_number(value)}", value_start)
                     value = int(value)
-        if key == "derivation_length" and value > MAX_DERIVATION_STEPS:
-            # (derive refuses it too, but by then without the line)
-            shown = f"{value:,}" if value < 10**15 else f"about 10^{len(str(int(value))) - 1}"
-            raise cur.error(f"derivation length {shown} is more than the limit of "
-                            f"{MAX_DERIVATION_STEPS:,} steps; expected a smaller derivation_length",
-                            value_start)
+        past = steps_past_limit(value) if key == "derivation_length" else None
+        if past:                                    # (at its value: derive would say no line)
+            raise cur.error(past, value_start)
         self.header[key] = (value, key_pos)
 
     def _ignore_list(self, cur: _Cursor) -> tuple[str, ...]:

@@ -8,7 +8,7 @@ accumulates forces. Lengths are metres, angles radians, areas m^2.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -145,6 +145,12 @@ class Tree:
             if p >= 0:
                 out[p].append(i)
         return out
+
+    def named(self, name: str) -> "Tree":
+        """This tree, its ``source`` set to ``name`` where its file named none: messages about
+        a tree read from a tree file name the file it was derived from, else that file
+        (a bend strength of 0 in such a file was refused naming no file)."""
+        return self if self.source else replace(self, source=name)
 
     def check(self) -> None:
         """Raise ValueError when the arrays break the invariants stated above."""

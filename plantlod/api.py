@@ -457,14 +457,14 @@ def _as_tree(item: Any) -> Tree:
         from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
 
         if is_npz(path):
-            return read_tree_bytes(read_npz_file(path), path)
+            return read_tree_bytes(read_npz_file(path), path).named(path)
         from plantlod.formats.text_input import read_text
 
         text = read_text(path)
     if text.lstrip().startswith("{"):
         from plantlod.formats.treefile import read_tree as _read
 
-        return _read(io.StringIO(text), path)
+        return _read(io.StringIO(text), path).named(path)
     from plantlod.lsys.parse import parse_lsys
 
     return derive(parse_lsys(text, path))

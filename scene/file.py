@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from plantlod.lsys.checks import finite  # (an integer of 400 digits: not finite)
 from plantlod.lsys.errors import InputError
 from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 from plantlod.sim.wind import gust_peak_factor
@@ -117,14 +118,6 @@ class Scene:
 _ANY = object()
 
 
-def _finite(value: int | float) -> bool:
-    """A finite number that a float can hold (an integer of 400 digits overflowed
-    math.isfinite: an internal error)."""
-    try:
-        return math.isfinite(value)
-    except OverflowError:
-        return False
-
 
 def _line_of(text: str, key: str, value=_ANY) -> int | None:
     """The line of ``key = …`` in ``text``: of the first one whose value reads as ``value``
@@ -169,7 +162,7 @@ class _Reader:
             return default
         value = table[key]
         ok = isinstance(value, int) if integer else isinstance(value, (int, float))
-        if isinstance(value, bool) or not ok or not _finite(value):
+        if isinstance(value, bool) or not ok or not finite(value):
             kind = "a whole number" if integer else "a finite number"
             raise self.error(f"'{key}' must be {kind}, got {value!r}", key, value)
         if low is not None and (value <= low if low_open else value < low):
@@ -187,7 +180,7 @@ class _Reader:
         value = table[key]
         if (not isinstance(value, list) or len(value) != size
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           and _finite(v) for v in value)):
+                           and finite(v) for v in value)):
             raise self.error(f"'{key}' must be a list of {size} finite numbers, got {value!r}",
                              key, value)
         return tuple(float(v) for v in value)

@@ -82,11 +82,12 @@ class ConstantWind:
         return "ConstantWind(({:g}, {:g}, {:g}))".format(*self.vector)
 
 
-def check_speed(speed: float, what: str) -> None:
+def check_speed(speed: float, what: str, *where) -> None:
     """InputError where ``what`` blows faster than MAX_WIND_SPEED m/s (every wind of a run:
-    a vector, a keyframe, a gust's peak)."""
+    a vector, a keyframe, a gust's peak); ``where``: its file, line and column, if any."""
     if speed > MAX_WIND_SPEED:
-        raise InputError(f"{what} of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s")
+        raise InputError(f"{what} of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s",
+                         *where)
 
 
 def wind_from_speed(speed: float, direction_deg: float) -> ConstantWind:
@@ -177,10 +178,7 @@ class KeyframeWind:
                     raise InputError(f"expected a finite number for {name}, got {text.strip()!r}",
                                      source, line_no, col)
                 values.append(value)
-            speed = math.hypot(*values[1:])
-            if speed > MAX_WIND_SPEED:
-                raise InputError(f"a wind of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s",
-                                 source, line_no, starts[1])
+            check_speed(math.hypot(*values[1:]), "a wind", source, line_no, starts[1])
             if times and values[0] <= times[-1]:
                 raise InputError(f"times must be strictly increasing: {values[0]:g} after {times[-1]:g}",
                                  source, line_no, starts[0])
@@ -254,8 +252,8 @@ class GustyWind:
         if not (0 < min_frequency <= max_frequency and math.isfinite(max_frequency)):
             raise InputError("gust frequencies must satisfy 0 < min_frequency <= max_frequency")
         if isinstance(base, (ConstantWind, KeyframeWind)):   # (any other wind is its own)
-            steady = base.sample([0.0])[0] if isinstance(base, ConstantWind) else base.vectors
-            peak = float(np.linalg.norm(np.atleast_2d(steady), axis=1).max())
+            steady = base.vector[None] if isinstance(base, ConstantWind) else base.vectors
+            peak = float(np.linalg.norm(steady, axis=1).max())
             check_speed(peak * gust_peak_factor(strength, components),
                         f"gusts of strength {strength:g} reach a wind")
         self.base = base
