@@ -184,6 +184,12 @@ class LSystem:
     # the header comment a writer puts first (simplify records its errors there); not meaning
     comment: str = field(default="", compare=False)
 
+    @property
+    def stochastic(self) -> bool:
+        """Whether any production (interpretation included) has a probability: only then
+        does ``seed`` change what the file grows (section 1 of docs/model.md)."""
+        return any(p.probability is not None for p in self.productions + self.interpretation)
+
     def branch_symbol(self, name: str) -> BranchSymbol | None:
         for b in self.branches:
             if b.name == name:

@@ -6,9 +6,14 @@
     [wind]    speed = 5, direction = 0, gust_strength = 0, gust_seed = 0, front_speed = 0
     [camera]  position = [0, -50, 2], target = [0, 0, 2], fov_deg = 60, height_px = 1080
               (or, moving: [[camera.key]] t = 0, position = [...], target = [...], one per key)
-    [[tree]]  file = "stalk8.lsys", position = [0, 0, 0], heading = 0, scale = 1
+    [[tree]]  file = "stalk8.lsys", position = [0, 0, 0], heading = 0, scale = 1, seed = 3
     [scatter] files = ["a.lsys", "b.lsys"], count = 100, seed = 1,
-              area = [x0, y0, x1, y1], min_spacing = 5
+              area = [x0, y0, x1, y1], min_spacing = 5, tree_seeds = [1, 2, 3]
+
+A tree's ``seed`` (model.md 7: a file, a seed, a position, a heading and a scale each) grows
+its file's stochastic productions from that seed in place of the file's own ``seed:``; a
+scatter's trees each draw one of ``tree_seeds``. Every distinct (file, seed) is a tree of its
+own, with its own level chain (`Source`).
 
 Every error is an `InputError` naming the file and the line of the offending key
 (tomllib reports syntax errors with line and column; values are located by a scan of
@@ -37,18 +42,57 @@ TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "t
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
 CAMERA_KEYS = {"position", "target", "fov_deg", "height_px", "key"}
 CAMERA_KEY_KEYS = {"t", "position", "target"}
-TREE_KEYS = {"file", "position", "heading", "scale"}   # (a 'seed' was accepted and unused)
-SCATTER_KEYS = {"files", "count", "seed", "area", "min_spacing", "scale"}
+TREE_KEYS = {"file", "position", "heading", "scale", "seed"}
+SCATTER_KEYS = {"files", "count", "seed", "area", "min_spacing", "scale", "tree_seeds"}
+
+# A tree file and the seed its stochastic productions grow from (None: the file's own
+# ``seed:``): what one level chain stands for.
+Source = tuple[pathlib.Path, "int | None"]
 
 
 @dataclass(frozen=True)
 class Placed:
-    """One tree of the scene: its L-system file, base position (m), heading (deg), scale."""
+    """One tree of the scene: its L-system file, base position (m), heading (deg), scale, and
+    the seed it is grown from (None: the file's own; `read_scene` keeps a seed only where it
+    grows another tree, `shared_seeds`)."""
 
     file: pathlib.Path
     position: tuple[float, float, float]
     heading: float
     scale: float
+    seed: int | None = None
+
+    @property
+    def source(self) -> Source:
+        return (self.file, self.seed)
+
+
+def sources(trees: list[Placed]) -> list[Source]:
+    """The distinct (file, seed) of ``trees`` in a fixed order: by file, then seed (the
+    file's own first)."""
+    return sorted({t.source for t in trees}, key=lambda s: (str(s[0]), -1 if s[1] is None else s[1]))
+
+
+def source_name(source: Source) -> str:
+    """A source for messages and reports: the file's name, and its seed where one is given."""
+    path, seed = source
+    return path.name if seed is None else f"{path.name} (seed {seed})"
+
+
+def shared_seeds(trees: list[Placed]) -> list[Placed]:
+    """``trees`` with every seed that grows what its file grows anyway dropped (None), so
+    those trees share one chain: the seed of a file without stochastic productions, and a
+    seed equal to the file's own ``seed:``. Reads (and checks) each file that has a seed."""
+    from dataclasses import replace
+
+    from plantlod.formats.lsys_file import read_lsys
+
+    own = {}
+    for path in sorted({t.file for t in trees if t.seed is not None}):
+        system = read_lsys(str(path))
+        own[path] = system.seed if system.stochastic else None
+    return [t if t.seed is None or (own[t.file] is not None and t.seed != own[t.file])
+            else replace(t, seed=None) for t in trees]
 
 
 @dataclass(frozen=True)
@@ -185,6 +229,10 @@ class _Reader:
                              key, value)
         return tuple(float(v) for v in value)
 
+    def seed(self, table: dict, key: str) -> int:
+        """A seed: a whole number >= 0 (the range of an .lsys file's ``seed:``)."""
+        return int(self.number(table, key, None, low=0, integer=True))
+
     def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
         if not isinstance(name, str) or not name or "\0" in name:
             raise self.error(f"'{key}' must name an .lsys file, got {name!r}", key, name)
@@ -266,14 +314,15 @@ def read_scene(path: str) -> Scene:
         trees.append(Placed(r.file(entry.get("file"), "file", folder),
                             r.vector(entry, "position", 3, (0.0, 0.0, 0.0)),
                             r.number(entry, "heading", 0.0), r.number(entry, "scale", 1.0, low=0,
-                                                                       low_open=True)))
+                                                                       low_open=True),
+                            r.seed(entry, "seed") if "seed" in entry else None))
     if "scatter" in data:
         trees += _scatter(r, data["scatter"], folder, MAX_TREES - len(trees))
     if not trees:
         raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
     if len(trees) > MAX_TREES:
         raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
-    return Scene(path, trees, wind, camera, budget, dt, duration, damping_ratio)
+    return Scene(path, shared_seeds(trees), wind, camera, budget, dt, duration, damping_ratio)
 
 
 def _camera(r: _Reader, cam_t: dict) -> Camera:
@@ -324,6 +373,7 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
         raise r.error(f"[scatter] count {count:,} makes more trees than the limit of "
                       f"{MAX_TREES:,}", "count")
     seed = int(r.number(table, "seed", 0, low=0, integer=True))
+    tree_seeds = _tree_seeds(r, table)
     x0, y0, x1, y1 = r.vector(table, "area", 4)
     if not (x1 > x0 and y1 > y0 and math.isfinite(x1 - x0) and math.isfinite(y1 - y0)):
         raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0 (and sides that are "
@@ -365,5 +415,20 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
         points.append((x, y))
     picks = rng.integers(0, len(files), size=count)
     headings = rng.uniform(0.0, 360.0, size=count)
-    return [Placed(files[int(k)], (x, y, 0.0), float(h), scale)
-            for (x, y), k, h in zip(points, picks, headings)]
+    # drawn last, so that giving tree_seeds moves no tree and changes no file or heading
+    grown = ([tree_seeds[int(k)] for k in rng.integers(0, len(tree_seeds), size=count)]
+             if tree_seeds else [None] * count)
+    return [Placed(files[int(k)], (x, y, 0.0), float(h), scale, g)
+            for (x, y), k, h, g in zip(points, picks, headings, grown)]
+
+
+def _tree_seeds(r: _Reader, table: dict) -> list[int] | None:
+    """[scatter] tree_seeds: a non-empty list of seeds (whole numbers >= 0), each scattered
+    tree grown from one of them drawn uniformly; None where not given (the files' own)."""
+    if "tree_seeds" not in table:
+        return None
+    given = table["tree_seeds"]
+    if not isinstance(given, list) or not given:
+        raise r.error(f"'tree_seeds' must be a non-empty list of whole numbers >= 0, got "
+                      f"{given!r}", "tree_seeds", given)
+    return [r.seed({"tree_seeds": v}, "tree_seeds") for v in given]

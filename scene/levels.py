@@ -1,12 +1,13 @@
 """The level chain of one tree file and each level's tip error, cached on disk.
 
-For a scene, every distinct tree file gets its explicit-form levels (model.md 5,
+For a scene, every distinct tree file (and seed it is grown from) gets its explicit-form levels (model.md 5,
 `plantlod.simplify.explicit`): level 0 the original, each next one <= 60 % of the
 branches, down to one branch. Each level's **tip error (max)** (model.md 6, metres)
 is measured against the original in the scene's wind speed, the worst over
 `TIP_ERROR_DIRECTIONS` (so it holds for any heading). The level files and the errors
-are kept in the cache folder under a key of the tree file's bytes, the program
-version and the wind and time settings, so a second run of a scene simplifies nothing.
+are kept in the cache folder under a key of the tree file's bytes, the seed where one is
+given, the program version and the wind and time settings, so a second run of a scene
+simplifies nothing.
 
 Beside each entry's JSON (the level texts, the source of truth) the levels' trees are kept
 built, one `.npz` tree archive a level in an uncompressed zip (`KEY.trees.zip`,
@@ -46,6 +47,7 @@ class Chain:
     groups     : per level, (B0,) the level branch holding each original branch
     tips       : per level, (B_l,) the original branch whose tip each level branch stands for
     damping_ratio : ζ (model.md 4) the levels were fitted and measured under, and run with
+    seed       : what the original (level 0, texts[0]) is grown from; None: the file's own
     """
 
     trees: list[Tree]
@@ -54,6 +56,7 @@ class Chain:
     groups: list[np.ndarray]
     tips: list[np.ndarray]
     damping_ratio: float = 0.0
+    seed: int | None = None
     _lane_models: dict = field(default_factory=dict, repr=False, compare=False)
 
     def lane_model(self, level: int):
@@ -96,8 +99,16 @@ def fit_code_digest() -> bytes:
     return h.digest()
 
 
+def grown_from(system, seed: int | None):
+    """``system`` (an `LSystem`) with its stochastic productions grown from ``seed`` in place
+    of its own ``seed:`` (model.md 7: every tree of a scene has a seed); None: as written."""
+    from dataclasses import replace
+
+    return system if seed is None else replace(system, seed=seed)
+
+
 def cache_key(data: bytes, speed: float, dt: float, duration: float,
-              damping_ratio: float = 0.0) -> str:
+              damping_ratio: float = 0.0, seed: int | None = None) -> str:
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -105,8 +116,9 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
     except PackageNotFoundError:
         program = "0+unknown"
     h = hashlib.sha256()
-    for part in (data, program.encode(), fit_code_digest(),
-                 repr((speed, dt, duration, damping_ratio)).encode()):
+    # (a seed joins the settings only where given: the keys of unseeded trees are unchanged)
+    settings = (speed, dt, duration, damping_ratio) + (() if seed is None else (int(seed),))
+    for part in (data, program.encode(), fit_code_digest(), repr(settings).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest()[:32]
@@ -114,75 +126,82 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
 
 def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
                 cache: pathlib.Path | None, damping_ratio: float = 0.0,
-                progress=None) -> tuple[Chain, bool]:
-    """The chain of ``path`` and whether it came from the cache (one per damping ratio ζ).
+                progress=None, seed: int | None = None) -> tuple[Chain, bool]:
+    """The chain of ``path`` grown from ``seed`` (None: its own) and whether it came from the
+    cache (one per damping ratio ζ).
 
     progress: called as progress(level k, of n levels) while levels are fitted, if given.
     """
     done = None if progress is None else (lambda k, n, _name: progress(k, n))
-    (_path, chain, hit), = level_chains([path], speed, dt, duration, cache, damping_ratio, done)
+    (_source, chain, hit), = level_chains([(path, seed)], speed, dt, duration, cache,
+                                          damping_ratio, done)
     return chain, hit
 
 
-def level_chains(paths: list[pathlib.Path], speed: float, dt: float, duration: float,
-                 cache: pathlib.Path | None, damping_ratio: float = 0.0, progress=None,
-                 jobs: int = 1) -> Iterator[tuple[pathlib.Path, Chain, bool]]:
-    """(path, chain, from the cache) of every tree file in ``paths``, in order: the chains
-    not cached are fitted in ``jobs`` processes, this one and jobs - 1 workers
-    (`plantlod.sim.workers.run_jobs`; each chain is a pure function of its file and the
-    wind, so the same chains for any ``jobs``), and stored in the cache here.
+def level_chains(sources: list[tuple[pathlib.Path, int | None]], speed: float, dt: float,
+                 duration: float, cache: pathlib.Path | None, damping_ratio: float = 0.0,
+                 progress=None, jobs: int = 1
+                 ) -> Iterator[tuple[tuple[pathlib.Path, int | None], Chain, bool]]:
+    """(source, chain, from the cache) of every (tree file, seed) in ``sources``, in order:
+    the chains not cached are fitted in ``jobs`` processes, this one and jobs - 1 workers
+    (`plantlod.sim.workers.run_jobs`; each chain is a pure function of its file, seed and
+    the wind, so the same chains for any ``jobs``), and stored in the cache here.
 
     progress: progress(level k, of n levels, file name) for the chains fitted in this
     process; progress(n, n, file name) when a worker's chain comes back."""
     from plantlod.sim.workers import run_jobs
 
+    paths = [p for p, _seed in sources]
+    seeds = [seed for _p, seed in sources]
     data = [p.read_bytes() for p in paths]
-    known = [_cached_chain(p, d, speed, dt, duration, cache, damping_ratio)
-             for p, d in zip(paths, data)]
+    known = [_cached_chain(p, d, speed, dt, duration, cache, damping_ratio, s)
+             for p, d, s in zip(paths, data, seeds)]
     missing = [k for k, chain in enumerate(known) if chain is None]
 
     def fit_here(j: int):
         k = missing[j]
         done = None if progress is None else (lambda i, n, name=paths[k].name: progress(i, n, name))
-        return _simplify_all(paths[k], data[k], speed, dt, duration, damping_ratio, done)
+        return _simplify_all(paths[k], data[k], speed, dt, duration, damping_ratio, done, seeds[k])
 
     fitted = {}
     payload = ([paths[k] for k in missing], [data[k] for k in missing], speed, dt, duration,
-               damping_ratio)
+               damping_ratio, [seeds[k] for k in missing])
     for j, (texts, errors) in run_jobs(0, len(missing) - 1, fit_here, jobs - 1,
                                        _worker_simplify, payload):
         k = missing[j]
         if progress is not None:
             progress(len(texts), len(texts), paths[k].name)
         fitted[k] = _new_chain(paths[k], data[k], texts, errors, speed, dt, duration, cache,
-                               damping_ratio)
-    for k, path in enumerate(paths):
-        yield path, known[k] or fitted[k], known[k] is not None
+                               damping_ratio, seeds[k])
+    for k, source in enumerate(sources):
+        yield source, known[k] or fitted[k], known[k] is not None
 
 
 def _worker_simplify(payload: tuple, _ask):
-    """In a worker (`sim.workers`): fit(j), the texts and tip errors of the j-th file's chain."""
-    paths, data, speed, dt, duration, damping_ratio = payload
+    """In a worker (`sim.workers`): fit(j), the texts and tip errors of the j-th source's chain."""
+    paths, data, speed, dt, duration, damping_ratio, seeds = payload
 
     def fit(j: int):
-        return _simplify_all(paths[j], data[j], speed, dt, duration, damping_ratio)
+        return _simplify_all(paths[j], data[j], speed, dt, duration, damping_ratio, seed=seeds[j])
 
     return fit
 
 
 def _cached_chain(path: pathlib.Path, data: bytes, speed: float, dt: float, duration: float,
-                  cache: pathlib.Path | None, damping_ratio: float) -> Chain | None:
-    """The chain of ``path`` (its bytes ``data``) from the cache, None where it is not there."""
+                  cache: pathlib.Path | None, damping_ratio: float,
+                  seed: int | None = None) -> Chain | None:
+    """The chain of ``path`` (its bytes ``data``) grown from ``seed``, from the cache; None
+    where it is not there."""
     if cache is None:
         return None
-    entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio)}.json"
+    entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio, seed)}.json"
     stored = _stored_entry(entry)
     if stored is None:
         return None
     texts, errors = stored
     built = _read_built(entry.with_suffix(".trees.zip"), texts)
     try:
-        chain = _chain(path, data, texts, errors, damping_ratio, built)
+        chain = _chain(path, data, texts, errors, damping_ratio, built, seed)
     except InputError:                    # a level damaged in the cache: fitted again (an
         return None                       # error of the original's own is raised by the fit)
     if built is None:
@@ -223,13 +242,13 @@ def _stored_entry(entry: pathlib.Path) -> tuple[list[str], np.ndarray] | None:
 
 def _new_chain(path: pathlib.Path, data: bytes, texts: list[str], errors, speed: float,
                dt: float, duration: float, cache: pathlib.Path | None,
-               damping_ratio: float) -> Chain:
+               damping_ratio: float, seed: int | None = None) -> Chain:
     """The chain of fitted ``texts`` and tip ``errors``, stored in the cache where there is one."""
-    chain = _chain(path, data, texts, np.asarray(errors), damping_ratio)
+    chain = _chain(path, data, texts, np.asarray(errors), damping_ratio, seed=seed)
     if cache is not None:
-        entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio)}.json"
+        entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio, seed)}.json"
         entry.parent.mkdir(parents=True, exist_ok=True)
-        _store(entry, json.dumps({"file": str(path), "levels": texts,
+        _store(entry, json.dumps({"file": str(path), "seed": seed, "levels": texts,
                                   "tip_error_m": [float(e) for e in errors]}).encode("utf-8"))
         _write_built(entry.with_suffix(".trees.zip"), chain.trees[1:], texts)
     return chain
@@ -295,29 +314,31 @@ def _read_built(path: pathlib.Path, texts: list[str]) -> list[Tree] | None:
 
 
 def chain_from_texts(source: str, texts: list[str], tip_error_m: np.ndarray,
-                     damping_ratio: float = 0.0) -> Chain:
+                     damping_ratio: float = 0.0, seed: int | None = None) -> Chain:
     """A chain rebuilt from its level texts (level 0 the original's), as a worker does: once
     per process and chain (`_remembered_chain`). A worker runs many batches of one file, and
     reading the chain (0.1 s for a forest's tree) took longer than simulating a batch of it
     (about 0.07 s for examples/forest.toml's 18 batches). Callers only read the chain."""
     return _remembered_chain(source, tuple(texts), tuple(float(e) for e in tip_error_m),
-                             float(damping_ratio))
+                             float(damping_ratio), seed)
 
 
 @functools.lru_cache(maxsize=WORKER_CHAINS)
 def _remembered_chain(source: str, texts: tuple[str, ...], tip_error_m: tuple[float, ...],
-                      damping_ratio: float) -> Chain:
+                      damping_ratio: float, seed: int | None) -> Chain:
     return _chain(pathlib.Path(source), texts[0].encode("utf-8"), list(texts[1:]),
-                  np.asarray(tip_error_m), damping_ratio)
+                  np.asarray(tip_error_m), damping_ratio, seed=seed)
 
 
 def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
-           damping_ratio: float = 0.0, built: list[Tree] | None = None) -> Chain:
-    """The chain of the original ``data`` and its level ``texts``; ``built``: the levels'
-    trees where the cache kept them (`_read_built`), else each text is read and built."""
+           damping_ratio: float = 0.0, built: list[Tree] | None = None,
+           seed: int | None = None) -> Chain:
+    """The chain of the original ``data`` (grown from ``seed``) and its level ``texts``;
+    ``built``: the levels' trees where the cache kept them (`_read_built`), else each text
+    is read and built."""
     from plantlod.compare.groups import assign_groups, main_paths
 
-    original = build(parse_lsys_text(data.decode("utf-8"), str(path))).tree
+    original = build(grown_from(parse_lsys_text(data.decode("utf-8"), str(path)), seed)).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
     for k, text in enumerate(texts, start=1):
         tree = (built[k - 1] if built is not None
@@ -326,13 +347,15 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
         trees.append(tree)
         groups.append(g)
         tips.append(np.array([p[-1] for p in main_paths(original, g, tree.n_branches)], dtype=np.int64))
-    return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips, damping_ratio)
+    return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips, damping_ratio,
+                 seed)
 
 
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
-                  damping_ratio: float = 0.0, progress=None):
-    """Every explicit level's text and tip error (max, m) in the scene's wind; the original
-    is simulated once for the whole chain (its runs serve every level's measure)."""
+                  damping_ratio: float = 0.0, progress=None, seed: int | None = None):
+    """Every explicit level's text and tip error (max, m) in the scene's wind, of the file's
+    tree grown from ``seed``; the original is simulated once for the whole chain (its runs
+    serve every level's measure)."""
     from plantlod.sim.damping import Damping
     from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
@@ -340,7 +363,7 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     from plantlod.simplify.motion_fit import measurement_runs_for
     from plantlod.simplify.regroup import regrouped
 
-    system = parse_lsys_text(data.decode("utf-8"), str(path))
+    system = grown_from(parse_lsys_text(data.decode("utf-8"), str(path)), seed)
     original = build(system).tree
     header = level_header(system)
     levels = merge_levels(original)

@@ -33,22 +33,28 @@ from plantlod.simplify.constants import CHAIN_JOBS
 from .constants import (
     FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
 )
-from .file import Scene
-from .levels import Chain, chain_from_texts, level_chains
+from .file import Scene, source_name, sources
+from .levels import Chain, chain_from_texts, grown_from, level_chains
 from .schedule import distances, frame_times, schedules
 from .switch import Transfer
 
 
 @dataclass
 class Batch:
-    """Trees of one file that run together: scene indices ``members`` (n,), their rows
-    ``first`` .. first+n-1 in the file's store arrays, and their levels (n, F) per frame."""
+    """Trees of one source (a file and the seed it is grown from, `file.Source`) that run
+    together: scene indices ``members`` (n,), their rows ``first`` .. first+n-1 in the
+    source's store arrays, and their levels (n, F) per frame."""
 
     file: str
     file_index: int
     members: list[int]
     first: int
     schedule: np.ndarray
+    seed: int | None = None
+
+    @property
+    def source(self) -> tuple[pathlib.Path, int | None]:
+        return (pathlib.Path(self.file), self.seed)
 
 
 @dataclass
@@ -177,21 +183,23 @@ def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float
                  ) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
-    """The batches of every file, the levels (N, F), per file (name, members, trees), and the
-    levels (N, F) of `schedule.coarsest_levels` (what the report's `speedup_bound` counts)."""
+    """The batches of every source, the levels (N, F), per source (name, members, trees,
+    seed), and the levels (N, F) of `schedule.coarsest_levels` (what the report's
+    `speedup_bound` counts)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)
     batches, files = [], []
-    for fi, path in enumerate(sorted({t.file for t in scene.trees})):
-        members = [k for k, t in enumerate(scene.trees) if t.file == path]
-        chain: Chain = chains[path]
+    for fi, source in enumerate(sources(scene.trees)):
+        members = [k for k, t in enumerate(scene.trees) if t.source == source]
+        chain: Chain = chains[source]
         sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget)
         levels[members] = sched
-        files.append((str(path), members, chain.trees))
+        path, seed = source
+        files.append((str(path), members, chain.trees, seed))
         for lo in range(0, len(members), STORE_BATCH_TREES):
             batches.append(Batch(str(path), fi, members[lo:lo + STORE_BATCH_TREES], lo,
-                                 sched[lo:lo + STORE_BATCH_TREES]))
+                                 sched[lo:lo + STORE_BATCH_TREES], seed))
     return batches, levels, files, bound
 
 
@@ -256,10 +264,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     # the tree files' chains not cached are fitted in up to CHAIN_JOBS processes at once
     # (`level_chains`): a new forest's first run waits for them
     jobs = min(CHAIN_JOBS, os.cpu_count() or 1)
-    for path, chain, hit in level_chains(sorted({t.file for t in scene.trees}), speed, scene.dt,
-                                         scene.duration, cache, scene.damping_ratio,
-                                         levels_done, jobs):
-        chains[path] = chain
+    for source, chain, hit in level_chains(sources(scene.trees), speed, scene.dt,
+                                           scene.duration, cache, scene.damping_ratio,
+                                           levels_done, jobs):
+        chains[source] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)
     batches, levels, files, bound_levels = make_batches(scene, chains, every, scene.budget_px)
@@ -279,11 +287,11 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
-    transfers = {path: Transfer(chain.trees, chain.groups, chain.damping_ratio)
-                 for path, chain in chains.items()}
+    transfers = {source: Transfer(chain.trees, chain.groups, chain.damping_ratio)
+                 for source, chain in chains.items()}
     for n, batch in enumerate(batches if scheduler is None else []):
-        chain = chains[pathlib.Path(batch.file)]
-        result = run_batch(chain, transfers[pathlib.Path(batch.file)], batch,
+        chain = chains[batch.source]
+        result = run_batch(chain, transfers[batch.source], batch,
                            winds[batch.members], scene.dt, steps, every, threads=threads,
                            store=store, keep_tips=checked[batch.members])
         spent += result.spent
@@ -305,23 +313,25 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         from plantlod.lsys.errors import PlantlodWarning
 
         k, first = large
-        warnings.warn(first.message(f"{scene.source}: tree {k} ({scene.trees[k].file.name})"),
+        warnings.warn(first.message(f"{scene.source}: tree {k} ({source_name(scene.trees[k].source)})"),
                       PlantlodWarning, stacklevel=2)
-    full = sum(chains[t.file].trees[0].n_branches for t in scene.trees) * steps
-    counts = {path: np.array([t.n_branches for t in chain.trees]) for path, chain in chains.items()}
+    full = sum(chains[t.source].trees[0].n_branches for t in scene.trees) * steps
+    counts = {source: np.array([t.n_branches for t in chain.trees])
+              for source, chain in chains.items()}
     in_use = np.zeros(levels.shape[1])
     for k, t in enumerate(scene.trees):
-        in_use += counts[t.file][levels[k]]
+        in_use += counts[t.source][levels[k]]
     # branch-steps at the coarsest levels: frame f's for the every steps after it, the last
     # frame's for what remains
     per_frame = np.diff(np.r_[np.arange(levels.shape[1]) * every, scene.steps]).clip(min=0)
-    bound = float(sum((counts[t.file][bound_levels[k]] * per_frame).sum()
+    bound = float(sum((counts[t.source][bound_levels[k]] * per_frame).sum()
                       for k, t in enumerate(scene.trees)))
     top = int(levels.max()) if levels.size else 0
     report = {
         "scene": scene.source,
         "trees": len(scene.trees),
-        "files": len(chains),
+        "files": len({path for path, _seed in chains}),
+        "chains": len(chains),             # one per (file, seed): a seed grows a tree of its own
         "chains_from_cache": cached,
         "budget_px": scene.budget_px,
         "level_wind_speed": speed,
@@ -331,7 +341,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "frame_rate": round(1.0 / (every * scene.dt), 9),   # the rate run: whole steps a frame
         "frames": rows,
         "camera": "keyed" if scene.camera.moving else "fixed",
-        "branches_full": int(sum(chains[t.file].trees[0].n_branches for t in scene.trees)),
+        "branches_full": int(sum(chains[t.source].trees[0].n_branches for t in scene.trees)),
         "branches_spent": float(round(in_use.mean(), 3)) if in_use.size else 0.0,
         "branch_steps_full": int(full),
         "branch_steps_spent": int(spent),
@@ -362,10 +372,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
 def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batch: Batch,
                    winds: np.ndarray, dt: float, steps: int, every: int,
                    store: str | None, damping_ratio: float = 0.0) -> tuple[int, int]:
-    """One batch, wherever it runs (a Dask worker): rebuild the chain from its texts, step
-    the batch through its schedule, write its chunks of the store; returns the branch-steps
-    spent and the switches."""
-    chain = chain_from_texts(source, texts, np.asarray(tip_error_m), damping_ratio)
+    """One batch, wherever it runs (a Dask worker): rebuild the chain from its texts (the
+    original grown from the batch's seed), step the batch through its schedule, write its
+    chunks of the store; returns the branch-steps spent and the switches."""
+    chain = chain_from_texts(source, texts, np.asarray(tip_error_m), damping_ratio, batch.seed)
     group = None
     if store is not None:
         import zarr
@@ -405,7 +415,7 @@ def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batc
     with client:
         futures = []
         for batch in batches:
-            chain = chains[pathlib.Path(batch.file)]
+            chain = chains[batch.source]
             futures.append(client.submit(
                 simulate_batch, chain.texts, chain.tip_error_m.tolist(), batch.file, batch,
                 winds[batch.members], scene.dt, scene.steps, every, store, scene.damping_ratio,
@@ -470,15 +480,19 @@ def check_scene(scene: Scene) -> None:
 
     from plantlod.lsys.errors import PlantlodWarning
 
-    branches = {}
-    for path in sorted({t.file for t in scene.trees}):
-        built = build(read_lsys(str(path)))
+    branches, systems = {}, {}
+    for source in sources(scene.trees):         # (a seed grows a tree of its own)
+        path, seed = source
+        if path not in systems:
+            systems[path] = read_lsys(str(path))
+        built = build(grown_from(systems[path], seed))
         for message in built.warnings:          # a tree with no branches, say
-            warnings.warn(f"{path}: {message}", PlantlodWarning, stacklevel=2)
+            where = path if seed is None else f"{path} (seed {seed})"
+            warnings.warn(f"{where}: {message}", PlantlodWarning, stacklevel=2)
         tree = built.tree
         check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
-        branches[path] = max(1, tree.n_branches)
-    work = sum(branches[t.file] for t in scene.trees) * steps
+        branches[source] = max(1, tree.n_branches)
+    work = sum(branches[t.source] for t in scene.trees) * steps
     if work > MAX_SCENE_BRANCH_STEPS:
         raise InputError(f"the scene asks {work:,} branch-steps at full detail (trees x branches "
                          f"x steps), more than the limit of {MAX_SCENE_BRANCH_STEPS:,}; expected "

@@ -5,7 +5,8 @@
       file_<i>/trees            (n,) int32    the scene trees of file i, in row order
       file_<i>/level_<l>/bend   (n, R, B_l) float32 rad, NaN where the tree ran at another level
       file_<i>/level_<l>/rotation
-      file_<i>                  attrs: file; level_<l> attrs: addresses
+      file_<i>                  attrs: file (and seed, where the trees are grown from one
+                                of their own); level_<l> attrs: addresses
       (root attrs: dt, the seconds between rows)
 
 Row r (0-based) is time (r + 1) · every · dt, the end of frame r; the rest state at t = 0
@@ -21,12 +22,13 @@ import numpy as np
 from .constants import STORE_BATCH_TREES, STORE_TIME_CHUNK
 
 
-def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], list]],
+def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], list, int | None]],
                rows: int, dt: float):
     """Create the store at ``path`` (a new folder): every array, filled with NaN.
 
-    levels : (N, F) int16; files: per file its name, its scene trees (row order) and its
-    level trees (for the branch counts and addresses); rows: R; dt: seconds between rows.
+    levels : (N, F) int16; files: per source (a file and its seed, `scene.file.Source`) its
+    file name, its scene trees (row order), its level trees (for the branch counts and
+    addresses) and its seed (None: the file's own); rows: R; dt: seconds between rows.
     """
     import zarr
 
@@ -36,9 +38,11 @@ def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], 
                              chunks=(min(max(len(levels), 1), STORE_BATCH_TREES),
                                      max(1, min(levels.shape[1], STORE_TIME_CHUNK))))
     arr[:] = levels
-    for i, (name, members, trees) in enumerate(files):
+    for i, (name, members, trees, seed) in enumerate(files):
         sub = group.create_group(f"file_{i}")
         sub.attrs["file"] = name
+        if seed is not None:                  # the tree grown from another seed than the file's
+            sub.attrs["seed"] = int(seed)
         t = sub.create_array("trees", shape=(len(members),), dtype="int32",
                              chunks=(max(len(members), 1),))
         t[:] = np.asarray(members, dtype=np.int32)

@@ -181,17 +181,23 @@ def test_a_scenes_chains_in_two_processes_are_those_of_one(tmp_path):
 
     from plantlod.scene.levels import level_chains
 
-    paths = [ROOT / "examples" / "stalk8.lsys", ROOT / "examples" / "eval" / "stalk_unequal.lsys",
-             ROOT / "examples" / "eval" / "twin_draw.lsys"]
+    # (the last grown from another seed than its file's: a worker grows it from that seed)
+    paths = [(ROOT / "examples" / "stalk8.lsys", None),
+             (ROOT / "examples" / "eval" / "stalk_unequal.lsys", None),
+             (ROOT / "examples" / "eval" / "twin_draw.lsys", None),
+             (ROOT / "examples" / "eval" / "stochastic.lsys", 3)]
     got = {}
     for jobs in (1, 2):
         cache = tmp_path / f"cache{jobs}"
         got[jobs] = list(level_chains(paths, 5.0, 0.01, 2.0, cache, jobs=jobs))
         assert [p for p, _c, hit in got[jobs]] == paths and not any(h for _p, _c, h in got[jobs])
-        assert len(list(cache.glob("*.json"))) == 3
+        assert len(list(cache.glob("*.json"))) == 4
     for (_p, one, _h), (_q, two, _g) in zip(got[1], got[2]):
         assert one.texts == two.texts and np.array_equal(one.tip_error_m, two.tip_error_m)
+        assert one.seed == two.seed
+        assert one.trees[0].address == two.trees[0].address
     again = list(level_chains(paths, 5.0, 0.01, 2.0, tmp_path / "cache2", jobs=2))
     assert all(hit for _p, _c, hit in again)
     assert [c.texts for _p, c, _h in again] == [c.texts for _p, c, _h in got[1]]
-    assert isinstance(again[0][0], pathlib.Path)
+    assert isinstance(again[0][0][0], pathlib.Path)
+    assert again[3][1].trees[0].address == got[1][3][1].trees[0].address

@@ -1,0 +1,173 @@
+"""A scene tree's seed (model.md 7: every tree has a file, a seed, a position, a heading and
+a scale): [[tree]] seed and [scatter] tree_seeds grow a stochastic file from another seed,
+each (file, seed) with a chain of its own; a seed that grows what the file grows anyway
+shares the file's chain."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from plantlod.formats.lsys_file import parse_lsys_text
+from plantlod.lsys.build import build
+from plantlod.lsys.errors import InputError
+from plantlod.scene.file import read_scene
+
+STOCHASTIC = """name: st
+derivation_length: 4
+branching_angle: 25.7
+rotation_angle: 90
+seed: 7
+force_absorbed: 0.0008
+force_propagated: 0.7
+branch F: length=0.15 radius=0.006 bend_strength=40 rotation_strength=40
+leaf L: area=0.003
+axiom: X
+productions:
+  X -> (0.34) F [+X L] F X
+  X -> (0.33) F [-X L] / F X
+  X -> (0.33) F [&X] [^X L] F X
+"""
+
+DETERMINISTIC = """name: det
+derivation_length: 3
+branching_angle: 30
+rotation_angle: 90
+force_absorbed: 0.001
+force_propagated: 0.7
+branch F: length=0.2 radius=0.01 bend_strength=40 rotation_strength=40
+axiom: F X
+productions:
+  X -> F [+X] [-X]
+"""
+
+HEAD = """dt = 0.01
+duration = 2
+[wind]
+speed = 5
+[camera]
+position = [0, -30, 2]
+target = [0, 0, 2]
+"""
+
+
+def _scene(tmp_path, body: str) -> pathlib.Path:
+    (tmp_path / "st.lsys").write_text(STOCHASTIC)
+    (tmp_path / "det.lsys").write_text(DETERMINISTIC)
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD + body)
+    return path
+
+
+def _tree(file: str, x: float, seed: int | None = None) -> str:
+    return (f'[[tree]]\nfile = "{file}"\nposition = [{x}, 0, 0]\n'
+            + ("" if seed is None else f"seed = {seed}\n"))
+
+
+def _grown_by_text(seed: int):
+    """The stochastic file's tree with its ``seed:`` line rewritten: the independent route
+    to what a tree of that seed must be."""
+    text = STOCHASTIC.replace("seed: 7", f"seed: {seed}")
+    return build(parse_lsys_text(text, "st.lsys")).tree
+
+
+def test_a_seed_is_kept_only_where_it_grows_another_tree(tmp_path):
+    scene = read_scene(str(_scene(tmp_path, _tree("st.lsys", 0) + _tree("st.lsys", 3, 3)
+                                  + _tree("st.lsys", 6, 7) + _tree("det.lsys", 9, 5))))
+    # the file's own seed (7) and a seed on a file without stochastic productions are dropped
+    assert [t.seed for t in scene.trees] == [None, 3, None, None]
+    assert len({t.source for t in scene.trees}) == 3
+
+
+def test_seeds_grow_different_trees_and_the_seeded_one_is_the_rewritten_file(tmp_path):
+    """The chain of (st.lsys, seed 3) starts from the tree the file grows with `seed: 3`
+    written in it, which is not the tree of its own seed 7 (else this test shows nothing)."""
+    from plantlod.scene.levels import level_chain
+
+    _scene(tmp_path, "")
+    path = tmp_path / "st.lsys"
+    seeded, _hit = level_chain(path, 5.0, 0.01, 2.0, None, seed=3)
+    own, _hit = level_chain(path, 5.0, 0.01, 2.0, None)
+    want = _grown_by_text(3)
+    assert seeded.trees[0].address == want.address
+    assert np.array_equal(seeded.trees[0].length, want.length)
+    assert own.trees[0].address == _grown_by_text(7).address
+    assert own.trees[0].address != seeded.trees[0].address
+    # every level of the seeded chain stands for the seeded original's branches
+    assert all(len(g) == want.n_branches for g in seeded.groups)
+
+
+def test_a_seeded_tree_is_cached_under_its_own_key(tmp_path):
+    from plantlod.scene.levels import cache_key
+
+    data = STOCHASTIC.encode()
+    keys = {cache_key(data, 5.0, 0.01, 2.0), cache_key(data, 5.0, 0.01, 2.0, seed=3),
+            cache_key(data, 5.0, 0.01, 2.0, seed=4)}
+    assert len(keys) == 3
+
+
+def test_a_scene_of_seeded_trees_runs_each_from_its_own_chain(tmp_path):
+    from plantlod.scene.run import check_scene, run_scene
+
+    path = _scene(tmp_path, _tree("st.lsys", 0) + _tree("st.lsys", 3, 3) + _tree("st.lsys", 6, 3))
+    scene = read_scene(str(path))
+    check_scene(scene)
+    store = tmp_path / "a.zarr"
+    report = run_scene(scene, cache=tmp_path / "cache", verify=True, store_path=str(store))
+    assert (report["files"], report["chains"]) == (1, 2)
+    assert report["max_error_px"] <= scene.budget_px
+    # full detail counts each tree's own branches: the seeded trees' are the rewritten file's
+    want = _grown_by_text(7).n_branches + 2 * _grown_by_text(3).n_branches
+    assert report["branches_full"] == want
+    import zarr
+
+    group = zarr.open_group(str(store), mode="r")
+    attrs = sorted((k, dict(group[k].attrs).get("seed"), group[k]["trees"][:].tolist())
+                   for k in group.group_keys())
+    assert attrs == [("file_0", None, [0]), ("file_1", 3, [1, 2])]
+    again = run_scene(read_scene(str(path)), cache=tmp_path / "cache")
+    assert again["chains_from_cache"] == 2
+
+
+def test_a_scatter_draws_tree_seeds_without_moving_a_tree(tmp_path):
+    scatter = ('[scatter]\nfiles = ["st.lsys", "det.lsys"]\ncount = 40\nseed = 2\n'
+               'area = [0, 0, 50, 50]\nmin_spacing = 2\n')
+    plain = read_scene(str(_scene(tmp_path, scatter)))
+    seeded = read_scene(str(_scene(tmp_path, scatter + "tree_seeds = [1, 2, 7]\n")))
+    assert [(t.file, t.position, t.heading) for t in plain.trees] == \
+        [(t.file, t.position, t.heading) for t in seeded.trees]
+    got = {t.seed for t in seeded.trees if t.file.name == "st.lsys"}
+    assert got == {None, 1, 2}               # (7 is the file's own: None)
+    assert {t.seed for t in seeded.trees if t.file.name == "det.lsys"} == {None}
+
+
+@pytest.mark.parametrize("body, line, words", [
+    (_tree("st.lsys", 0, -1), 11, "'seed' must be >= 0"),
+    ('[[tree]]\nfile = "st.lsys"\nseed = 1.5\n', 10, "'seed' must be a whole number"),
+    ('[scatter]\nfiles = ["st.lsys"]\ncount = 3\narea = [0, 0, 9, 9]\ntree_seeds = []\n', 12,
+     "'tree_seeds' must be a non-empty list"),
+    ('[scatter]\nfiles = ["st.lsys"]\ncount = 3\narea = [0, 0, 9, 9]\ntree_seeds = [1, "a"]\n', 12,
+     "'tree_seeds' must be a whole number"),
+    ('[scatter]\nfiles = ["st.lsys"]\ncount = 3\narea = [0, 0, 9, 9]\ntree_seeds = 4\n', 12,
+     "'tree_seeds' must be a non-empty list"),
+])
+def test_bad_seeds_are_refused_at_their_line(tmp_path, body, line, words):
+    with pytest.raises(InputError) as err:
+        read_scene(str(_scene(tmp_path, body)))
+    assert err.value.line == line and words in str(err.value), str(err.value)
+
+
+def test_the_cli_reports_chains(tmp_path):
+    from click.testing import CliRunner
+
+    from plantlod.cli.main import cli
+
+    path = _scene(tmp_path, _tree("st.lsys", 0) + _tree("st.lsys", 3, 3))
+    out = tmp_path / "r.json"
+    result = CliRunner().invoke(cli, ["scene", str(path), "--no-cache", "--report", str(out)])
+    assert result.exit_code == 0, result.output
+    report = json.loads(out.read_text())
+    assert (report["trees"], report["files"], report["chains"]) == (2, 1, 2)
