@@ -171,3 +171,27 @@ def test_the_cli_reports_chains(tmp_path):
     assert result.exit_code == 0, result.output
     report = json.loads(out.read_text())
     assert (report["trees"], report["files"], report["chains"]) == (2, 1, 2)
+
+
+def test_a_dask_cluster_grows_each_batch_from_its_seed(tmp_path):
+    """A cluster's workers rebuild each chain from its texts and the batch's seed
+    (`run.simulate_batch`): the store equals the one written in this process, and the
+    seeded trees' level-0 arrays have the seeded tree's branch count."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    import zarr
+
+    from plantlod.scene.run import run_scene
+
+    path = _scene(tmp_path, _tree("st.lsys", 0) + _tree("st.lsys", 3, 3))
+    cache = tmp_path / "cache"
+    run_scene(read_scene(str(path)), cache=cache, store_path=str(tmp_path / "here.zarr"))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        run_scene(read_scene(str(path)), cache=cache, store_path=str(tmp_path / "there.zarr"),
+                  scheduler=cluster.scheduler_address)
+    here = zarr.open_group(str(tmp_path / "here.zarr"), mode="r")
+    there = zarr.open_group(str(tmp_path / "there.zarr"), mode="r")
+    assert here["file_1"].attrs["seed"] == 3
+    assert here["file_1/level_0/bend"].shape[2] == _grown_by_text(3).n_branches
+    for name in ("levels", "file_0/level_0/bend", "file_1/level_0/bend", "file_1/level_1/rotation"):
+        np.testing.assert_array_equal(here[name][:], there[name][:])
