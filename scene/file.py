@@ -81,18 +81,47 @@ def source_name(source: Source) -> str:
 
 def shared_seeds(trees: list[Placed]) -> list[Placed]:
     """``trees`` with every seed that grows what its file grows anyway dropped (None), so
-    those trees share one chain: the seed of a file without stochastic productions, and a
-    seed equal to the file's own ``seed:``. Reads (and checks) each file that has a seed."""
+    those trees share one chain: a seed on a file without stochastic productions, the file's
+    own ``seed:``, and any seed whose tree is the file's own tree to the last value (a
+    production of probability 1, a derivation length of 0). Reads (and checks) each file
+    that has a seed, and builds its trees of the seeds given."""
     from dataclasses import replace
 
     from plantlod.formats.lsys_file import read_lsys
+    from plantlod.lsys.build import build
 
-    own = {}
-    for path in sorted({t.file for t in trees if t.seed is not None}):
-        system = read_lsys(str(path))
-        own[path] = system.seed if system.stochastic else None
-    return [t if t.seed is None or (own[t.file] is not None and t.seed != own[t.file])
-            else replace(t, seed=None) for t in trees]
+    from .levels import grown_from
+
+    systems, own_tree, grows_other = {}, {}, {}
+    for path, seed in sorted({(t.file, t.seed) for t in trees if t.seed is not None},
+                             key=lambda s: (str(s[0]), s[1])):
+        if path not in systems:
+            systems[path] = read_lsys(str(path))
+        system = systems[path]
+        if not system.stochastic or seed == system.seed:
+            grows_other[(path, seed)] = False
+            continue
+        if path not in own_tree:
+            own_tree[path] = build(system).tree
+        grows_other[(path, seed)] = not same_tree(build(grown_from(system, seed)).tree,
+                                                  own_tree[path])
+    return [t if t.seed is None or grows_other[(t.file, t.seed)] else replace(t, seed=None)
+            for t in trees]
+
+
+def same_tree(a, b) -> bool:
+    """Whether two `Tree`s are equal in every field (arrays value by value, NaN equal to NaN)."""
+    from dataclasses import fields
+
+    for f in fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            if x is None or y is None or np.shape(x) != np.shape(y) or \
+                    not np.array_equal(x, y, equal_nan=np.asarray(x).dtype.kind == "f"):
+                return False
+        elif x != y:
+            return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -160,6 +189,13 @@ class Scene:
 
 
 _ANY = object()
+SHOWN_CHARS = 80      # a value quoted in a message is cut to this many characters
+
+
+def _shown(value) -> str:
+    """``repr(value)`` for a message, cut to SHOWN_CHARS (a seed of 4,000 digits)."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_CHARS else text[:SHOWN_CHARS] + "…"
 
 
 
@@ -167,9 +203,11 @@ def _line_of(text: str, key: str, value=_ANY) -> int | None:
     """The line of ``key = …`` in ``text``: of the first one whose value reads as ``value``
     where given (a key that several tables set: `[[tree]]`'s scale, a camera key's position),
     else of the first one."""
-    found = list(re.finditer(rf"(?m)^\s*{re.escape(key)}\s*=(.*)$", text))
+    # ([ \t]*, not \s*: a blank line before the key is not its line; `key.sub = …` is a
+    # dotted key's line)
+    found = list(re.finditer(rf"(?m)^[ \t]*{re.escape(key)}[ \t]*(?:=|\.[^=\n]*=)(.*)$", text))
     if not found:                                # a table of that name: [wind.extra]
-        table = re.search(rf"(?m)^\s*\[\[?[^\]\n]*\b{re.escape(key)}\s*\]", text)
+        table = re.search(rf"(?m)^[ \t]*\[\[?[^\]\n]*\b{re.escape(key)}[ \t]*\]", text)
         return text.count("\n", 0, table.start()) + 1 if table else None
     chosen = found[0]
     if value is not _ANY and len(found) > 1:
@@ -178,8 +216,8 @@ def _line_of(text: str, key: str, value=_ANY) -> int | None:
                 if tomllib.loads(f"v ={m.group(1)}")["v"] == value:
                     chosen = m
                     break
-            except (tomllib.TOMLDecodeError, RecursionError):   # (an array over several lines)
-                continue
+            except (tomllib.TOMLDecodeError, RecursionError, ValueError):  # (an array over
+                continue                  # several lines; an integer past Python's digit limit)
     return text.count("\n", 0, chosen.start()) + 1
 
 
@@ -208,12 +246,12 @@ class _Reader:
         ok = isinstance(value, int) if integer else isinstance(value, (int, float))
         if isinstance(value, bool) or not ok or not finite(value):
             kind = "a whole number" if integer else "a finite number"
-            raise self.error(f"'{key}' must be {kind}, got {value!r}", key, value)
+            raise self.error(f"'{key}' must be {kind}, got {_shown(value)}", key, value)
         if low is not None and (value <= low if low_open else value < low):
-            raise self.error(f"'{key}' must be {'>' if low_open else '>='} {low:g}, got {value!r}",
+            raise self.error(f"'{key}' must be {'>' if low_open else '>='} {low:g}, got {_shown(value)}",
                              key, value)
         if high is not None and value > high:
-            raise self.error(f"'{key}' must be <= {high:g}, got {value!r}", key, value)
+            raise self.error(f"'{key}' must be <= {high:g}, got {_shown(value)}", key, value)
         return value
 
     def vector(self, table: dict, key: str, size: int, default=None) -> tuple[float, ...]:
@@ -225,13 +263,17 @@ class _Reader:
         if (not isinstance(value, list) or len(value) != size
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
                            and finite(v) for v in value)):
-            raise self.error(f"'{key}' must be a list of {size} finite numbers, got {value!r}",
+            raise self.error(f"'{key}' must be a list of {size} finite numbers, got {_shown(value)}",
                              key, value)
         return tuple(float(v) for v in value)
 
     def seed(self, table: dict, key: str) -> int:
-        """A seed: a whole number >= 0 (the range of an .lsys file's ``seed:``)."""
-        return int(self.number(table, key, None, low=0, integer=True))
+        """A seed: a whole number >= 0, of any size TOML reads (an .lsys file's ``seed:`` takes
+        any; no float range applies, as the seed is only ever hashed)."""
+        value = table[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise self.error(f"'{key}' must be a whole number >= 0, got {_shown(value)}", key, value)
+        return value
 
     def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
         if not isinstance(name, str) or not name or "\0" in name:
@@ -262,6 +304,8 @@ def read_scene(path: str) -> Scene:
                          int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None
     except RecursionError:              # arrays or tables nested thousands deep
         raise InputError("not valid here: TOML nested too deeply for a scene", path) from None
+    except ValueError:                  # an integer past Python's digit limit (tomllib's int())
+        raise _long_integer(text, path) from None
     r = _Reader(text, path)
     r.keys(data, TOP_KEYS, "the scene")
     folder = file.resolve().parent
@@ -323,6 +367,22 @@ def read_scene(path: str) -> Scene:
     if len(trees) > MAX_TREES:
         raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
     return Scene(path, shared_seeds(trees), wind, camera, budget, dt, duration, damping_ratio)
+
+
+def _long_integer(text: str, path: str) -> InputError:
+    """The error for an integer of more digits than Python converts
+    (`sys.get_int_max_str_digits`), at its line and column, worded as the .lsys reader's."""
+    import sys
+
+    limit = sys.get_int_max_str_digits()
+    for m in re.finditer(r"[0-9][0-9_]*", text):
+        digits = m.group(0).replace("_", "").lstrip("0")
+        if limit and len(digits) > limit:
+            line = text.count("\n", 0, m.start()) + 1
+            col = m.start() - (text.rfind("\n", 0, m.start()) + 1) + 1
+            return InputError(f"a whole number of {len(digits)} digits; expected at most {limit}",
+                              path, line, col)
+    return InputError("not valid TOML: a number Python cannot read", path)
 
 
 def _camera(r: _Reader, cam_t: dict) -> Camera:
@@ -430,5 +490,5 @@ def _tree_seeds(r: _Reader, table: dict) -> list[int] | None:
     given = table["tree_seeds"]
     if not isinstance(given, list) or not given:
         raise r.error(f"'tree_seeds' must be a non-empty list of whole numbers >= 0, got "
-                      f"{given!r}", "tree_seeds", given)
+                      f"{_shown(given)}", "tree_seeds", given)
     return [r.seed({"tree_seeds": v}, "tree_seeds") for v in given]

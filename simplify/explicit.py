@@ -568,7 +568,9 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     root_address = [original.address[r] for r in grouping.root]
     radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
     head = [f"name: {name} level {level} (explicit form)", "derivation_length: 0"]
-    head += [f"{key}: {format_number(header[key])}" for key in LEVEL_HEADER_KEYS]
+    # (the seed whole: a seed of 1e16 or more written as a float would not read back)
+    head += [f"{key}: {int(header[key]) if key == 'seed' else format_number(header[key])}"
+             for key in LEVEL_HEADER_KEYS]
     declarations = ["branch F: length=1 radius=1 bend_strength=1 rotation_strength=1", "leaf L: area=1"]
 
     # the groups' own strengths and amplitude factors, in group order (any leaf set)

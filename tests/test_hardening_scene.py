@@ -519,7 +519,7 @@ def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path, make):
      "'position' must be a list of 3 finite numbers", 6),
     # [[tree]] seed was accepted and never used (session 23 refused it; session 24 grows the
     # tree from it, tests/test_scene_seeds.py), so its checks are those of a seed
-    (("", ""), "seed = -3\n", "'seed' must be >= 0", 10),
+    (("", ""), "seed = -3\n", "'seed' must be a whole number >= 0", 10),
 ])
 def test_scene_values_found_by_fuzzing_in_session_23(tmp_path, edit, tail, message, where):
     path = tmp_path / "s.toml"

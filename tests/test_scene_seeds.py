@@ -145,8 +145,8 @@ def test_a_scatter_draws_tree_seeds_without_moving_a_tree(tmp_path):
 
 
 @pytest.mark.parametrize("body, line, words", [
-    (_tree("st.lsys", 0, -1), 11, "'seed' must be >= 0"),
-    ('[[tree]]\nfile = "st.lsys"\nseed = 1.5\n', 10, "'seed' must be a whole number"),
+    (_tree("st.lsys", 0, -1), 11, "'seed' must be a whole number >= 0, got -1"),
+    ('[[tree]]\nfile = "st.lsys"\nseed = 1.5\n', 10, "'seed' must be a whole number >= 0"),
     ('[scatter]\nfiles = ["st.lsys"]\ncount = 3\narea = [0, 0, 9, 9]\ntree_seeds = []\n', 12,
      "'tree_seeds' must be a non-empty list"),
     ('[scatter]\nfiles = ["st.lsys"]\ncount = 3\narea = [0, 0, 9, 9]\ntree_seeds = [1, "a"]\n', 12,
@@ -195,3 +195,53 @@ def test_a_dask_cluster_grows_each_batch_from_its_seed(tmp_path):
     assert here["file_1/level_0/bend"].shape[2] == _grown_by_text(3).n_branches
     for name in ("levels", "file_0/level_0/bend", "file_1/level_0/bend", "file_1/level_1/rotation"):
         np.testing.assert_array_equal(here[name][:], there[name][:])
+
+
+def test_a_seed_that_grows_the_same_tree_shares_the_chain(tmp_path):
+    """Found by fuzzing (session 24): a stochastic file whose productions cannot differ by
+    seed (one production of probability 1; a derivation length of 0) gave each seed a chain
+    of its own, fitting the same tree again."""
+    one = STOCHASTIC.split("productions:")[0] + "productions:\n  X -> (1) F [+X L] F X\n"
+    (tmp_path / "one.lsys").write_text(one)
+    (tmp_path / "zero.lsys").write_text(STOCHASTIC.replace("derivation_length: 4",
+                                                           "derivation_length: 0"))
+    scene = read_scene(str(_scene(tmp_path, _tree("one.lsys", 0, 5) + _tree("zero.lsys", 3, 5)
+                                  + _tree("st.lsys", 6, 5))))
+    assert [t.seed for t in scene.trees] == [None, None, 5]
+
+
+def test_a_seed_of_any_size_grows_its_tree_and_past_the_digit_limit_is_refused(tmp_path):
+    """Found by fuzzing (session 24): a seed past a float's range was refused as 'not a whole
+    number' (an .lsys seed may be any size), one of 400 digits then failed inside the fit
+    (the level's header wrote the seed as a float), and one of 5,000 digits was an internal
+    error (tomllib's int() past Python's 4,300-digit limit)."""
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.scene.levels import level_chain
+
+    big = int("9" * 400)
+    scene = read_scene(str(_scene(tmp_path, _tree("st.lsys", 0, big))))
+    assert scene.trees[0].seed == big
+    chain, _hit = level_chain(tmp_path / "st.lsys", 5.0, 0.01, 2.0, None, seed=big)
+    assert chain.trees[0].address == _grown_by_text(big).address
+    assert parse_lsys(chain.texts[1], "level 1").seed == big       # the level reads back
+    path = _scene(tmp_path, _tree("st.lsys", 0) + "seed = " + "9" * 5000 + "\n")
+    with pytest.raises(InputError) as err:
+        read_scene(str(path))
+    assert (err.value.line, err.value.col) == (11, 8)
+    assert "a whole number of 5000 digits; expected at most 4300" in str(err.value)
+    with pytest.raises(InputError) as err:
+        read_scene(str(_scene(tmp_path, _tree("st.lsys", 0) + 'seed = "' + "9" * 500 + '"\n')))
+    assert len(str(err.value)) < 200
+
+
+@pytest.mark.parametrize("body, line", [
+    ('[[tree]]\nfile = "st.lsys"\n\nscale = -1\n', 11),      # a blank line before the key
+    ('[[tree]]\nfile = "st.lsys"\n\ntree.seed = 3\n', 11),   # a dotted key
+])
+def test_a_bad_key_is_named_at_its_own_line(tmp_path, body, line):
+    """Found by fuzzing (session 24): the key's line was found with ^\\s*, which ran over
+    blank lines before it (the blank line was named), and a dotted key fell back to its
+    table's header."""
+    with pytest.raises(InputError) as err:
+        read_scene(str(_scene(tmp_path, body)))
+    assert err.value.line == line, str(err.value)
