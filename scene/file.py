@@ -47,7 +47,7 @@ SCATTER_KEYS = {"files", "count", "seed", "area", "min_spacing", "scale", "tree_
 
 # A tree file and the seed its stochastic productions grow from (None: the file's own
 # ``seed:``): what one level chain stands for.
-Source = tuple[pathlib.Path, "int | None"]
+Source = tuple[pathlib.Path, int | None]
 
 
 @dataclass(frozen=True)

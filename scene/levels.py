@@ -35,6 +35,7 @@ from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
 from .constants import CACHE_ENTRY_MAX_BYTES, CACHE_ENV, TIP_ERROR_DIRECTIONS, WORKER_CHAINS
+from .file import Source
 
 
 @dataclass
@@ -138,10 +139,10 @@ def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
     return chain, hit
 
 
-def level_chains(sources: list[tuple[pathlib.Path, int | None]], speed: float, dt: float,
+def level_chains(sources: list[Source], speed: float, dt: float,
                  duration: float, cache: pathlib.Path | None, damping_ratio: float = 0.0,
                  progress=None, jobs: int = 1
-                 ) -> Iterator[tuple[tuple[pathlib.Path, int | None], Chain, bool]]:
+                 ) -> Iterator[tuple[Source, Chain, bool]]:
     """(source, chain, from the cache) of every (tree file, seed) in ``sources``, in order:
     the chains not cached are fitted in ``jobs`` processes, this one and jobs - 1 workers
     (`plantlod.sim.workers.run_jobs`; each chain is a pure function of its file, seed and

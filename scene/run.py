@@ -33,7 +33,7 @@ from plantlod.simplify.constants import CHAIN_JOBS
 from .constants import (
     FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
 )
-from .file import Scene, source_name, sources
+from .file import Scene, Source, source_name, sources
 from .levels import Chain, chain_from_texts, grown_from, level_chains
 from .schedule import distances, frame_times, schedules
 from .switch import Transfer
@@ -53,7 +53,7 @@ class Batch:
     seed: int | None = None
 
     @property
-    def source(self) -> tuple[pathlib.Path, int | None]:
+    def source(self) -> Source:
         return (pathlib.Path(self.file), self.seed)
 
 
@@ -313,8 +313,8 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         from plantlod.lsys.errors import PlantlodWarning
 
         k, first = large
-        warnings.warn(first.message(f"{scene.source}: tree {k} ({source_name(scene.trees[k].source)})"),
-                      PlantlodWarning, stacklevel=2)
+        where = f"{scene.source}: tree {k} ({source_name(scene.trees[k].source)})"
+        warnings.warn(first.message(where), PlantlodWarning, stacklevel=2)
     full = sum(chains[t.source].trees[0].n_branches for t in scene.trees) * steps
     counts = {source: np.array([t.n_branches for t in chain.trees])
               for source, chain in chains.items()}
