@@ -40,8 +40,8 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
-    (docs/scene.md). Each distinct tree file is simplified into its chain of levels
-    once (cached); each tree then runs at the coarsest level whose tip error, seen
+    (docs/scene.md). Each distinct tree file (and seed a tree gives it) is simplified
+    into its chain of levels once (cached); each tree then runs at the coarsest level whose tip error, seen
     from the camera, stays within the budget (model.md section 7).
 
     \b

@@ -184,6 +184,13 @@ class LSystem:
     # the header comment a writer puts first (simplify records its errors there); not meaning
     comment: str = field(default="", compare=False)
 
+    def grown_from(self, seed: int | None) -> "LSystem":
+        """This system with its stochastic productions grown from ``seed`` in place of its
+        own ``seed:`` (a scene tree's seed, model.md 7); None: as written."""
+        from dataclasses import replace
+
+        return self if seed is None else replace(self, seed=seed)
+
     @property
     def stochastic(self) -> bool:
         """Whether any production (interpretation included) has a probability: only then

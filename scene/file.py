@@ -22,6 +22,7 @@ the text for their key).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import pathlib
 import re
@@ -36,7 +37,8 @@ from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 from plantlod.sim.wind import gust_peak_factor
 from plantlod.simplify.constants import SIMPLIFY_EVERY
 
-from .constants import MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_STEPS, MAX_TREES
+from .constants import (MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_CHAINS, MAX_SCENE_STEPS,
+                        MAX_TREES)
 
 TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
@@ -73,10 +75,25 @@ def sources(trees: list[Placed]) -> list[Source]:
     return sorted({t.source for t in trees}, key=lambda s: (str(s[0]), -1 if s[1] is None else s[1]))
 
 
-def source_name(source: Source) -> str:
-    """A source for messages and reports: the file's name, and its seed where one is given."""
+def source_name(source: Source, full: bool = False) -> str:
+    """A source for messages and reports: the file's name (``full``: its path), and its seed
+    where one is given."""
     path, seed = source
-    return path.name if seed is None else f"{path.name} (seed {seed})"
+    name = str(path) if full else path.name
+    return name if seed is None else f"{name} (seed {seed})"
+
+
+@contextlib.contextmanager
+def seed_named(source: Source):
+    """Bad input found in a seeded tree (a time step too large for it, more branches than the
+    limit) says which seed grew it: the file alone may not show it."""
+    try:
+        yield
+    except InputError as exc:
+        if source[1] is None:
+            raise
+        raise InputError(f"{exc.message} (the tree grown from seed {source[1]}, given in the "
+                         "scene)", exc.file, exc.line, exc.col) from None
 
 
 def shared_seeds(trees: list[Placed]) -> list[Placed]:
@@ -90,8 +107,6 @@ def shared_seeds(trees: list[Placed]) -> list[Placed]:
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
 
-    from .levels import grown_from
-
     systems, own_tree, grows_other = {}, {}, {}
     for path, seed in sorted({(t.file, t.seed) for t in trees if t.seed is not None},
                              key=lambda s: (str(s[0]), s[1])):
@@ -103,8 +118,9 @@ def shared_seeds(trees: list[Placed]) -> list[Placed]:
             continue
         if path not in own_tree:
             own_tree[path] = build(system).tree
-        grows_other[(path, seed)] = not same_tree(build(grown_from(system, seed)).tree,
-                                                  own_tree[path])
+        with seed_named((path, seed)):
+            grown = build(system.grown_from(seed)).tree
+        grows_other[(path, seed)] = not same_tree(grown, own_tree[path])
     return [t if t.seed is None or grows_other[(t.file, t.seed)] else replace(t, seed=None)
             for t in trees]
 
@@ -366,6 +382,11 @@ def read_scene(path: str) -> Scene:
         raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
     if len(trees) > MAX_TREES:
         raise r.error(f"{len(trees):,} trees is more than the limit of {MAX_TREES:,}", None)
+    asked = len({t.source for t in trees})
+    if asked > MAX_SCENE_CHAINS:          # (each is a chain to fit, about 10-20 s a tree file)
+        raise r.error(f"the scene's trees come from {asked:,} distinct (file, seed) pairs, more "
+                      f"than the limit of {MAX_SCENE_CHAINS:,} level chains; expected fewer "
+                      "seeds", "tree_seeds" if "tree_seeds" in text else "seed")
     return Scene(path, shared_seeds(trees), wind, camera, budget, dt, duration, damping_ratio)
 
 
@@ -377,6 +398,9 @@ def _long_integer(text: str, path: str) -> InputError:
     limit = sys.get_int_max_str_digits()
     for m in re.finditer(r"[0-9][0-9_]*", text):
         digits = m.group(0).replace("_", "").lstrip("0")
+        before = text[text.rfind("\n", 0, m.start()) + 1:m.start()]
+        if "#" in before or before.count('"') % 2 or before.count("'") % 2:
+            continue                      # (in a comment or a string: not a number)
         if limit and len(digits) > limit:
             line = text.count("\n", 0, m.start()) + 1
             col = m.start() - (text.rfind("\n", 0, m.start()) + 1) + 1

@@ -35,7 +35,7 @@ from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.tree import Tree
 
 from .constants import CACHE_ENTRY_MAX_BYTES, CACHE_ENV, TIP_ERROR_DIRECTIONS, WORKER_CHAINS
-from .file import Source
+from .file import Source, source_name
 
 
 @dataclass
@@ -100,14 +100,6 @@ def fit_code_digest() -> bytes:
     return h.digest()
 
 
-def grown_from(system, seed: int | None):
-    """``system`` (an `LSystem`) with its stochastic productions grown from ``seed`` in place
-    of its own ``seed:`` (model.md 7: every tree of a scene has a seed); None: as written."""
-    from dataclasses import replace
-
-    return system if seed is None else replace(system, seed=seed)
-
-
 def cache_key(data: bytes, speed: float, dt: float, duration: float,
               damping_ratio: float = 0.0, seed: int | None = None) -> str:
     from importlib.metadata import PackageNotFoundError, version
@@ -148,8 +140,8 @@ def level_chains(sources: list[Source], speed: float, dt: float,
     (`plantlod.sim.workers.run_jobs`; each chain is a pure function of its file, seed and
     the wind, so the same chains for any ``jobs``), and stored in the cache here.
 
-    progress: progress(level k, of n levels, file name) for the chains fitted in this
-    process; progress(n, n, file name) when a worker's chain comes back."""
+    progress: progress(level k, of n levels, name) for the chains fitted in this process;
+    progress(n, n, name) when a worker's chain comes back (name: `file.source_name`)."""
     from plantlod.sim.workers import run_jobs
 
     paths = [p for p, _seed in sources]
@@ -161,7 +153,8 @@ def level_chains(sources: list[Source], speed: float, dt: float,
 
     def fit_here(j: int):
         k = missing[j]
-        done = None if progress is None else (lambda i, n, name=paths[k].name: progress(i, n, name))
+        done = None if progress is None else (lambda i, n, name=source_name(sources[k]):
+                                              progress(i, n, name))
         return _simplify_all(paths[k], data[k], speed, dt, duration, damping_ratio, done, seeds[k])
 
     fitted = {}
@@ -171,7 +164,7 @@ def level_chains(sources: list[Source], speed: float, dt: float,
                                        _worker_simplify, payload):
         k = missing[j]
         if progress is not None:
-            progress(len(texts), len(texts), paths[k].name)
+            progress(len(texts), len(texts), source_name(sources[k]))
         fitted[k] = _new_chain(paths[k], data[k], texts, errors, speed, dt, duration, cache,
                                damping_ratio, seeds[k])
     for k, source in enumerate(sources):
@@ -339,7 +332,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
     is read and built."""
     from plantlod.compare.groups import assign_groups, main_paths
 
-    original = build(grown_from(parse_lsys_text(data.decode("utf-8"), str(path)), seed)).tree
+    original = build(parse_lsys_text(data.decode("utf-8"), str(path)).grown_from(seed)).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
     for k, text in enumerate(texts, start=1):
         tree = (built[k - 1] if built is not None
@@ -364,7 +357,7 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     from plantlod.simplify.motion_fit import measurement_runs_for
     from plantlod.simplify.regroup import regrouped
 
-    system = grown_from(parse_lsys_text(data.decode("utf-8"), str(path)), seed)
+    system = parse_lsys_text(data.decode("utf-8"), str(path)).grown_from(seed)
     original = build(system).tree
     header = level_header(system)
     levels = merge_levels(original)

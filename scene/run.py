@@ -1,10 +1,10 @@
 """Run a scene (model.md 7): every tree, frame by frame, at the coarsest level its distance allows.
 
-1. Levels: the chain of every distinct tree file, with each level's tip error (max),
-   from the cache or simplified now (`scene.levels`).
+1. Levels: the chain of every distinct tree file and seed (`file.Source`), with each
+   level's tip error (max), from the cache or simplified now (`scene.levels`).
 2. Schedule: per tree and frame (``frame_rate`` per second) the level, with hysteresis
    (`scene.schedule`); the camera may be keyed in time.
-3. Engine: the trees of one file run in batches of up to STORE_BATCH_TREES. A batch's run
+3. Engine: the trees of one source run in batches of up to STORE_BATCH_TREES. A batch's run
    is cut into epochs at the frames where any of its trees switches level; within an
    epoch the trees at one level step together as lanes of one `run_lanes` call on all
    cores, each in its own wind (the scene's wind turned into the tree's frame, with gusts,
@@ -33,8 +33,8 @@ from plantlod.simplify.constants import CHAIN_JOBS
 from .constants import (
     FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
 )
-from .file import Scene, Source, source_name, sources
-from .levels import Chain, chain_from_texts, grown_from, level_chains
+from .file import Scene, Source, seed_named, source_name, sources
+from .levels import Chain, chain_from_texts, level_chains
 from .schedule import distances, frame_times, schedules
 from .switch import Transfer
 
@@ -190,8 +190,11 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)
     batches, files = [], []
+    members_of: dict[Source, list[int]] = {}
+    for k, t in enumerate(scene.trees):           # (once: trees x sources was 62 s at 2,000)
+        members_of.setdefault(t.source, []).append(k)
     for fi, source in enumerate(sources(scene.trees)):
-        members = [k for k, t in enumerate(scene.trees) if t.source == source]
+        members = members_of[source]
         chain: Chain = chains[source]
         sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget)
         levels[members] = sched
@@ -485,12 +488,13 @@ def check_scene(scene: Scene) -> None:
         path, seed = source
         if path not in systems:
             systems[path] = read_lsys(str(path))
-        built = build(grown_from(systems[path], seed))
-        for message in built.warnings:          # a tree with no branches, say
-            where = path if seed is None else f"{path} (seed {seed})"
-            warnings.warn(f"{where}: {message}", PlantlodWarning, stacklevel=2)
-        tree = built.tree
-        check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
+        with seed_named(source):
+            built = build(systems[path].grown_from(seed))
+            for message in built.warnings:      # a tree with no branches, say
+                warnings.warn(f"{source_name(source, full=True)}: {message}", PlantlodWarning,
+                              stacklevel=2)
+            tree = built.tree
+            check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
         branches[source] = max(1, tree.n_branches)
     work = sum(branches[t.source] for t in scene.trees) * steps
     if work > MAX_SCENE_BRANCH_STEPS:

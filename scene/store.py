@@ -2,7 +2,8 @@
 
     STORE.zarr/
       levels                    (N, F) int16  each tree's level during each frame
-      file_<i>/trees            (n,) int32    the scene trees of file i, in row order
+      file_<i>/trees            (n,) int32    the scene trees of chain i (a file, and a seed
+                                              where given), in row order
       file_<i>/level_<l>/bend   (n, R, B_l) float32 rad, NaN where the tree ran at another level
       file_<i>/level_<l>/rotation
       file_<i>                  attrs: file (and seed, where the trees are grown from one

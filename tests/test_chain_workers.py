@@ -194,10 +194,7 @@ def test_a_scenes_chains_in_two_processes_are_those_of_one(tmp_path):
         assert len(list(cache.glob("*.json"))) == 4
     for (_p, one, _h), (_q, two, _g) in zip(got[1], got[2]):
         assert one.texts == two.texts and np.array_equal(one.tip_error_m, two.tip_error_m)
-        assert one.seed == two.seed
-        assert one.trees[0].address == two.trees[0].address
     again = list(level_chains(paths, 5.0, 0.01, 2.0, tmp_path / "cache2", jobs=2))
     assert all(hit for _p, _c, hit in again)
     assert [c.texts for _p, c, _h in again] == [c.texts for _p, c, _h in got[1]]
     assert isinstance(again[0][0][0], pathlib.Path)
-    assert again[3][1].trees[0].address == got[1][3][1].trees[0].address

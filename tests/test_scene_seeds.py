@@ -245,3 +245,64 @@ def test_a_bad_key_is_named_at_its_own_line(tmp_path, body, line):
     with pytest.raises(InputError) as err:
         read_scene(str(_scene(tmp_path, body)))
     assert err.value.line == line, str(err.value)
+
+
+def test_an_unseeded_trees_cache_key_is_the_one_before_seeds(tmp_path):
+    """Seeds join the key only where given: the key of an unseeded tree is the formula it had
+    before seeds (so existing caches still hit), computed here independently."""
+    import hashlib
+    from importlib.metadata import version
+
+    from plantlod.scene.levels import cache_key, fit_code_digest
+
+    data = STOCHASTIC.encode()
+    h = hashlib.sha256()
+    for part in (data, version("plantlod").encode(), fit_code_digest(),
+                 repr((5.0, 0.01, 2.0, 0.0)).encode()):
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    assert cache_key(data, 5.0, 0.01, 2.0) == h.hexdigest()[:32]
+
+
+def test_more_chains_than_the_limit_are_refused_before_any_tree_is_built(tmp_path, monkeypatch):
+    from plantlod.scene import file as scene_file
+
+    monkeypatch.setattr(scene_file, "MAX_SCENE_CHAINS", 3)
+    def no_build(*_a, **_k):
+        raise AssertionError("built a tree before the limit was checked")
+    monkeypatch.setattr(scene_file, "shared_seeds", no_build)
+    body = "".join(_tree("st.lsys", 3 * k, k) for k in range(4))
+    with pytest.raises(InputError) as err:
+        read_scene(str(_scene(tmp_path, body)))
+    assert "4 distinct (file, seed) pairs, more than the limit of 3" in str(err.value)
+    assert err.value.line == 11                       # the first 'seed =' line
+
+
+def test_bad_input_in_a_seeded_tree_names_the_seed(tmp_path):
+    """A stochastic file whose stiff symbol S only grows for some seeds: the time step is too
+    large for S, so a scene tree of such a seed is refused, and the message says which seed
+    (the file on its own seed is fine)."""
+    from plantlod.scene.run import check_scene
+
+    text = STOCHASTIC.replace(
+        "productions:\n", "branch S: length=0.15 radius=0.006 bend_strength=900000 "
+        "rotation_strength=40\nproductions:\n").replace("derivation_length: 4", "derivation_length: 3")
+    text = text.split("productions:")[0] + "productions:\n  X -> (0.5) F X\n  X -> (0.5) S X\n"
+    system = parse_lsys_text(text, "stiff.lsys")
+
+    def has_s(seed):
+        return "S" in build(system.grown_from(seed)).tree.symbol
+    own = next(k for k in range(100) if not has_s(k))
+    bad = next(k for k in range(100) if has_s(k))
+    (tmp_path / "stiff.lsys").write_text(text.replace("seed: 7", f"seed: {own}"))
+    check_scene(read_scene(str(_scene(tmp_path, _tree("stiff.lsys", 0)))))    # its own: fine
+    with pytest.raises(InputError) as err:
+        check_scene(read_scene(str(_scene(tmp_path, _tree("stiff.lsys", 0, bad)))))
+    assert f"(the tree grown from seed {bad}, given in the scene)" in str(err.value)
+
+
+def test_a_long_number_in_a_comment_is_not_the_one_named(tmp_path):
+    body = "# " + "1" * 5000 + "\n" + _tree("st.lsys", 0) + "seed = " + "9" * 5000 + "\n"
+    with pytest.raises(InputError) as err:
+        read_scene(str(_scene(tmp_path, body)))
+    assert (err.value.line, err.value.col) == (12, 8), str(err.value)[:120]
