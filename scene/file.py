@@ -97,32 +97,55 @@ def seed_named(source: Source):
 
 
 def shared_seeds(trees: list[Placed]) -> list[Placed]:
-    """``trees`` with every seed that grows what its file grows anyway dropped (None), so
-    those trees share one chain: a seed on a file without stochastic productions, the file's
-    own ``seed:``, and any seed whose tree is the file's own tree to the last value (a
-    production of probability 1, a derivation length of 0). Reads (and checks) each file
-    that has a seed, and builds its trees of the seeds given."""
+    """``trees`` with their seeds made canonical, so that trees of one tree share one chain:
+    None (the file's own chain) for every seed that grows what the file grows anyway (a seed
+    on a file without stochastic productions, the file's own ``seed:``, and any seed whose
+    tree is the file's own to the last value: a production of probability 1, a derivation
+    length of 0), and among seeds that grow one same other tree, the smallest of them. Reads
+    (and checks) each file that has a seed, and builds its trees of the seeds given."""
     from dataclasses import replace
 
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
 
-    systems, own_tree, grows_other = {}, {}, {}
+    systems, canonical = {}, {}
+    grown: dict[tuple, list[tuple[int | None, object]]] = {}   # (file, digest) -> [(seed, tree)]
     for path, seed in sorted({(t.file, t.seed) for t in trees if t.seed is not None},
                              key=lambda s: (str(s[0]), s[1])):
         if path not in systems:
             systems[path] = read_lsys(str(path))
+            own = build(systems[path]).tree if systems[path].stochastic else None
+            if own is not None:
+                grown[(path, tree_digest(own))] = [(None, own)]
         system = systems[path]
         if not system.stochastic or seed == system.seed:
-            grows_other[(path, seed)] = False
+            canonical[(path, seed)] = None
             continue
-        if path not in own_tree:
-            own_tree[path] = build(system).tree
         with seed_named((path, seed)):
-            grown = build(system.grown_from(seed)).tree
-        grows_other[(path, seed)] = not same_tree(grown, own_tree[path])
-    return [t if t.seed is None or grows_other[(t.file, t.seed)] else replace(t, seed=None)
-            for t in trees]
+            tree = build(system.grown_from(seed)).tree
+        alike = grown.setdefault((path, tree_digest(tree)), [])
+        same = next((s for s, t in alike if same_tree(t, tree)), tree)   # (seeds ascend)
+        if same is tree:
+            alike.append((seed, tree))
+            same = seed
+        canonical[(path, seed)] = same
+    return [t if t.seed is None or canonical[(t.file, t.seed)] == t.seed
+            else replace(t, seed=canonical[(t.file, t.seed)]) for t in trees]
+
+
+def tree_digest(tree) -> str:
+    """SHA-256 of every field of a `Tree` (its arrays' bytes, its lists' items): trees with
+    one digest are compared value by value (`same_tree`) before they share a chain."""
+    import hashlib
+    from dataclasses import fields
+
+    h = hashlib.sha256()
+    for f in fields(tree):
+        value = getattr(tree, f.name)
+        data = (np.ascontiguousarray(value).tobytes() if isinstance(value, np.ndarray)
+                else repr(value).encode("utf-8"))
+        h.update(f.name.encode() + len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
 
 
 def same_tree(a, b) -> bool:

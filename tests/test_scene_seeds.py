@@ -306,3 +306,24 @@ def test_a_long_number_in_a_comment_is_not_the_one_named(tmp_path):
     with pytest.raises(InputError) as err:
         read_scene(str(_scene(tmp_path, body)))
     assert (err.value.line, err.value.col) == (12, 8), str(err.value)[:120]
+
+
+def test_seeds_that_grow_one_tree_share_one_chain(tmp_path):
+    """A file of derivation length 1 grows one of three trees: among ten seeds, each distinct
+    tree gets one chain (the smallest seed growing it; None where it is the file's own),
+    counted here from the files rewritten with each seed."""
+    (tmp_path / "one_step.lsys").write_text(STOCHASTIC.replace("derivation_length: 4",
+                                                               "derivation_length: 1"))
+    scene = read_scene(str(_scene(tmp_path, "".join(_tree("one_step.lsys", 3 * k, k)
+                                                    for k in range(10)))))
+
+    def key(seed):
+        text = STOCHASTIC.replace("derivation_length: 4", "derivation_length: 1")
+        t = build(parse_lsys_text(text.replace("seed: 7", f"seed: {seed}"), "x")).tree
+        return tuple(t.address), tuple(t.symbol), t.euler.tobytes(), t.leaf_normal.tobytes()
+
+    want = {}
+    for k in [7] + list(range(10)):              # the file's own first: it is None
+        want.setdefault(key(k), None if k == 7 else k)
+    assert 1 < len(want) <= 3
+    assert [t.seed for t in scene.trees] == [want[key(k)] for k in range(10)]
