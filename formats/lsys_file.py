@@ -14,7 +14,8 @@ from .constants import AXIOM_LINE_CHARS
 
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.expr import format_expr, format_number
-from plantlod.lsys.parse import HEADER_KEYS, parse_lsys
+from plantlod.lsys.constants import MAX_LINE_CHARS
+from plantlod.lsys.parse import HEADER_KEYS, continues_axiom, parse_lsys
 from plantlod.lsys.system import (
     BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
@@ -81,9 +82,11 @@ def _header_lines(system: LSystem) -> list[str]:
     for key in HEADER_KEYS:
         value = getattr(system, key)
         if key == "name":
-            if value != value.strip() or any(c in value for c in "#\n\r"):
-                raise ValueError(f"name {value!r} cannot be written: it would not read back "
-                                 "(no '#', line breaks or surrounding spaces)")
+            # (what the reader reads back: lines end at "\n" alone, so a "\r" inside a name
+            # that a file gave reads back; `simplify` refused to write it, an internal error)
+            if value != value.strip() or any(c in value for c in "#\n"):
+                raise InputError(f"name {value[:80]!r} cannot be written: it would not read "
+                                 "back (no '#', line breaks or surrounding spaces)")
             if value:
                 lines.append(f"name: {value}")
         elif key == "ignore":
@@ -98,19 +101,31 @@ def _header_lines(system: LSystem) -> list[str]:
 
 def axiom_lines(modules: list[str]) -> list[str]:
     """``axiom: MODULES`` on one line, or, when longer than AXIOM_LINE_CHARS, ``axiom:`` and
-    the modules on indented lines of at most that length (split between modules)."""
+    the modules on indented lines of about that length (split between modules). A line whose
+    first module the reader would take for a statement (a module ``seed``, ``leafs``:
+    `lsys.parse.continues_axiom`) starts one module later; where the first line would, the
+    axiom is written on one line (up to the reader's line limit)."""
     text = "".join(modules)
     if len(text) <= AXIOM_LINE_CHARS:
         return [f"axiom: {text}"]
-    lines, current, size = ["axiom:"], [], 0
+    chunks, current, size = [], [], 0
     for m in modules:
         if current and size + len(m) > AXIOM_LINE_CHARS:
-            lines.append(_INDENT + "".join(current))
+            chunks.append(current)
             current, size = [], 0
         current.append(m)
         size += len(m)
-    lines.append(_INDENT + "".join(current))
-    return lines
+    chunks.append(current)
+    for k in range(1, len(chunks)):           # (a module moved back: the line before grows)
+        while chunks[k] and not continues_axiom(_INDENT + "".join(chunks[k])):
+            chunks[k - 1].append(chunks[k].pop(0))
+    if not continues_axiom(_INDENT + "".join(chunks[0])):
+        if len(text) + len("axiom: ") > MAX_LINE_CHARS:
+            raise InputError("the axiom cannot be written so that it reads back: it starts with "
+                             f"a module read as a statement ({text.split()[0][:40]!r}) and is "
+                             f"longer than one line may be ({MAX_LINE_CHARS:,} characters)")
+        return [f"axiom: {text}"]
+    return ["axiom:"] + [_INDENT + "".join(c) for c in chunks if c]
 
 
 def _comment_lines(comment: str) -> list[str]:

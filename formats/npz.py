@@ -214,7 +214,7 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
         raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one character "
                          "a branch", source)
     values["leaf_address"] = _strings(arrays, "leaf_address", source, _LEAF_ADDRESS)
-    values["group_root"] = (_strings(arrays, "group_root", source, _LEAF_ADDRESS)
+    values["group_root"] = (_strings(arrays, "group_root", source, _BRANCH_ADDRESS)
                             if "group_root" in arrays else [])
     if values["group_root"] and len(values["group_root"]) != b:
         raise InputError(f"'group_root' in the archive holds {len(values['group_root'])} "

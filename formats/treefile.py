@@ -536,7 +536,9 @@ class _Branches:
         out = {}
         if "group_root" in self.extras:
             roots = _typed(cols["group_root"], {str})
-            if not _LEAF_ADDRESSES.match("".join(a + "\n" for a in roots)):
+            # (a group root is an original branch's address: "0.0.0:1" where one module drew
+            # several branches, as a level's `groups:` section may say)
+            if not _BRANCH_ADDRESSES.match("".join(a + "\n" for a in roots)):
                 raise _Reject
             out["group_root"] = roots
         if "gain" in self.extras:
@@ -593,8 +595,8 @@ class _Branches:
             extra = {}
             if "group_root" in self.extras:
                 root = line.string("group_root")
-                if not _LEAF_ADDRESS.match(root):
-                    raise line.error(f'"group_root" must be an address like "0.2.1", got '
+                if not _BRANCH_ADDRESS.match(root):
+                    raise line.error(f'"group_root" must be an address like "0.2.1" or "0.2.1:1", got '
                                      f"{json.dumps(root, ensure_ascii=False)}", "group_root")
                 extra["group_root"] = root
             if "gain" in self.extras:

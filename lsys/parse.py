@@ -235,6 +235,21 @@ def _where(pos: Pos) -> str:
     return f"{pos.line}:{pos.col}"
 
 
+def continues_axiom(line: str) -> bool:
+    """Whether an indented ``line`` under a bare ``axiom:`` is read as more of the axiom: the
+    tests `_Parser._statement` makes first, in its order (a foreign word, a header key, a
+    declaration, a first word close to a statement word are read as statements). A writer
+    splitting a long axiom (`formats.lsys_file.axiom_lines`) keeps to lines this accepts."""
+    if _FOREIGN_LINE.match(line) or _DECLARATION_LINE.match(line):
+        return False
+    m = _HEADER_LINE.match(line)
+    if m and len(m.group(1)) > 1:
+        return False
+    m = _FIRST_WORD.match(line)
+    word = m.group(1) if m else ""
+    return not (len(word) > 2 and not _has_arrow(line) and _suggest(word, _STATEMENT_WORDS))
+
+
 def _suggest(word: str, choices: Iterable[str]) -> str:
     close = difflib.get_close_matches(word, list(choices), n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""

@@ -470,6 +470,7 @@ def check_scene(scene: Scene) -> None:
     from plantlod.lsys.build import build
     from plantlod.sim.damping import Damping
     from plantlod.sim.stability import check_stability
+    from plantlod.simplify.levels import check_moves
 
     steps = scene.steps
     if steps < 1:
@@ -494,6 +495,7 @@ def check_scene(scene: Scene) -> None:
                 warnings.warn(f"{source_name(source, full=True)}: {message}", PlantlodWarning,
                               stacklevel=2)
             tree = built.tree
+            check_moves(tree, str(path))        # (a tree that stands still has no levels)
             check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
         branches[source] = max(1, tree.n_branches)
     work = sum(branches[t.source] for t in scene.trees) * steps

@@ -46,6 +46,7 @@ CALIBRATION_WEIGHT_FLOOR = 0.1  # weight every residual keeps
 CALIBRATION_PERIOD_WEIGHT = 5.0
 
 # --- explicit form (simplify/explicit.py, docs/simplify.md "Explicit form") -------------
+LEVEL_NAME_CHARS = 1000      # an explicit level's name: the original's, cut to this, then " level n (explicit form)"
 LEVEL_RATIO = 0.6             # level n has at most this x the branches of level n - 1 (model.md 5)
 MAX_LEVEL = 1000              # a level number above this is refused at once (0.6^1000 of any tree is one branch;
                               # a level of 1e30 looped over every level number before it)

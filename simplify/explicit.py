@@ -40,8 +40,8 @@ from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
 
 from .constants import (BASIS_LEAF_ALWAYS, BASIS_LEAF_FLOOR, BASIS_LEAF_TRY,
-                        GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, MIXED_CARRY,
-                        STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
+                        GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, LEVEL_NAME_CHARS,
+                        MIXED_CARRY, STRENGTH_SEARCH_EVERY, STRENGTH_SEARCH_POINTS)
 from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
 from plantlod.compare.groups import main_paths
 from .grouping import Grouping, merge_levels  # noqa: F401  (callers import them from here too)
@@ -567,7 +567,10 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
 
     root_address = [original.address[r] for r in grouping.root]
     radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
-    head = [f"name: {name} level {level} (explicit form)", "derivation_length: 0"]
+    # (a name is cut to LEVEL_NAME_CHARS: a name of 999,990 characters, which a file may
+    # give, made a level line longer than the reader's limit)
+    shown = name if len(name) <= LEVEL_NAME_CHARS else name[:LEVEL_NAME_CHARS].rstrip() + "…"
+    head = [f"name: {shown} level {level} (explicit form)", "derivation_length: 0"]
     # (the seed whole: a seed of 1e16 or more written as a float would not read back)
     head += [f"{key}: {int(header[key]) if key == 'seed' else format_number(header[key])}"
              for key in LEVEL_HEADER_KEYS]

@@ -33,6 +33,23 @@ def round_sig(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:
     return float(f"{x:.{digits}g}")
 
 
+def check_moves(original, source: str | None) -> None:
+    """Raise InputError unless the original tree (a `Tree`) can move: it has branches, and
+    some branch absorbs force (k_FA > 0, or a gain matrix). A tree that absorbs none stands
+    still in every wind, and every fit divides by its zero swing (it was 'unstable in
+    simplify's winds' or a drag coefficient of NaN)."""
+    if original.n_branches == 0:
+        raise InputError("the original tree has no branches; expected a tree to simplify", source)
+    gain = original.force_gain
+    absorbs = np.asarray(original.force_absorbed, dtype=np.float64)
+    if gain is not None:
+        absorbs = absorbs * np.abs(np.asarray(gain)).max(axis=1)
+    if not np.any(absorbs != 0):
+        raise InputError("the tree absorbs no force (force_absorbed is 0 for every branch): it "
+                         "stands still in every wind, so there is no motion to simplify; "
+                         "expected force_absorbed > 0", source)
+
+
 def check_level(system: LSystem, level: int) -> None:
     """Raise InputError unless 1 <= level < the derivation length."""
     n = system.derivation_length

@@ -38,7 +38,7 @@ from .calibrate import calibrate
 from .targets import GroupMap, group_map
 from .closed_form import closed_form
 from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
-from .levels import check_level, level_system, round_sig, write_parameters
+from .levels import check_level, check_moves, level_system, round_sig, write_parameters
 from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
 from .finite import finite_fit
@@ -363,9 +363,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     from .grouping import level_counts, merge_levels
 
     original = build(system).tree if built is None else built[0]
-    if original.n_branches == 0:
-        raise InputError("the original tree has no branches; expected a tree to simplify",
-                         system.source or None)
+    check_moves(original, system.source or None)
     check_stability(original, options.dt)
     last = len(level_counts(original)) - 1
     if last_checked is not None:
@@ -495,8 +493,7 @@ def simplify_grammar(system: LSystem, options: Options,
     check_level(system, options.level)
     winds = options.winds()
     original = build(system).tree
-    if original.n_branches == 0:
-        raise InputError("the original tree has no branches; expected a tree to simplify", source)
+    check_moves(original, source)
     check_stability(original, options.dt)
 
     plain, _ = level_system(system, options.level, equivalent_leaves=False)

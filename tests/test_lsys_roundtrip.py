@@ -109,11 +109,18 @@ def test_positions_are_not_compared():
     assert a == b
 
 
-def test_unwritable_name_is_refused():
+def test_unwritable_name_is_refused_and_a_carriage_return_inside_reads_back():
+    """A name the reader cannot give back is refused as bad input (it was a bare ValueError,
+    an internal error from `simplify`); a lone "\r" inside one, which a file may give,
+    is written and reads back (session 24: the writer refused what its reader reads)."""
+    from plantlod.lsys.errors import InputError
+
     s = parse_lsys(HANDWRITTEN)
     for name in ("a # b", "two\nlines", " padded"):
-        with pytest.raises(ValueError):
+        with pytest.raises(InputError):
             write_lsys(LSystem(**{**s.__dict__, "name": name}))
+    odd = LSystem(**{**s.__dict__, "name": "a\rb"})
+    assert parse_lsys(write_lsys(odd)).name == "a\rb"
 
 
 # --- read_lsys -------------------------------------------------------------------

@@ -1,0 +1,110 @@
+"""What the tool writes, its own readers read back: valid but extreme inputs found by a
+fuzzing round in session 24 (each was refused by the tool's own reader, or an internal
+error), and a tree that absorbs no force refused in words."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from plantlod.formats.lsys_file import parse_lsys_text, write_lsys
+from plantlod.lsys.build import build
+from plantlod.lsys.errors import InputError
+
+HEAD = """derivation_length: 2
+branching_angle: 25
+force_absorbed: 0.005
+force_propagated: 0.7
+branch F: length=0.4 radius=0.01 bend_strength=30 rotation_strength=30
+"""
+
+# an interpretation that draws two branches from one module: the level's group roots
+# include an address with a ':1' suffix
+TWO_DRAWN = "name: im\n" + HEAD + "axiom: A\nproductions:\n  A -> A [+A]\ninterpretation:\n  A -> F [+F]\n"
+
+
+def test_a_levels_tree_file_keeps_group_roots_that_end_in_a_suffix(tmp_path):
+    """A level whose `groups:` names '0.0.0:1' was written to a tree file (.jsonl, .npz) that
+    the tree readers refused ('"group_root" must be an address like "0.2.1"')."""
+    import io
+
+    from plantlod.formats.npz import read_tree_bytes, tree_bytes
+    from plantlod.formats.treefile import read_tree, write_tree
+    from plantlod.simplify.explicit import explicit_system_text, level_header, merge_levels
+
+    system = parse_lsys_text(TWO_DRAWN, "im.lsys")
+    original = build(system).tree
+    text, tree = explicit_system_text(original, merge_levels(original)[1], name="im",
+                                      header=level_header(system), level=1, dt=0.01,
+                                      duration=2.0)
+    level = build(parse_lsys_text(text, "l1.lsys")).tree
+    assert any(":" in r for r in level.group_root)          # (else this shows nothing)
+    out = io.StringIO()
+    write_tree(level, out)
+    for back in (read_tree(io.StringIO(out.getvalue()), "l1.jsonl"),
+                 read_tree_bytes(tree_bytes(level), "l1.npz")):
+        assert back.group_root == level.group_root
+        assert back.address == level.address
+
+
+@pytest.mark.parametrize("word", ["seed", "leafs", "brnch", "name", "groups"])
+def test_a_long_axiom_is_split_where_the_reader_reads_modules(word):
+    """An axiom over AXIOM_LINE_CHARS is written on indented lines; a line that began with
+    modules spelling a statement word ('seed', or a near miss such as 'leafs') was read as
+    that statement: the written file did not read back."""
+    from plantlod.formats.constants import AXIOM_LINE_CHARS
+
+    text = ("name: ax\n" + HEAD + "leaf L: area=0.01\naxiom: F L " + "A" * (AXIOM_LINE_CHARS - 2)
+            + " " + word + "\nproductions:\n  F -> F F\n")
+    system = parse_lsys_text(text, "ax.lsys")
+    written = write_lsys(system)
+    assert "\naxiom:\n" in written                       # split over lines
+    assert parse_lsys_text(written, "back.lsys") == system
+
+
+def test_an_axiom_that_cannot_be_split_is_written_on_one_line():
+    """Where the first line itself would start with a statement word, the axiom is written
+    on one line (it fits the reader's line limit)."""
+    from plantlod.formats.constants import AXIOM_LINE_CHARS
+
+    text = ("name: ax\n" + HEAD + "leaf L: area=0.01\naxiom: seed [F] " + "A" * AXIOM_LINE_CHARS
+            + "\nproductions:\n  F -> F F\n")
+    system = parse_lsys_text(text, "ax.lsys")
+    written = write_lsys(system)
+    assert "\naxiom: seed[F]A" in written
+    assert parse_lsys_text(written, "back.lsys") == system
+
+
+def test_a_very_long_name_gives_a_level_that_reads_back(tmp_path):
+    from plantlod.simplify.constants import LEVEL_NAME_CHARS
+    from plantlod.simplify.explicit import explicit_system_text, level_header, merge_levels
+
+    system = parse_lsys_text("name: " + "n" * 999_990 + "\n" + HEAD
+                             + "axiom: F\nproductions:\n  F -> F [+F] F\n", "long.lsys")
+    original = build(system).tree
+    text, _tree = explicit_system_text(original, merge_levels(original)[1], name=system.name,
+                                       header=level_header(system), level=1, dt=0.01,
+                                       duration=2.0)
+    name = parse_lsys_text(text, "l1.lsys").name
+    assert name == "n" * LEVEL_NAME_CHARS + "… level 1 (explicit form)"
+
+
+def test_a_tree_that_absorbs_no_force_is_refused_in_words(tmp_path):
+    """force_absorbed 0 everywhere: the tree stands still. `simplify` said 'unstable in
+    simplify's winds' (explicit) or 'drag_coefficient = nan' naming no file (grammar)."""
+    from click.testing import CliRunner
+
+    from plantlod.cli.main import cli
+
+    path = tmp_path / "fa0.lsys"
+    path.write_text("name: fa0\n" + HEAD.replace("force_absorbed: 0.005", "force_absorbed: 0")
+                    + "leaf L: area=0.01\naxiom: F [+F L] [-F L] F L\nproductions:\n"
+                      "  F -> F [+F] F\n")
+    tree = build(parse_lsys_text(path.read_text(), str(path))).tree
+    assert np.all(tree.force_absorbed == 0)
+    for form in ("auto", "explicit", "grammar"):
+        result = CliRunner().invoke(cli, ["simplify", str(path), "--level", "1", "--form", form,
+                                          "-o", str(tmp_path / "o.lsys")])
+        assert result.exit_code == 2, result.output
+        assert f"{path}: error: the tree absorbs no force" in result.output
+        assert not (tmp_path / "o.lsys").exists()
