@@ -495,7 +495,8 @@ def check_scene(scene: Scene) -> None:
                 warnings.warn(f"{source_name(source, full=True)}: {message}", PlantlodWarning,
                               stacklevel=2)
             tree = built.tree
-            check_moves(tree, str(path))        # (a tree that stands still has no levels)
+            if tree.n_branches:                 # (a tree without branches runs, and warns;
+                check_moves(tree, str(path))    # one that has some but stands still has no levels)
             check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
         branches[source] = max(1, tree.n_branches)
     work = sum(branches[t.source] for t in scene.trees) * steps

@@ -108,3 +108,18 @@ def test_a_tree_that_absorbs_no_force_is_refused_in_words(tmp_path):
         assert result.exit_code == 2, result.output
         assert f"{path}: error: the tree absorbs no force" in result.output
         assert not (tmp_path / "o.lsys").exists()
+
+
+def test_a_scene_tree_that_absorbs_no_force_is_refused_naming_its_file(tmp_path):
+    from plantlod.scene.file import read_scene
+    from plantlod.scene.run import check_scene
+
+    lsys = tmp_path / "fa0.lsys"
+    lsys.write_text("name: fa0\n" + HEAD.replace("force_absorbed: 0.005", "force_absorbed: 0")
+                    + "axiom: F\nproductions:\n  F -> F [+F] F\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text('dt = 0.01\nduration = 2\n[camera]\nposition = [0, -30, 2]\n'
+                     f'target = [0, 0, 2]\n[[tree]]\nfile = "{lsys}"\n')
+    with pytest.raises(InputError) as err:
+        check_scene(read_scene(str(scene)))
+    assert err.value.file == str(lsys) and "absorbs no force" in err.value.message
