@@ -50,6 +50,24 @@ def check_moves(original, source: str | None) -> None:
                          "expected force_absorbed > 0", source)
 
 
+def round_sig_down(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:
+    """``x`` > 0 cut (toward zero) to ``digits`` significant digits: never above ``x``."""
+    from decimal import ROUND_DOWN, Decimal
+
+    d = Decimal(float(x))                        # (exact)
+    return float(d.quantize(Decimal(1).scaleb(d.adjusted() - digits + 1), rounding=ROUND_DOWN))
+
+
+def _rounded(key: str, x: float, strength_below: float | None) -> float:
+    """A value as `write_parameters` writes it: `round_sig`, except a strength that rounding
+    would carry from below ``strength_below`` to it or past (`round_sig_down` then)."""
+    r = round_sig(x)
+    if strength_below is not None and key in ("bend_strength", "rotation_strength") \
+            and float(x) < strength_below <= r:
+        return round_sig_down(x)
+    return r
+
+
 def check_level(system: LSystem, level: int) -> None:
     """Raise InputError unless 1 <= level < the derivation length."""
     n = system.derivation_length
@@ -207,7 +225,8 @@ def _base_address(address: str) -> tuple[int, ...]:
 
 
 def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
-                     leaf_areas: dict[tuple[str, int], float]) -> LSystem:
+                     leaf_areas: dict[tuple[str, int], float],
+                     strength_below: float | None = None) -> LSystem:
     """``skeleton`` with the given parameters, per symbol where possible, else per address.
 
     branch_values : key of BRANCH_KEYS -> (B,) values for the skeleton tree's
@@ -216,6 +235,11 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
     leaf_areas    : (leaf address, K) -> area (m^2) of the K-th leaf at that
                     address (`plantlod.lsys.tree.leaf_keys`)
 
+    strength_below: the strength that the level's time step reaches the stability limit at
+                    (`sim.stability`); a strength below it that rounding would carry to it
+                    or past is rounded down instead (399999.9999999 at dt 0.01 was written
+                    400000, and the level refused as unstable).
+
     Every value is rounded to SIMPLIFY_WRITE_DIGITS significant digits. A symbol gets the
     most common value of its branches; a branch whose resolved value (module
     parameter or symbol) then differs gets an override. Raises InputError when
@@ -223,7 +247,8 @@ def write_parameters(skeleton: LSystem, branch_values: dict[str, np.ndarray],
     """
     built = build(skeleton)
     tree = built.tree
-    values = {k: np.array([round_sig(x) for x in v]) for k, v in branch_values.items()}
+    values = {k: np.array([_rounded(k, x, strength_below) for x in v])
+              for k, v in branch_values.items()}
     for key, v in values.items():
         if v.shape != (tree.n_branches,):
             raise ValueError(f"{key}: expected {tree.n_branches} values, got {v.shape}")

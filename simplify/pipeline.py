@@ -30,7 +30,8 @@ from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
-from plantlod.sim.stability import check_stability
+from plantlod.sim.damping import Damping
+from plantlod.sim.stability import check_stability, largest_stable_s
 
 from .bounds import bounds_score, form_rank
 from .constants import SMALL_ANGLE_LIMIT
@@ -520,7 +521,9 @@ def simplify_grammar(system: LSystem, options: Options,
 
         params = closed_form(original, skeleton_tree, gmap, speeds=tuple(options.wind_range),
                              turn=swing_turns(original, skeleton_tree, gmap.paths))
-    out = write_parameters(skeleton, params.branch, params.leaf_areas)
+    # (no strength rounded up to where the time step is unstable)
+    below = largest_stable_s(Damping()) * 1000.0 / options.dt
+    out = write_parameters(skeleton, params.branch, params.leaf_areas, below)
     tree = _read_back(out)
     check_stability(tree, options.dt)
 
@@ -533,7 +536,7 @@ def simplify_grammar(system: LSystem, options: Options,
         cal = calibrate(runs, tree, options.max_evaluations,
                         None if progress is None else (lambda f: progress("calibrating", f)))
         values = {**params.branch, **cal.values}
-        out = write_parameters(skeleton, values, params.leaf_areas)
+        out = write_parameters(skeleton, values, params.leaf_areas, below)
         tree = _read_back(out)
         check_stability(tree, options.dt)
         notes.append(f"calibration: worst weighted error (period errors x5) {cal.worst_before:.4f} -> "

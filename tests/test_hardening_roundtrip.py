@@ -123,3 +123,27 @@ def test_a_scene_tree_that_absorbs_no_force_is_refused_naming_its_file(tmp_path)
     with pytest.raises(InputError) as err:
         check_scene(read_scene(str(scene)))
     assert err.value.file == str(lsys) and "absorbs no force" in err.value.message
+
+
+def test_a_strength_at_the_stability_edge_is_not_rounded_past_it(tmp_path):
+    """k = 399999.9999999 runs at dt 0.01 (s = k dt / 1000 just under 4); rounded to 12
+    digits it was 400000 (s = 4), and the grammar-form level was refused as unstable,
+    naming the original file."""
+    from click.testing import CliRunner
+
+    from plantlod.cli.main import cli
+    from plantlod.simplify.levels import round_sig, round_sig_down
+
+    k = 399999.9999999
+    assert round_sig(k) == 400000.0 and round_sig_down(k) == 399999.999999
+    path = tmp_path / "edge.lsys"
+    path.write_text("name: edge\n" + HEAD.replace("bend_strength=30 rotation_strength=30",
+                                                  f"bend_strength={k} rotation_strength={k}")
+                    .replace("derivation_length: 2", "derivation_length: 3")
+                    + "axiom: F\nproductions:\n  F -> F [+F] F\n")
+    out = tmp_path / "l1.lsys"
+    result = CliRunner().invoke(cli, ["simplify", str(path), "--level", "1", "--form", "grammar",
+                                      "--dt", "0.01", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    level = build(parse_lsys_text(out.read_text(), str(out))).tree
+    assert level.bend_strength.max() * 0.01 / 1000 < 4
