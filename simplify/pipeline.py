@@ -502,7 +502,11 @@ def simplify_grammar(system: LSystem, options: Options,
     if plain_tree.n_branches == 0:
         raise InputError(f"the level-{options.level} tree has no branches (nothing draws after "
                          f"{plain.derivation_length} steps); expected a lower level", source)
-    gmap = group_map(original, plain_tree)
+    try:
+        gmap = group_map(original, plain_tree)
+    except InputError as exc:     # (a level-n branch no original branch falls under: the file)
+        raise InputError(f"the grammar form's level {options.level}: {exc.message}",
+                         exc.file or source) from None
     _check_something_merges(original, plain_tree, gmap, source)
     loses_leaves = plain_tree.n_leaves < original.n_leaves
     notes = []

@@ -147,3 +147,14 @@ def test_a_strength_at_the_stability_edge_is_not_rounded_past_it(tmp_path):
     assert result.exit_code == 0, result.output
     level = build(parse_lsys_text(out.read_text(), str(out))).tree
     assert level.bend_strength.max() * 0.01 / 1000 < 4
+
+
+def test_a_grammar_form_that_cannot_follow_names_the_file(tmp_path):
+    """An interpretation that draws two branches from one module: the grammar form's level
+    has branches no original branch falls under; the refusal named no file."""
+    from plantlod.simplify.pipeline import Options, simplify
+
+    with pytest.raises(InputError) as err:
+        simplify(parse_lsys_text(TWO_DRAWN, "im.lsys"), Options(level=1, form="grammar"))
+    assert err.value.file == "im.lsys"
+    assert "stand for no branch of the original" in err.value.message
