@@ -51,8 +51,14 @@ class AnglesCsvWriter:
         rot = np.asarray(rot, dtype=np.float64).reshape(m, b)
         table = np.empty((m, 2 * b + 1))
         table[:, 0] = times
-        table[:, 1::2] = np.degrees(bend) if self.degrees else bend
-        table[:, 2::2] = np.degrees(rot) if self.degrees else rot
+        with np.errstate(over="ignore"):
+            table[:, 1::2] = np.degrees(bend) if self.degrees else bend
+            table[:, 2::2] = np.degrees(rot) if self.degrees else rot
+        if not np.isfinite(table).all():  # (the reader takes finite numbers only)
+            raise InputError("angles that are not finite numbers in degrees (above about "
+                             "3e305 rad, or not finite at all) cannot be written to an angle "
+                             "CSV; expected finite angles" + (", in radians" if self.degrees
+                                                              else ""))
         table += 0.0                      # -0.0 + 0.0 is +0.0: no "-0" in the file
         row = self._row
         self.stream.write("".join([row % tuple(r) for r in table.tolist()]))

@@ -158,3 +158,25 @@ def test_a_grammar_form_that_cannot_follow_names_the_file(tmp_path):
         simplify(parse_lsys_text(TWO_DRAWN, "im.lsys"), Options(level=1, form="grammar"))
     assert err.value.file == "im.lsys"
     assert "stand for no branch of the original" in err.value.message
+
+
+def test_angles_past_what_degrees_hold_are_refused_and_nothing_is_written(tmp_path):
+    """`write_angles(..., degrees=True)` of angles near 1e307 rad wrote 'inf', which the
+    angle-CSV reader refuses (and numpy warned of an overflow)."""
+    import dataclasses
+    import pathlib
+    import warnings
+
+    import plantlod
+
+    stalk8 = pathlib.Path(__file__).resolve().parents[1] / "examples" / "stalk8.lsys"
+    run = plantlod.simulate(str(stalk8), wind_speed=3, dt=0.01, steps=5)
+    huge = dataclasses.replace(run, bend=np.full_like(run.bend, 1e307))
+    out = tmp_path / "deg.csv"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                 # (no overflow warning either)
+        with pytest.raises(InputError, match="not finite numbers in degrees"):
+            plantlod.write_angles(huge, str(out), degrees=True)
+    assert not out.exists() and not list(tmp_path.iterdir())
+    back = plantlod.read_angles(plantlod.write_angles(huge))      # radians: finite, read back
+    assert np.array_equal(back.bend, huge.bend)
