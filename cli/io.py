@@ -24,8 +24,8 @@ import click
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import (atomic_path, hold, landing, release, remove_pending,
-                                     special_target, usual_file_mode, write_all)
+from plantlod.formats.atomic import (atomic_path, hold, landing, lands_on, release,
+                                     remove_pending, special_target, usual_file_mode, write_all)
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -157,13 +157,13 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
             raise click.UsageError(f"{seen[key]} and {option} name the same file {path}; "
                                    "expected a path for each")
         seen[key] = option
-    for what, path in (inputs or {}).items():
-        if path is None or path == "-" or not os.path.exists(path) or _device(path):
+    for what, source in (inputs or {}).items():
+        if source is None or source == "-" or _device(source):
             continue
-        key = os.path.realpath(path)
-        if key in seen:
-            raise click.UsageError(f"{seen[key]} would write over the input {path} ({what}); "
-                                   "expected another path")
+        for option, path in outputs.items():
+            if path not in (None, "-") and lands_on(path, source):
+                raise click.UsageError(f"{option} would write over the input {source} ({what}); "
+                                       "expected another path")
 
 
 def _device(path: str) -> bool:

@@ -35,15 +35,15 @@ class InputError(PlantlodError):
     def __str__(self) -> str:
         # a file name with a line break or other control character is shown quoted, so the
         # message stays one line (the API's read_tree("\n"))
-        where = [_shown(str(p)) for p in (self.file, self.line, self.col) if p is not None]
+        where = [shown(str(p)) for p in (self.file, self.line, self.col) if p is not None]
         prefix = ":".join(where)
         return f"{prefix}: {self.message}" if prefix else self.message
 
 
-def _shown(name: str, most: int = 200) -> str:
-    """A file name as a message shows it: quoted where it holds a control character, cut to
-    ``most`` characters (a 5,000-character string taken for a path made a 5,000-character
-    line)."""
+def shown(name: str, most: int = 200) -> str:
+    """A name or value as a message shows it: quoted where it holds a control character, cut
+    to ``most`` characters (a 5,000-character string taken for a path made a 5,000-character
+    line; a scene value of 4,000 digits)."""
     shown = name if name.isprintable() else repr(name)
     return shown if len(shown) <= most else shown[:most - 1] + "…"
 

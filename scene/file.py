@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantlod.lsys.checks import finite  # (an integer of 400 digits: not finite)
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, shown
 from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 from plantlod.sim.wind import gust_peak_factor
 from plantlod.simplify.constants import SIMPLIFY_EVERY
@@ -100,67 +100,33 @@ def shared_seeds(trees: list[Placed]) -> list[Placed]:
     """``trees`` with their seeds made canonical, so that trees of one tree share one chain:
     None (the file's own chain) for every seed that grows what the file grows anyway (a seed
     on a file without stochastic productions, the file's own ``seed:``, and any seed whose
-    tree is the file's own to the last value: a production of probability 1, a derivation
-    length of 0), and among seeds that grow one same other tree, the smallest of them. Reads
+    tree is the file's own: a production of probability 1, a derivation length of 0), and
+    among seeds that grow one same other tree, the smallest of them. "The same tree" is the
+    same `simplify.evaluate.tree_digest`, of everything a level's fit and runs read. Reads
     (and checks) each file that has a seed, and builds its trees of the seeds given."""
     from dataclasses import replace
 
     from plantlod.formats.lsys_file import read_lsys
     from plantlod.lsys.build import build
+    from plantlod.simplify.evaluate import tree_digest
 
     systems, canonical = {}, {}
-    grown: dict[tuple, list[tuple[int | None, object]]] = {}   # (file, digest) -> [(seed, tree)]
+    first: dict[tuple, int | None] = {}          # (file, digest) -> the seed that grew it first
     for path, seed in sorted({(t.file, t.seed) for t in trees if t.seed is not None},
                              key=lambda s: (str(s[0]), s[1])):
         if path not in systems:
             systems[path] = read_lsys(str(path))
-            own = build(systems[path]).tree if systems[path].stochastic else None
-            if own is not None:
-                grown[(path, tree_digest(own))] = [(None, own)]
+            if systems[path].stochastic:
+                first[(path, tree_digest(build(systems[path]).tree))] = None
         system = systems[path]
         if not system.stochastic or seed == system.seed:
             canonical[(path, seed)] = None
             continue
         with seed_named((path, seed)):
-            tree = build(system.grown_from(seed)).tree
-        alike = grown.setdefault((path, tree_digest(tree)), [])
-        same = next((s for s, t in alike if same_tree(t, tree)), tree)   # (seeds ascend)
-        if same is tree:
-            alike.append((seed, tree))
-            same = seed
-        canonical[(path, seed)] = same
+            digest = tree_digest(build(system.grown_from(seed)).tree)
+        canonical[(path, seed)] = first.setdefault((path, digest), seed)   # (seeds ascend)
     return [t if t.seed is None or canonical[(t.file, t.seed)] == t.seed
             else replace(t, seed=canonical[(t.file, t.seed)]) for t in trees]
-
-
-def tree_digest(tree) -> str:
-    """SHA-256 of every field of a `Tree` (its arrays' bytes, its lists' items): trees with
-    one digest are compared value by value (`same_tree`) before they share a chain."""
-    import hashlib
-    from dataclasses import fields
-
-    h = hashlib.sha256()
-    for f in fields(tree):
-        value = getattr(tree, f.name)
-        data = (np.ascontiguousarray(value).tobytes() if isinstance(value, np.ndarray)
-                else repr(value).encode("utf-8"))
-        h.update(f.name.encode() + len(data).to_bytes(8, "little") + data)
-    return h.hexdigest()
-
-
-def same_tree(a, b) -> bool:
-    """Whether two `Tree`s are equal in every field (arrays value by value, NaN equal to NaN)."""
-    from dataclasses import fields
-
-    for f in fields(a):
-        x, y = getattr(a, f.name), getattr(b, f.name)
-        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
-            if x is None or y is None or np.shape(x) != np.shape(y) or \
-                    not np.array_equal(x, y, equal_nan=np.asarray(x).dtype.kind == "f"):
-                return False
-        elif x != y:
-            return False
-    return True
 
 
 @dataclass(frozen=True)
@@ -233,8 +199,7 @@ SHOWN_CHARS = 80      # a value quoted in a message is cut to this many characte
 
 def _shown(value) -> str:
     """``repr(value)`` for a message, cut to SHOWN_CHARS (a seed of 4,000 digits)."""
-    text = repr(value)
-    return text if len(text) <= SHOWN_CHARS else text[:SHOWN_CHARS] + "…"
+    return shown(repr(value), SHOWN_CHARS)
 
 
 
