@@ -22,6 +22,7 @@ from plantlod.sim.kinematics import rest_height
 from plantlod.sim.wind import wind_from_speed
 
 from plantlod.compare.runs import tip_series
+from .finite import NOT_FINITE_FIT, finite_parameters
 from .targets import GroupMap
 from plantlod.compare.groups import combined_angles
 from plantlod.compare.measures import Report, compare_groups, component_figures, period
@@ -173,6 +174,8 @@ class Runs:
                         known[("down", id(run))] = (run.downward_periods(),
                                                     downward_periods(run.times, bend, rot))
             except RunFailure as exc:
+                if not finite_parameters(simplified):   # the fit's numbers, not the input's winds
+                    raise RunFailure(NOT_FINITE_FIT) from None
                 raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
                                  self.original.source or simplified.source or None) from None
         return [known[id(run)] for run in self.runs]

@@ -11,11 +11,16 @@ which `simplify --level`, a chain's levels, its regrouping and a scene's chain a
 from __future__ import annotations
 
 import functools
+import math
 from typing import Callable
 
 import numpy as np
 
 from plantlod.lsys.errors import RunFailure
+from plantlod.lsys.tree import Tree
+
+NOT_FINITE_FIT = ("simplify's fit met numbers that are not finite; the tree's strengths, "
+                  "lengths or forces are far outside what it fits")
 
 
 def finite_fit(fit: Callable) -> Callable:
@@ -32,7 +37,18 @@ def finite_fit(fit: Callable) -> Callable:
         except ValueError as exc:
             if "infs or NaNs" not in str(exc):
                 raise
-            raise RunFailure("simplify's fit met numbers that are not finite; the tree's "
-                             "strengths, lengths or forces are far outside what it fits") from None
+            raise RunFailure(NOT_FINITE_FIT) from None
 
     return guarded
+
+
+def finite_parameters(tree: Tree) -> bool:
+    """Whether every parameter array of ``tree`` (lengths, strengths, forces, rest geometry,
+    leaves, gain matrices, rolls) holds finite numbers only: a level whose fit overflowed
+    (lengths of 1e-300 m make a chord's length underflow to 0 and its drag per area infinite)
+    diverges at its first step, which says nothing about the winds."""
+    arrays = [tree.length, tree.radius, tree.bend_strength, tree.rotation_strength,
+              tree.force_absorbed, tree.force_propagated, tree.drag_coefficient, tree.euler,
+              tree.offset, tree.leaf_area, tree.leaf_normal, tree.force_gain, tree.swing_roll]
+    return all(bool(np.isfinite(np.asarray(a, dtype=np.float64)).all())
+               for a in arrays if a is not None) and math.isfinite(tree.leaf_force_scale)

@@ -26,6 +26,8 @@ turn or differ in strength.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from plantlod.compare.groups import carry_matrix
@@ -69,7 +71,11 @@ def fit_gain_matrices(level: Tree, original: Tree, gmap: GroupMap,
     t = np.concatenate(wanted)                                                       # (K, G, 2)
     largest = np.abs(t).max(axis=(1, 2))                                             # (K,)
     scale = np.maximum(largest, GAIN_TARGET_FLOOR * max(float(largest.max()), 1e-300))
-    f = f / scale[:, None, None]
+    # G is solved for in units of `unit` (a power of two near the gains, so that the solution
+    # is the same to the bit, only exactly scaled): targets and forces far from 1 (k_FA of
+    # 1e-300) would otherwise overflow the normal equations
+    unit = gain_unit(level.force_absorbed)
+    f = f / (scale / unit)[:, None, None]
     t = t / scale[:, None, None]
     out = np.empty((g_count, 6))
     base = np.asarray(IDENTITY_GAIN)
@@ -78,8 +84,19 @@ def fit_gain_matrices(level: Tree, original: Tree, gmap: GroupMap,
         design = np.concatenate([np.concatenate([a[g, i, 0] * f[:, g], a[g, i, 1] * f[:, g]], axis=1)
                                  for i in range(2)])                                  # (2K, 6)
         rhs = np.concatenate([t[:, g, 0], t[:, g, 1]])
-        g0 = level.force_absorbed[g] * base
+        g0 = level.force_absorbed[g] / unit * base
         normal = design.T @ design
         ridge = GAIN_RIDGE * max(float(np.trace(normal)) / 6.0, 1e-300)
         out[g] = np.linalg.solve(normal + ridge * np.eye(6), design.T @ rhs + ridge * g0)
-    return out
+    return out * unit
+
+
+def gain_unit(force_absorbed: np.ndarray) -> float:
+    """A power of two near the largest |k_FA| (1 where there is none): scaling by it is
+    exact, so a fit in its units gives the same bits as one in N·s/kg units wherever neither
+    overflows."""
+    finite = np.abs(force_absorbed[np.isfinite(force_absorbed)])
+    largest = float(finite.max()) if finite.size else 0.0
+    if not largest > 0.0:
+        return 1.0
+    return math.ldexp(1.0, math.frexp(largest)[1])

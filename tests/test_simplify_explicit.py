@@ -181,6 +181,23 @@ def test_carried_gains_are_the_angles_compare_measures():
                        np.stack([b, r], axis=-1), atol=1e-12)
 
 
+@pytest.mark.parametrize("scale", [1.0, 1e-300, 1e300])
+def test_gain_matrices_of_branches_standing_for_themselves_are_k_fa(scale):
+    """Each branch its own group: the gain matrix that answers as the branch does is model.md
+    5's G = k_FA [[1, 0, 0], [0, 1, 0]]. k_FA of 1e-300 or 1e300 (legal) overflowed or
+    underflowed the normal equations (NaN, or gains of 0; session 25)."""
+    import dataclasses
+
+    from plantlod.simplify.gain_matrix import fit_gain_matrices
+    from plantlod.simplify.targets import group_map
+
+    _, tree = _tree("eval/bush3d.lsys")
+    tree = dataclasses.replace(tree, force_absorbed=tree.force_absorbed * scale)
+    gains = fit_gain_matrices(tree, tree, group_map(tree, tree))
+    want = np.outer(tree.force_absorbed, [1, 0, 0, 0, 1, 0])
+    assert np.abs(gains - want).max() <= 1e-9 * np.abs(want).max()
+
+
 @pytest.mark.parametrize("name", ["eval/bush3d.lsys", "eval/bent_leafy.lsys"])
 def test_level_one_moves_like_the_original_at_low_wind(name):
     """Chords turned away from their group roots: the level's motion error (model.md 6),
