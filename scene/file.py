@@ -17,7 +17,8 @@ own, with its own level chain (`Source`).
 
 Every error is an `InputError` naming the file and the line of the offending key
 (tomllib reports syntax errors with line and column; values are located by a scan of
-the text for their key).
+the text for their key, within the section of the table being read: the second [[tree]]'s
+seed at that tree's line, a table's missing key at its header).
 """
 
 from __future__ import annotations
@@ -203,13 +204,31 @@ def _shown(value) -> str:
 
 
 
-def _line_of(text: str, key: str, value=_ANY) -> int | None:
+# a table header on a line of its own: [wind], [[tree]], [[camera.key]], [ "scatter" ] (an
+# element of an array over several lines, [1, 2], has a comma or a digit-only name)
+_HEADER = re.compile(r"""(?m)^[ \t]*\[\[?[ \t]*([A-Za-z0-9_\-"'. \t]*[A-Za-z_\-"'][A-Za-z0-9_\-"'. \t]*?)[ \t]*\]\]?[ \t]*(?:#.*)?$""")
+
+
+def _table_spans(text: str) -> list[tuple[str, int, int]]:
+    """(name, start, end) of every table header's section in ``text``, in order: from the
+    header to the next header (or the end); names with spaces and quotes dropped
+    ("camera.key")."""
+    heads = [(re.sub(r"""[\s"']""", "", m.group(1)), m.start()) for m in _HEADER.finditer(text)]
+    ends = [start for _, start in heads[1:]] + [len(text)]
+    return [(name, start, end) for (name, start), end in zip(heads, ends)]
+
+
+def _line_of(text: str, key: str, value=_ANY, span: tuple[int, int] | None = None) -> int | None:
     """The line of ``key = …`` in ``text``: of the first one whose value reads as ``value``
     where given (a key that several tables set: `[[tree]]`'s scale, a camera key's position),
-    else of the first one."""
+    else of the first one; within ``span`` (start, end), the section of the table being read,
+    only (None where it does not hold the key)."""
     # ([ \t]*, not \s*: a blank line before the key is not its line; `key.sub = …` is a
     # dotted key's line)
-    found = list(re.finditer(rf"(?m)^[ \t]*{re.escape(key)}[ \t]*(?:=|\.[^=\n]*=)(.*)$", text))
+    pattern = re.compile(rf"(?m)^[ \t]*{re.escape(key)}[ \t]*(?:=|\.[^=\n]*=)(.*)$")
+    found = list(pattern.finditer(text, *span) if span is not None else pattern.finditer(text))
+    if not found and span is not None:
+        return None
     if not found:                                # a table of that name: [wind.extra]
         table = re.search(rf"(?m)^[ \t]*\[\[?[^\]\n]*\b{re.escape(key)}[ \t]*\]", text)
         return text.count("\n", 0, table.start()) + 1 if table else None
@@ -228,10 +247,38 @@ def _line_of(text: str, key: str, value=_ANY) -> int | None:
 class _Reader:
     def __init__(self, text: str, source: str):
         self.text, self.source = text, source
+        self.tables = _table_spans(text)
+        # the section being read: the keys before the first header, until `table` says
+        self.span: tuple[int, int] | None = (0, self.tables[0][1] if self.tables else len(text))
+        self.name = ""
+
+    @contextlib.contextmanager
+    def table(self, name: str, index: int = 0):
+        """Errors inside name the lines of the ``index``-th ``[name]`` / ``[[name]]`` section
+        (a key several tables set, each its own; a missing key at the header's line); where
+        the file has no such header (an inline table), the first line that sets the key."""
+        sections = [(start, end) for n, start, end in self.tables if n == name]
+        outer = self.span, self.name
+        self.span, self.name = sections[index] if index < len(sections) else None, name
+        try:
+            yield
+        finally:
+            self.span, self.name = outer
 
     def error(self, message: str, key: str | None = None, value=_ANY) -> InputError:
-        """InputError at the line of ``key`` (the one holding ``value`` where given)."""
-        line = _line_of(self.text, key, value) if key else None
+        """InputError at the line of ``key`` (the one holding ``value`` where given) in the
+        section being read; where that section has no such key (a missing key, or a message
+        without one), at its header; before any header, or in a table written inline, at the
+        key's first line anywhere."""
+        line = _line_of(self.text, key, value, self.span) if key and self.span else None
+        header = self.span is not None and self.span[0] > 0
+        if line is None and header:              # a sub-table of that name: [wind.extra]
+            line = next((self.text.count("\n", 0, start) + 1 for n, start, _ in self.tables
+                         if n == f"{self.name}.{key}"), None)
+        if line is None and key and not header:
+            line = _line_of(self.text, key, value)
+        if line is None and header:
+            line = self.text.count("\n", 0, self.span[0]) + 1
         return InputError(message, self.source, line, 1 if line else None)
 
     def keys(self, table: dict, allowed: set[str], where: str) -> None:
@@ -280,8 +327,10 @@ class _Reader:
         return value
 
     def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
+        if name is None:
+            raise self.error(f"missing '{key}' (the tree's .lsys file)", None)
         if not isinstance(name, str) or not name or "\0" in name:
-            raise self.error(f"'{key}' must name an .lsys file, got {name!r}", key, name)
+            raise self.error(f"'{key}' must name an .lsys file, got {_shown(name)}", key, name)
         try:
             path = (folder / name).resolve()
             found = path.is_file()
@@ -333,23 +382,26 @@ def read_scene(path: str) -> Scene:
     wind_t = data.get("wind", {})
     if not isinstance(wind_t, dict):
         raise r.error("[wind] must be a table", "wind")
-    r.keys(wind_t, WIND_KEYS, "[wind]")
-    wind = Wind(r.number(wind_t, "speed", 0.0, low=0, high=MAX_WIND_SPEED),
-                r.number(wind_t, "direction", 0.0),
-                r.number(wind_t, "gust_strength", 0.0, low=0),
-                int(r.number(wind_t, "gust_seed", 0, low=0, integer=True)),
-                r.number(wind_t, "front_speed", 0.0, low=0))
-    peak = wind.speed * gust_peak_factor(wind.gust_strength)
-    if peak > MAX_WIND_SPEED:      # the levels are fitted at the strongest gust (scene.run)
-        raise r.error(f"'gust_strength' {wind.gust_strength:g} lets a {wind.speed:g} m/s wind gust "
-                      f"to {peak:.4g} m/s, over the largest wind speed {MAX_WIND_SPEED:g} m/s; "
-                      "expected a weaker gust_strength or speed", "gust_strength")
+    with r.table("wind"):
+        r.keys(wind_t, WIND_KEYS, "[wind]")
+        wind = Wind(r.number(wind_t, "speed", 0.0, low=0, high=MAX_WIND_SPEED),
+                    r.number(wind_t, "direction", 0.0),
+                    r.number(wind_t, "gust_strength", 0.0, low=0),
+                    int(r.number(wind_t, "gust_seed", 0, low=0, integer=True)),
+                    r.number(wind_t, "front_speed", 0.0, low=0))
+        peak = wind.speed * gust_peak_factor(wind.gust_strength)
+        if peak > MAX_WIND_SPEED:      # the levels are fitted at the strongest gust (scene.run)
+            raise r.error(f"'gust_strength' {wind.gust_strength:g} lets a {wind.speed:g} m/s wind "
+                          f"gust to {peak:.4g} m/s, over the largest wind speed "
+                          f"{MAX_WIND_SPEED:g} m/s; expected a weaker gust_strength or speed",
+                          "gust_strength")
 
     cam_t = data.get("camera")
     if not isinstance(cam_t, dict):
         raise r.error("missing [camera] (position, target, fov_deg, height_px)", "camera")
-    r.keys(cam_t, CAMERA_KEYS, "[camera]")
-    camera = _camera(r, cam_t)
+    with r.table("camera"):
+        r.keys(cam_t, CAMERA_KEYS, "[camera]")
+        camera = _camera(r, cam_t)
 
     trees: list[Placed] = []
     entries = data.get("tree", [])
@@ -357,15 +409,17 @@ def read_scene(path: str) -> Scene:
         raise r.error("trees are [[tree]] entries", "tree")
     if len(entries) > MAX_TREES:
         raise r.error(f"{len(entries):,} trees is more than the limit of {MAX_TREES:,}", "tree")
-    for entry in entries:
-        r.keys(entry, TREE_KEYS, "[[tree]]")
-        trees.append(Placed(r.file(entry.get("file"), "file", folder),
-                            r.vector(entry, "position", 3, (0.0, 0.0, 0.0)),
-                            r.number(entry, "heading", 0.0), r.number(entry, "scale", 1.0, low=0,
-                                                                       low_open=True),
-                            r.seed(entry, "seed") if "seed" in entry else None))
+    for index, entry in enumerate(entries):
+        with r.table("tree", index):
+            r.keys(entry, TREE_KEYS, "[[tree]]")
+            trees.append(Placed(r.file(entry.get("file"), "file", folder),
+                                r.vector(entry, "position", 3, (0.0, 0.0, 0.0)),
+                                r.number(entry, "heading", 0.0),
+                                r.number(entry, "scale", 1.0, low=0, low_open=True),
+                                r.seed(entry, "seed") if "seed" in entry else None))
     if "scatter" in data:
-        trees += _scatter(r, data["scatter"], folder, MAX_TREES - len(trees))
+        with r.table("scatter"):
+            trees += _scatter(r, data["scatter"], folder, MAX_TREES - len(trees))
     if not trees:
         raise r.error("the scene has no trees; expected [[tree]] entries or a [scatter] block", None)
     if len(trees) > MAX_TREES:
@@ -416,16 +470,19 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
     if not isinstance(keys, list) or not keys or not all(isinstance(k, dict) for k in keys):
         raise r.error("camera keys are [[camera.key]] tables (t, position, target)", "key")
     times, positions, targets = [], [], []
-    for key in keys:
-        r.keys(key, CAMERA_KEY_KEYS, "[[camera.key]]")
-        times.append(r.number(key, "t", low=0))
-        positions.append(r.vector(key, "position", 3))
-        targets.append(r.vector(key, "target", 3))
-        if positions[-1] == targets[-1]:
-            raise r.error(f"the camera key at t = {times[-1]:g} s looks at its own position",
-                          "target")
-    if any(b <= a for a, b in zip(times, times[1:])):
-        raise r.error("camera keys must have increasing times 't'", "t")
+    for index, key in enumerate(keys):
+        with r.table("camera.key", index):
+            r.keys(key, CAMERA_KEY_KEYS, "[[camera.key]]")
+            times.append(r.number(key, "t", low=0))
+            positions.append(r.vector(key, "position", 3))
+            targets.append(r.vector(key, "target", 3))
+            if positions[-1] == targets[-1]:
+                raise r.error(f"the camera key at t = {times[-1]:g} s looks at its own position",
+                              "target")
+    for index, (a, b) in enumerate(zip(times, times[1:])):
+        if b <= a:
+            with r.table("camera.key", index + 1):
+                raise r.error("camera keys must have increasing times 't'", "t")
     kt, kp, ktg = np.array(times), np.array(positions), np.array(targets)
     return Camera(kp[0], ktg[0], fov, height, kt, kp, ktg)
 

@@ -562,3 +562,47 @@ def test_the_report_gives_the_frame_rate_run(tmp_path):
     for asked, run in (("10000", 100.0), ("30", 33.333333333)):
         out = run_cli("scene", path, "--no-cache", "--frame-rate", asked, "--report", "-").stdout
         assert json.loads(out)["frame_rate"] == run
+
+
+TWO_TABLES = {
+    # a [[tree]]'s seed named at the [scatter]'s line, which set the same bad value first
+    "tree seed after a scatter's": (
+        '[scatter]\nfiles = ["S"]\ncount = 2\nseed = -1\narea = [0, 0, 9, 9]\n'
+        '[[tree]]\nfile = "S"\nseed = -1\n', "'seed' must be a whole number >= 0", "seed = -1", 2),
+    "tree scale after a scatter's": (
+        '[scatter]\nfiles = ["S"]\ncount = 2\nscale = 0\narea = [0, 0, 9, 9]\n'
+        '[[tree]]\nfile = "S"\n[[tree]]\nfile = "S"\nscale = 0\n', "'scale' must be > 0",
+        "scale = 0", 2),
+    "second tree without a file": (
+        '[[tree]]\nfile = "S"\n[[tree]]\nposition = [1, 0, 0]\n', "missing 'file'",
+        "[[tree]]", 2),
+    "a camera key's time not after the one before": (
+        '[[tree]]\nfile = "S"\n', "camera keys must have increasing times", "t = 1", 2),
+    "a camera key without a target": (
+        '[[tree]]\nfile = "S"\n', "missing 'target'", "[[camera.key]]", 2),
+}
+
+
+@pytest.mark.parametrize("case", sorted(TWO_TABLES))
+def test_a_key_several_tables_set_is_named_in_the_table_being_read(tmp_path, case):
+    """Values were located by the first line setting the key (or holding the same value)
+    anywhere in the file; a table's missing key had no line. Each error now names a line of
+    the section being read: the key's, or the section's header where the key is missing
+    (session 25). The expected line is found in the text, not reprinted: the ``nth``
+    occurrence of ``marker``."""
+    body, message, marker, nth = TWO_TABLES[case]
+    body = body.replace('"S"', f'"{STALK}"')
+    head = HEAD.format(duration="1")
+    if "camera key" in case:
+        second = "target = [0, 0, 1.7]\n" if "time" in case else ""
+        head = head.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n",
+                            "[[camera.key]]\nt = 1\nposition = [0, -40, 1.7]\n"
+                            "target = [0, 0, 1.7]\n[[camera.key]]\nt = 1\n"
+                            "position = [0, -30, 1.7]\n" + second)
+    text = head + body
+    lines = [k + 1 for k, line in enumerate(text.splitlines()) if line.strip() == marker]
+    assert len(lines) >= nth, (text, marker)
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    assert line.startswith(f"{path}:{lines[nth - 1]}:1: error:"), (line, text)
