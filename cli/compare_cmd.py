@@ -17,7 +17,7 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import (check_output_path, display_name, distinct_paths, is_terminal, open_output, say,
+from .io import (check_output_kind, check_output_path, display_name, distinct_paths, is_terminal, open_output, say,
                  warn, warn_once_running)
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
@@ -121,6 +121,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     for k, path in enumerate(simplified_angles or ()):
         inputs[f"--simplified-angles {k + 1}"] = path
     distinct_paths({"-o": output, "--obj": obj_dir, "--plot": plot_path}, inputs)
+    check_output_kind(output, "-o", "the report (a table, or JSON with --json)", (".txt", ".json"))
+    check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))
     if angles_mode:
         _check_angles_mode(ctx, simplified)
         _compare_csvs(original, simplified[0], degrees, atol, as_json, output)
@@ -243,7 +245,7 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
     if csv is not None:
         times, addresses, bend, rot = _read_csv(csv, degrees)
         bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(csv))
-        return Run(tree, times, bend, rot, name)
+        return Run(tree, times, bend, rot, name, angles=display_name(csv))
     from plantlod.sim.run import simulate_arrays
 
     samples = simulate_arrays(tree, settings.dt, settings.steps, settings.wind,

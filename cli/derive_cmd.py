@@ -8,7 +8,8 @@ import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-from .io import count, display_name, distinct_paths, open_output, say, warn_once_running
+from .io import (check_output_kind, count, display_name, distinct_paths, open_output, say,
+                 warn_once_running)
 from .loading import load_system
 
 
@@ -44,6 +45,11 @@ def derive(file, output, fmt, steps, max_modules):
         raise click.UsageError("--format string writes text; an .npz archive holds a tree "
                                "(give -o FILE.txt, or drop --format string)")
     distinct_paths({"-o": output}, {"FILE": file})
+    if fmt == "string":
+        check_output_kind(output, "-o", "the derived string (text)", (".txt",))
+    else:
+        check_output_kind(output, "-o", "a tree file (JSON Lines, or an .npz archive)",
+                          (".jsonl", ".json", ".npz", ".txt"))
     start = time.perf_counter()
     system = load_system(file)
     built = build(system, steps, max_modules=max_modules)

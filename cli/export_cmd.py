@@ -12,7 +12,8 @@ from .loading import load_tree
 @click.argument("tree_path", metavar="TREE")
 @click.argument("angles_path", metavar="ANGLES.csv")
 @click.option("-o", "--output", required=True, metavar="OUT",
-              help="OUT.glb, OUT.gltf, OUT.usda or OUT.usdc: the format from the extension.")
+              help="OUT.glb, OUT.gltf, OUT.usda, OUT.usdc or OUT.usd (binary USD): the format from "
+                   "the extension.")
 @click.option("--fps", type=click.FloatRange(min=0, min_open=True, max=1000), default=30.0,
               show_default=True, help="Frames per second (angles resampled linearly).")
 @click.option("--frames", "frames_text", default=None, metavar="A:B",
@@ -46,5 +47,7 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     times, addresses, bend, rot = read_angles_file(angles_path, degrees)
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
     export_animation(output, tree, times, bend, rot, fps, frames, display_name(angles_path))
-    say(f"export: {display_name(tree_path)}: {tree.n_branches:,} branches, "
-        f"{times[-1]:g} s at {fps:g} fps -> {output}")
+    span = (f"{times[-1]:g} s at {fps:g} fps" if frames is None else      # (time restarts at 0)
+            f"frames {frames[0]}:{frames[1]} ({frames[1] - frames[0]:,} frames, "
+            f"{(frames[1] - frames[0] - 1) / fps:g} s) at {fps:g} fps")
+    say(f"export: {display_name(tree_path)}: {tree.n_branches:,} branches, {span} -> {output}")

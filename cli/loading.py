@@ -41,13 +41,17 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     if looks_like_tree_file(text):
         if steps is not None:
             raise InputError("-n applies to .lsys input, not to a tree file", name)
+        from plantlod.formats.kinds import other_kind
         from plantlod.formats.treefile import read_tree
-        return read_tree(io.StringIO(text), name).named(name), None
+        try:
+            return read_tree(io.StringIO(text), name).named(name), None
+        except InputError as exc:          # a glTF (JSON) given for a tree
+            raise other_kind(text, name, "tree") or exc from None
+    from plantlod.formats.lsys_file import parse_lsys_text
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
-    from plantlod.lsys.parse import parse_lsys
 
-    system = parse_lsys(text, name)
+    system = parse_lsys_text(text, name)
     built = build(system, steps, max_modules=max_modules or DEFAULT_MAX_MODULES)
     from .io import warn_once_running
 

@@ -7,7 +7,8 @@ import sys
 
 import click
 
-from .io import check_output_path, distinct_paths, is_terminal, open_output, output_folder, say
+from .io import (check_output_kind, check_output_path, distinct_paths, is_terminal, open_output,
+                 output_folder, say)
 
 
 @click.command()
@@ -22,7 +23,8 @@ from .io import check_output_path, distinct_paths, is_terminal, open_output, out
 @click.option("--budget", "budget_px", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Pixel budget (overrides the scene's budget_px).")
 @click.option("--cache", "cache_dir", default=None, metavar="DIR",
-              help="Folder of cached level chains (default: $PLANTLOD_CACHE or ~/.cache/plantlod).")
+              help="Folder of cached level chains (default: $PLANTLOD_CACHE, else "
+                   "$XDG_CACHE_HOME/plantlod or ~/.cache/plantlod).")
 @click.option("--no-cache", is_flag=True, help="Simplify every tree file anew; keep nothing.")
 @click.option("--angles", "angles_path", default=None, metavar="STORE.zarr",
               help="Also write every tree's angles at its level (zarr, float32, chunked by batch and time).")
@@ -65,6 +67,9 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         check_output_path(path)                 # refuse an unwritable output before running
     distinct_paths({"--report": report_path, "--plot": plot_path, "--angles": angles_path},
                    {"SCENE.toml": scene_path})
+    check_output_kind(report_path, "--report", "the report (JSON)", (".json", ".txt"))
+    check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))
+    check_output_kind(angles_path, "--angles", "a Zarr store (a folder)", (".zarr",))
     if sample is not None and not verify:
         raise click.UsageError("--verify-sample N goes with --verify")
     if angles_path is not None:

@@ -13,7 +13,7 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import (check_merge_targets, display_name, distinct_paths, is_terminal, open_output,
+from .io import (check_merge_targets, check_output_kind, display_name, distinct_paths, is_terminal, open_output,
                  output_folder, say)
 
 
@@ -102,6 +102,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
              "derive, simulate and compare")
         level = level_n
     distinct_paths({"-o": output, "--levels": levels_dir}, {"FILE": input_path})
+    check_output_kind(output, "-o", "an L-system", (".lsys", ".txt"))
     if (level is None) == (levels_dir is None):
         raise click.UsageError("give --level N, or --levels DIR for every level of the explicit form")
     if levels_dir is not None and form == "grammar":

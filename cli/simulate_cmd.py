@@ -7,7 +7,7 @@ import time
 
 import click
 
-from .io import count, display_name, distinct_paths, is_terminal, open_output, say, warn
+from .io import check_output_kind, count, display_name, distinct_paths, is_terminal, open_output, say, warn
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 
@@ -40,6 +40,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     if input_path == "-" and kwargs.get("wind_file") == "-":
         raise click.UsageError("INPUT and --wind-file cannot both be - (stdin)")
     distinct_paths({"-o": output}, {"INPUT": input_path, "--wind-file": kwargs.get("wind_file")})
+    check_output_kind(output, "-o", "angles (a CSV, or an .npz archive)", (".csv", ".npz", ".txt"))
     settings = settings_from_kwargs(kwargs)
     tree, _system = load_tree(input_path, steps_n)
     from plantlod.formats.angles_csv import AnglesCsvWriter

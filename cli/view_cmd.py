@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .io import distinct_paths, open_output, say
+from .io import check_output_kind, distinct_paths, open_output, say
 
 
 @click.command(name="view")
@@ -32,6 +32,7 @@ def view(gltf_paths, output, wind_direction, title):
     if not math.isfinite(wind_direction):
         raise click.BadParameter("expected a finite number of degrees", param_hint="--wind-direction")
     distinct_paths({"-o": output}, {f"input {k + 1}": p for k, p in enumerate(gltf_paths)})
+    check_output_kind(output, "-o", "a web page", (".html", ".htm"))
     with open_output(output) as out:          # refuses a bad target before any work
         write_view(list(gltf_paths), out, wind_direction=wind_direction, title=title)
     say(f"view: {len(gltf_paths)} tree(s) -> {output}")

@@ -37,6 +37,7 @@ class Run:
     bend  : (K, B) bend angles θb per branch (tree order), rad
     rot   : (K, B) rotation angles θr per branch, rad
     name  : where it came from, for messages and reports
+    angles: the file its angles were read from, "" where they were simulated (messages)
     """
 
     tree: Tree
@@ -44,6 +45,12 @@ class Run:
     bend: np.ndarray
     rot: np.ndarray
     name: str = ""
+    angles: str = ""
+
+    @property
+    def samples_name(self) -> str:
+        """Where its sample times come from, for a message about them."""
+        return f"{self.angles} (the angles of {self.name})" if self.angles else self.name
 
     def __post_init__(self) -> None:
         self.times = np.asarray(self.times, dtype=np.float64)
@@ -142,7 +149,8 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     combined angles are returned for the whole run (for plots); the report
     covers the window only.
     """
-    check_same_times(original.times, simplified.times, original.name, simplified.name)
+    check_same_times(original.times, simplified.times, original.samples_name,
+                     simplified.samples_name)
     groups = assign_groups(original.tree, simplified.tree)
     g = simplified.tree.n_branches
     paths = main_paths(original.tree, groups, g)

@@ -17,6 +17,7 @@ import warnings
 from importlib import resources
 from typing import Sequence
 
+from plantlod.formats.kinds import SNIFF_CHARS, USDC_MAGIC, other_kind, text_kind
 from plantlod.lsys.errors import InputError
 
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
@@ -32,6 +33,10 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     import pygltflib as g
 
     data = _read_bytes(path)
+    head = data[:SNIFF_CHARS].decode("utf-8", errors="replace")
+    if data.startswith(USDC_MAGIC) or text_kind(head) == "usd":
+        raise InputError("an OpenUSD file, not a glTF; `plantlod view` plays glTF only: export "
+                         "the tree to .glb or .gltf", path)
     if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
                                  and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
         check_glb_container(data, path)
@@ -40,7 +45,8 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
             warnings.simplefilter("ignore")
             doc = g.GLTF2.load(path)
     except Exception as exc:                   # pygltflib raises what its parsers raise
-        raise InputError(f"not a glTF file ({_why(exc)})", path) from None
+        other = other_kind(head, path, "gltf")
+        raise (other or InputError(f"not a glTF file ({_why(exc)})", path)) from None
     if doc is None or not isinstance(doc.nodes, list) or not doc.nodes:
         raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)
     check_buffer_uris(doc, path, VIEW_MAX_FILE_BYTES)

@@ -170,6 +170,7 @@ def read_angles_file(path: str, degrees: bool = False
     `read_angles_csv` returns them; ``degrees`` applies to a CSV only (InputError for an .npz)."""
     import io
 
+    from .kinds import other_kind
     from .npz import is_npz, read_angles_bytes, read_npz_file
     from .constants import MAX_CSV_LINE_BYTES
     from .text_input import read_text, source_name
@@ -180,4 +181,8 @@ def read_angles_file(path: str, degrees: bool = False
             raise InputError("--degrees applies to an angle CSV; an .npz archive holds radians",
                              name)
         return read_angles_bytes(read_npz_file(path), name)
-    return read_angles_csv(io.StringIO(read_text(path, MAX_CSV_LINE_BYTES)), name, degrees=degrees)
+    text = read_text(path, MAX_CSV_LINE_BYTES)
+    try:
+        return read_angles_csv(io.StringIO(text), name, degrees=degrees)
+    except InputError as exc:       # an L-system, a tree file given for the angles
+        raise other_kind(text, name, "csv") or exc from None

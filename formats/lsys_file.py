@@ -20,6 +20,7 @@ from plantlod.lsys.system import (
     BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
+from .kinds import other_kind, text_kind
 from .text_input import read_text, source_name
 
 _INDENT = "  "
@@ -178,7 +179,13 @@ def read_lsys(path: str) -> LSystem:
 def parse_lsys_text(text: str, name: str) -> LSystem:
     """`parse_lsys` of a file's ``text``; a tree file (JSON Lines, first non-blank character
     ``{``) is refused by what it is, not as an L-system's first bad character."""
-    if text.lstrip().startswith("{"):
+    if not text.strip():
+        where = "standard input is" if name == "<stdin>" else "the file is"
+        raise InputError(f"{where} empty; expected an L-system (docs/lsys-format.md)", name, 1, 1)
+    if text.lstrip().startswith("{") and text_kind(text) != "gltf":
         raise InputError("a tree file (JSON Lines), not an L-system; expected an .lsys file "
                          "(simulate, compare and export also read tree files)", name, 1, 1)
-    return parse_lsys(text, name)
+    try:
+        return parse_lsys(text, name)
+    except InputError as exc:      # an angle CSV, a scene, a glTF given for an L-system
+        raise other_kind(text, name, "lsys") or exc from None

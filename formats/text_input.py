@@ -15,6 +15,7 @@ from typing import BinaryIO, Iterator
 from plantlod.lsys.errors import InputError
 
 from .constants import MAX_LINE_BYTES, MAX_TEXT_BYTES, READ_CHUNK_BYTES
+from .kinds import USDC_MAGIC
 
 _BOM = b"\xef\xbb\xbf"
 # Binary files a user may hand to a text reader, and what to say of them.
@@ -23,6 +24,8 @@ BINARY_KINDS = (
                     "give the file a name ending in .npz"),
     (b"glTF", "a binary glTF (.glb): `plantlod view` reads those; a tree comes from an .lsys "
               "file, a tree file or a tree .npz"),
+    (USDC_MAGIC, "a binary OpenUSD file (.usdc): `plantlod export` writes those for other "
+                 "programs; plantlod reads none"),
 )
 
 

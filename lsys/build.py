@@ -44,6 +44,10 @@ def build(system: LSystem, steps: int | None = None,
         tree = _with_group_roots(system, tree)
     if tree.n_branches == 0:
         warnings.append(no_branches_message(system))
+    elif system.leaves and tree.n_leaves == 0 and not warnings:
+        names = ", ".join(leaf.name for leaf in system.leaves)
+        warnings.append(f"the tree has no leaves: no leaf symbol ({names}) is in the derived "
+                        "string, so only drag moves its branches (a misspelled symbol?)")
     return Built(derived, interpreted, tree, n, warnings)
 
 

@@ -230,7 +230,8 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
     samples = (np.stack([wind_samples(w, ks * dt) for w in winds]) if steps
                else np.zeros((len(winds), 0, 3)))
     bend, rot = run_lanes(LaneModel.from_tree(tree, damping), samples, dt, steps, every=every,
-                          threads=threads, addresses=tree.address)
+                          threads=threads, addresses=tree.address,
+                          lane_names=[f"wind {k + 1} of {len(winds)}" for k in range(len(winds))])
     rest = np.zeros((len(winds), 1, tree.n_branches))
     time = np.arange(steps // every + 1, dtype=np.float64) * every * dt
     return time, np.concatenate([rest, bend], axis=1), np.concatenate([rest, rot], axis=1)

@@ -345,6 +345,7 @@ class _Reader:
 
 def read_scene(path: str) -> Scene:
     """Read and check a scene file (see the module doc); trees resolved relative to it."""
+    from plantlod.formats.kinds import other_kind
     from plantlod.formats.text_input import read_text
 
     file = pathlib.Path(path)
@@ -352,6 +353,9 @@ def read_scene(path: str) -> Scene:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
+        other = other_kind(text, path, "scene")    # an L-system or angle CSV given for a scene
+        if other is not None:
+            raise other from None
         m = re.search(r"line (\d+), column (\d+)", str(exc))
         raise InputError(f"not valid TOML: {str(exc).split(' (at')[0]}", path,
                          int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None

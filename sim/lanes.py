@@ -123,7 +123,8 @@ def new_state(model: LaneModel, lanes: int) -> np.ndarray:
 
 def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
               state: np.ndarray | None = None, threads: int | None = None,
-              first_step: int = 1, addresses=None) -> tuple[np.ndarray, np.ndarray]:
+              first_step: int = 1, addresses=None,
+              lane_names=None) -> tuple[np.ndarray, np.ndarray]:
     """Step W runs of ``model`` by ``steps`` time steps of ``dt`` seconds.
 
     winds  : (W, 3) steady winds, or (W, steps, 3) the wind at the start of each
@@ -135,7 +136,8 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     threads: see `thread_count`; the output does not depend on it
     Returns (bend, rotation), each (W, T, B) float64 radians, T the number of kept
     steps (steps // every when first_step = 1). Raises `RunFailure` naming the
-    lane, step and branch (by address when ``addresses`` is given) where an angle
+    lane (as ``lane_names`` says, e.g. "the wind of 5 m/s toward 90°"; none for a single
+    lane), step and branch (by address when ``addresses`` is given) where an angle
     stopped being finite. Stability is the caller's check (`sim.stability`).
     """
     from . import lanes_kernel   # numba, compiled on first use
@@ -193,7 +195,9 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
         lane = int(bad[np.argmin(bad_step[bad])])
         i, k = int(bad_branch[lane]), int(bad_step[lane])
         where = addresses[i] if addresses is not None else f"#{i}"
-        raise RunFailure(f"simulation diverged at t={k * dt:.10g} s (step {k}) in lane {lane}, "
+        which = (f" in {lane_names[lane]}," if lane_names is not None
+                 else f" in lane {lane}," if lanes > 1 else "")
+        raise RunFailure(f"simulation diverged at t={k * dt:.10g} s (step {k}){which} "
                          f"branch {where}: an angle is no longer finite; lower force_absorbed, "
                          f"the wind or dt")
     return out_bend[:lanes], out_rot[:lanes]

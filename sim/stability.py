@@ -25,8 +25,16 @@ from .damping import Damping, as_damping
 _STRENGTHS = (("bend_strength", "bend strength k_bs"), ("rotation_strength", "rotation strength k_rs"))
 
 
-def _where(tree: Tree, i: int) -> str:
-    return f"branch symbol '{tree.symbol[i]}' (e.g. the branch at address {tree.address[i]})"
+def _where(tree: Tree, i: int, field: str) -> str:
+    """Branch ``i`` as a message names it for its ``field``: by its symbol where every branch
+    of that symbol has its value (the symbol's declaration), else by its address (an override
+    or a parametric module set it for this branch)."""
+    values = np.asarray(getattr(tree, field))
+    same = values[np.asarray(tree.symbol) == tree.symbol[i]]
+    if np.all(same == values[i]):
+        return f"branch symbol '{tree.symbol[i]}' (e.g. the branch at address {tree.address[i]})"
+    return (f"the branch at address {tree.address[i]} (symbol '{tree.symbol[i]}'; its value is "
+            "its own, from an override or a module's parameter)")
 
 
 def largest_stable_s(damping: Damping) -> float:
@@ -55,7 +63,8 @@ def _check_strengths(tree: Tree) -> None:
         bad = np.flatnonzero(~(np.isfinite(k) & (k > 0)))
         if len(bad):
             i = int(bad[0])
-            raise InputError(f"{_where(tree, i)} has {label} {k[i]:g}; it must be a finite number > 0",
+            raise InputError(f"{_where(tree, i, field)} has {label} {k[i]:g}; it must be a finite "
+                             "number > 0",
                              source)
 
 
@@ -98,17 +107,17 @@ def check_stability(tree: Tree, dt: float, damping: "float | Damping" = 0.0) -> 
     if tree.n_branches == 0:
         return
     limit = largest_stable_s(d)
-    worst_s, worst_i, worst_label, worst_k = -math.inf, -1, "", 0.0
+    worst_s, worst_i, worst_label, worst_k, worst_field = -math.inf, -1, "", 0.0, ""
     for field, label in _STRENGTHS:
         k = np.asarray(getattr(tree, field), dtype=np.float64)
         s = k * dt / 1000.0
         i = int(np.argmax(s))          # first branch with the largest s
         if s[i] > worst_s:
-            worst_s, worst_i, worst_label, worst_k = float(s[i]), i, label, float(k[i])
+            worst_s, worst_i, worst_label, worst_k, worst_field = float(s[i]), i, label, float(k[i]), field
     if worst_s >= limit:
         bound = _round_down(largest_stable_dt(tree, d))
         raise InputError(
-            f"time step too large: {_where(tree, worst_i)} has {worst_label} {worst_k:g}, "
+            f"time step too large: {_where(tree, worst_i, worst_field)} has {worst_label} {worst_k:g}, "
             f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit at {d.describe()} "
             f"(dt = {dt:g} s); "
             f"the run would blow up: use dt < {bound:.6g} s (the largest stable dt for this tree)",

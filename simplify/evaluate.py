@@ -233,7 +233,9 @@ def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, ever
         chunk = winds[lo:lo + batch]
         vectors = np.array([wind_from_speed(w.speed, w.direction).sample(np.zeros(1))[0]
                             for w in chunk])
-        bend, rot = run_lanes(model, vectors, dt, steps, every=every, addresses=tree.address)
+        bend, rot = run_lanes(model, vectors, dt, steps, every=every, addresses=tree.address,
+                              lane_names=[f"the wind of {w.speed:g} m/s toward {w.direction:g}°"
+                                          for w in chunk])
         rest = np.zeros((1, tree.n_branches))
         for k, wind in enumerate(chunk):
             yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])

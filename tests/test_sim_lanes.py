@@ -96,6 +96,14 @@ def test_divergence_names_the_lane_and_step():
     tree = make_tree([-1, 0], force_absorbed=1e300)
     with pytest.raises(RunFailure, match=r"lane 1, branch #"):
         run_lanes(LaneModel.from_tree(tree), [[0.0, 0.0, 0.0], [1e3, 0.0, 0.0]], DT, 5)
+    # named as the caller names its lanes (simplify: its winds; "lane 1" meant nothing to a
+    # user, session 25); a single lane is not named
+    with pytest.raises(RunFailure, match=r"\) in the wind of 1000 m/s toward 0°, branch #"):
+        run_lanes(LaneModel.from_tree(tree), [[0.0, 0.0, 0.0], [1e3, 0.0, 0.0]], DT, 5,
+                  lane_names=["the wind of 0 m/s toward 0°", "the wind of 1000 m/s toward 0°"])
+    with pytest.raises(RunFailure, match=r"\(step \d+\) branch #") as failure:
+        run_lanes(LaneModel.from_tree(tree), [[1e3, 0.0, 0.0]], DT, 5)
+    assert "lane" not in str(failure.value)
 
 
 def test_bad_shapes_are_input_errors():

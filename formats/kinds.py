@@ -1,0 +1,74 @@
+"""What kind of plantlod file a text is, so that a file handed to the wrong reader is named by
+what it is ("an angle CSV, not an L-system") instead of by its first character that the
+reader could not read.
+
+Each reader asks only once its own parse has failed (`other_kind`), so a valid file of its
+own kind is never judged by these signatures; each signature is one no valid file of another
+kind has at its start:
+
+- an angle CSV: its first non-blank line is the header ``t,b:ADDR,r:ADDR,…`` (`angles_csv`);
+- a tree file: JSON Lines whose first record names ``"format": "plantlod-tree"``;
+- a glTF (.gltf): other JSON with one of glTF's top-level keys (``"asset": {``,
+  ``"accessors": [``, …; `plantlod export` writes them sorted, pretty-printed);
+- OpenUSD text (.usda): its first line starts ``#usda`` (a binary .usdc starts with
+  USDC_MAGIC, which `text_input.BINARY_KINDS` and `plantlod view` name);
+- a scene: a line that is one of a scene's table headers (``[camera]``, ``[[tree]]``, …);
+- an L-system: a line ``derivation_length:``, ``axiom:`` or ``productions:``.
+"""
+
+from __future__ import annotations
+
+import re
+
+from plantlod.lsys.errors import InputError
+
+_SCENE_HEADER = re.compile(r"(?m)^[ \t]*\[\[?[ \t]*(camera|camera\.key|tree|scatter|wind)[ \t]*\]\]?"
+                           r"[ \t]*(#.*)?$")
+_GLTF_KEY = re.compile(r'"(asset|accessors|bufferViews|buffers|meshes|nodes|scenes)"\s*:\s*[\[{]')
+_LSYS_KEY = re.compile(r"(?m)^[ \t]*(derivation_length|axiom|productions)[ \t]*:")
+SNIFF_CHARS = 65536       # only the start of a text is looked at
+USDC_MAGIC = b"PXR-USDC"  # the first bytes of a binary OpenUSD file (.usdc, .usd)
+
+# kind -> (what it is, which commands read it)
+KINDS = {
+    "csv": ("an angle CSV", "`plantlod simulate` writes it; compare (--angles) and export read it"),
+    "tree": ("a tree file (JSON Lines)", "simulate, compare and export read it"),
+    "gltf": ("a glTF (.glb, .gltf)", "`plantlod view` plays it"),
+    "usd": ("an OpenUSD file (.usda)", "`plantlod export` writes it for other programs; "
+                                       "plantlod reads none"),
+    "scene": ("a scene file (TOML)", "`plantlod scene` reads it"),
+    "lsys": ("an L-system (.lsys)", "derive, simulate, simplify, compare and export read it"),
+}
+
+
+def text_kind(text: str) -> str | None:
+    """The kind (a key of KINDS) that the start of ``text`` shows, None where none does."""
+    head = text[:SNIFF_CHARS].lstrip("\ufeff")
+    stripped = head.lstrip()
+    first = stripped.split("\n", 1)[0].rstrip("\r")
+    if re.match(r"t,b:[^,]+,r:", first) or first == "t":
+        return "csv"
+    if first.startswith("#usda"):
+        return "usd"
+    if stripped.startswith("{"):
+        if re.match(r'\{\s*"format"\s*:\s*"plantlod-tree', first):
+            return "tree"
+        if _GLTF_KEY.search(head):
+            return "gltf"
+        return None
+    if _SCENE_HEADER.search(head):
+        return "scene"
+    if _LSYS_KEY.search(head):
+        return "lsys"
+    return None
+
+
+def other_kind(text: str, name: str | None, own: str) -> InputError | None:
+    """The error for ``text`` (named ``name``) that its reader of kind ``own`` could not parse,
+    where its start shows it is a file of another kind; None where it does not (the reader's
+    own error stands)."""
+    kind = text_kind(text)
+    if kind is None or kind == own:
+        return None
+    what, who = KINDS[kind]
+    return InputError(f"{what}, not {KINDS[own][0]} ({who})", name)

@@ -1,0 +1,161 @@
+"""A file of one kind handed where another is read, or an output named for another kind, is
+named by what it is (session 25, from a new user's first hour): an angle CSV given as the
+tree said "unexpected 't' outside a section", an L-system given as the angles "expected the
+header to start with 't'", an .lsys file given as a scene "not valid TOML", a USD file given
+to `view` a JSON parser's message, and `simplify -o out.glb` wrote L-system text into a .glb.
+
+The files are made by the commands themselves (simulate, derive, export), not written here
+in the shape the sniffer looks for, so a change of any writer that the sniffer misses fails.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from golden_util import ROOT, run_cli
+from test_hardening_cli import one_line
+from plantlod.formats.kinds import KINDS, text_kind
+
+STALK = str(ROOT / "examples" / "stalk8.lsys")
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """One file of every kind plantlod writes or reads, made by plantlod."""
+    d = tmp_path_factory.mktemp("kinds")
+    made = {"lsys": STALK, "scene": str(ROOT / "examples" / "forest.toml")}
+    made["csv"] = str(d / "a.csv")
+    run_cli("simulate", STALK, "--dt", "0.01", "--duration", "0.5", "--wind-speed", "5", "-o",
+            made["csv"])
+    made["tree"] = str(d / "t.jsonl")
+    run_cli("derive", STALK, "-o", made["tree"])
+    for ext in ("gltf", "usda", "usdc", "glb"):
+        made[ext] = str(d / f"s.{ext}")
+        run_cli("export", STALK, made["csv"], "-o", made[ext])
+    return made
+
+
+@pytest.mark.parametrize("kind, expected", [
+    ("lsys", "lsys"), ("scene", "scene"), ("csv", "csv"), ("tree", "tree"),
+    ("gltf", "gltf"), ("usda", "usd"),
+])
+def test_each_kind_is_told_by_its_start(files, kind, expected):
+    with open(files[kind], encoding="utf-8") as handle:
+        assert text_kind(handle.read()) == expected
+
+
+# (command line with {csv} {tree} … for the files, the kind given, the kind expected there)
+WRONG = [
+    ("simulate {csv} --dt 0.01 --duration 1 -o /dev/null", "csv", "lsys"),
+    ("derive {csv} -o /dev/null", "csv", "lsys"),
+    ("export {csv} {lsys} -o {out}.glb", "csv", "lsys"),            # arguments swapped
+    ("export {lsys} {tree} -o {out}.glb", "tree", "csv"),
+    ("compare --angles {lsys} {csv}", "lsys", "csv"),
+    ("scene {lsys} --no-cache", "lsys", "scene"),
+    ("scene {csv} --no-cache", "csv", "scene"),
+    ("derive {gltf} -o /dev/null", "gltf", "lsys"),
+    ("simulate {gltf} --dt 0.01 --duration 1 -o /dev/null", "gltf", "tree"),
+    ("derive {usda} -o /dev/null", "usd", "lsys"),
+    ("view {lsys} -o {out}.html", "lsys", "gltf"),
+    ("view {tree} -o {out}.html", "tree", "gltf"),
+]
+
+
+@pytest.mark.parametrize("line, given, read_as", WRONG)
+def test_a_file_of_another_kind_is_named_by_what_it_is(files, tmp_path, line, given, read_as):
+    args = line.format(out=tmp_path / "out", **files).split()
+    culprit = files["usda" if given == "usd" else given]
+    message = one_line(run_cli(*args, exit_code=None), 2, KINDS[given][0],
+                       f"not {KINDS[read_as][0]}")
+    assert message.startswith(f"{culprit}: error:")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []          # nothing written
+
+
+@pytest.mark.parametrize("ext", ["usda", "usdc"])
+def test_view_names_a_usd_file(files, tmp_path, ext):
+    one_line(run_cli("view", files[ext], "-o", str(tmp_path / "v.html"), exit_code=None), 2,
+             "an OpenUSD file, not a glTF", "export the tree to .glb or .gltf")
+
+
+def test_a_binary_usd_file_is_named_where_text_is_read(files):
+    one_line(run_cli("derive", files["usdc"], "-o", "/dev/null", exit_code=None), 2,
+             "a binary OpenUSD file (.usdc)")
+
+
+def test_a_file_of_its_own_kind_with_a_mistake_keeps_its_own_message(tmp_path):
+    """The sniffer speaks only for another kind: an L-system with a bad line is still told
+    its line and column."""
+    bad = tmp_path / "bad.lsys"
+    bad.write_text(open(STALK, encoding="utf-8").read().replace("axiom: F L", "axiom: F L )"))
+    line = one_line(run_cli("derive", str(bad), "-o", "/dev/null", exit_code=None), 2)
+    assert line.startswith(f"{bad}:") and "not an L-system" not in line
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["simplify", STALK, "--level", "1", "-o", "{d}/out.glb"], "writes an L-system, not a glTF"),
+    (["derive", STALK, "-o", "{d}/t.csv"], "not an angle CSV (.csv)"),
+    (["derive", STALK, "--format", "string", "-o", "{d}/s.jsonl"], "writes the derived string"),
+    (["simulate", STALK, "--dt", "0.01", "--duration", "1", "-o", "{d}/a.lsys"],
+     "writes angles"),
+    (["compare", STALK, STALK, "--dt", "0.01", "--duration", "1", "--plot", "{d}/p.jpg"],
+     "writes a PNG picture, not a JPEG picture"),
+    (["view", STALK, "-o", "{d}/page.png"], "writes a web page"),
+    (["scene", str(ROOT / "examples" / "forest.toml"), "--report", "{d}/r.csv"],
+     "writes the report (JSON)"),
+])
+def test_an_output_named_for_another_kind_is_refused_before_any_work(tmp_path, args, fragment):
+    args = [a.format(d=tmp_path) for a in args]
+    one_line(run_cli(*args, exit_code=None), 2, fragment)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_output_over_its_input_is_named_so_first(tmp_path):
+    """Writing over an input loses data: that refusal comes before the extension's."""
+    copy = tmp_path / "s.lsys"
+    copy.write_text(open(STALK, encoding="utf-8").read())
+    one_line(run_cli("derive", str(copy), "-o", str(copy), exit_code=None), 2,
+             "-o would write over the input")
+
+
+def test_outputs_without_a_known_extension_pass(tmp_path):
+    run_cli("derive", STALK, "-o", str(tmp_path / "tree.out"))
+    run_cli("derive", STALK, "-o", "/dev/null")
+    assert (tmp_path / "tree.out").read_text().startswith("{")
+
+
+def test_empty_input_says_it_is_empty(tmp_path):
+    one_line(run_cli("simulate", "-", "--dt", "0.01", "--steps", "5", input="", exit_code=None),
+             2, "standard input is empty; expected an L-system")
+    empty = tmp_path / "e.lsys"
+    empty.write_text("\n  \n")
+    one_line(run_cli("derive", str(empty), exit_code=None), 2, "the file is empty")
+
+
+def test_a_leaf_symbol_that_never_draws_is_warned_of(tmp_path):
+    """A misspelled leaf (`l` for the declared `L`) left the tree leafless without a word."""
+    typo = tmp_path / "typo.lsys"
+    typo.write_text(open(STALK, encoding="utf-8").read().replace("axiom: F L", "axiom: F l"))
+    result = run_cli("derive", str(typo), "-o", "/dev/null")
+    assert "no leaf symbol (L) is in the derived string" in result.stderr
+    assert "0 leaves" in result.stderr
+    assert "warning" not in run_cli("derive", STALK, "-o", "/dev/null").stderr
+
+
+def test_a_sample_mismatch_names_the_angle_file_it_came_from(files):
+    """The original's 51 samples came from --original-angles, which the message named as the
+    .lsys file (session 25)."""
+    line = one_line(run_cli("compare", STALK, STALK, "--dt", "0.01", "--duration", "1",
+                            "--original-angles", files["csv"], exit_code=None), 2)
+    assert f"{files['csv']} (the angles of {STALK}) has 51 samples" in line
+
+
+def test_export_of_some_frames_says_which(files, tmp_path):
+    """`--frames 5:15` was reported as the whole run's seconds."""
+    out = tmp_path / "f.glb"
+    result = run_cli("export", STALK, files["csv"], "-o", str(out), "--frames", "5:15")
+    assert "frames 5:15 (10 frames, 0.3 s) at 30 fps" in result.stderr
+    import pygltflib
+
+    doc = pygltflib.GLTF2.load(str(out))
+    times = doc.accessors[doc.animations[0].samplers[0].input]
+    assert times.count == 10 and abs(times.max[0] - 9 / 30) < 1e-6
