@@ -223,15 +223,22 @@ def _line_of(text: str, key: str, value=_ANY, span: tuple[int, int] | None = Non
     where given (a key that several tables set: `[[tree]]`'s scale, a camera key's position),
     else of the first one; within ``span`` (start, end), the section of the table being read,
     only (None where it does not hold the key)."""
+    found = _key_match(text, key, value, span)
+    if found is None and span is None:           # a table of that name: [wind.extra]
+        table = re.search(rf"(?m)^[ \t]*\[\[?[^\]\n]*\b{re.escape(key)}[ \t]*\]", text)
+        return text.count("\n", 0, table.start()) + 1 if table else None
+    return None if found is None else text.count("\n", 0, found.start()) + 1
+
+
+def _key_match(text: str, key: str, value=_ANY, span: tuple[int, int] | None = None):
+    """The match of ``key = …`` that `_line_of` names (group 1: the text after ``=`` on its
+    line), None where there is none."""
     # ([ \t]*, not \s*: a blank line before the key is not its line; `key.sub = …` is a
     # dotted key's line)
     pattern = re.compile(rf"(?m)^[ \t]*{re.escape(key)}[ \t]*(?:=|\.[^=\n]*=)(.*)$")
     found = list(pattern.finditer(text, *span) if span is not None else pattern.finditer(text))
-    if not found and span is not None:
+    if not found:
         return None
-    if not found:                                # a table of that name: [wind.extra]
-        table = re.search(rf"(?m)^[ \t]*\[\[?[^\]\n]*\b{re.escape(key)}[ \t]*\]", text)
-        return text.count("\n", 0, table.start()) + 1 if table else None
     chosen = found[0]
     if value is not _ANY and len(found) > 1:
         for m in found:
@@ -241,7 +248,49 @@ def _line_of(text: str, key: str, value=_ANY, span: tuple[int, int] | None = Non
                     break
             except (tomllib.TOMLDecodeError, RecursionError, ValueError):  # (an array over
                 continue                  # several lines; an integer past Python's digit limit)
-    return text.count("\n", 0, chosen.start()) + 1
+    return chosen
+
+
+def _element_offset(text: str, start: int, index: int) -> int | None:
+    """The offset in ``text`` of element ``index`` of the TOML array whose value begins at
+    ``start`` (after its key's ``=``), found by a scan that skips strings and comments and
+    counts commas at the array's own depth; None where the value is no array or has fewer
+    elements."""
+    k = start
+    while k < len(text) and text[k] in " \t":
+        k += 1
+    if k >= len(text) or text[k] != "[":
+        return None
+    depth, element, expect, k = 1, 0, True, k + 1
+    while k < len(text) and depth > 0:
+        c = text[k]
+        if c == "#":                                   # a comment runs to the line's end
+            k = text.find("\n", k)
+            if k < 0:
+                return None
+            continue
+        if c in " \t\r\n":
+            k += 1
+            continue
+        if depth == 1 and expect and c not in ",]":
+            if element == index:
+                return k
+            expect = False
+        if c in "\"'":                                 # a string: to its closing quote
+            quote = text[k:k + 3] if text[k:k + 3] in ('"""', "'''") else c
+            k += len(quote)
+            while k < len(text) and not text.startswith(quote, k):
+                k += 2 if quote == '"' and text[k] == "\\" else 1
+            k += len(quote)
+            continue
+        if c in "[{":
+            depth += 1
+        elif c in "]}":
+            depth -= 1
+        elif c == "," and depth == 1:
+            element, expect = element + 1, True
+        k += 1
+    return None
 
 
 class _Reader:
@@ -281,6 +330,18 @@ class _Reader:
             line = self.text.count("\n", 0, self.span[0]) + 1
         return InputError(message, self.source, line, 1 if line else None)
 
+    def element_error(self, message: str, key: str, index: int) -> InputError:
+        """InputError at the line and column of element ``index`` of the array ``key`` in the
+        section being read (an array over several lines: the element's own line); where it
+        cannot be found, as `error` names the key."""
+        found = _key_match(self.text, key, _ANY, self.span)
+        offset = _element_offset(self.text, found.start(1), index) if found is not None else None
+        if offset is None:
+            return self.error(message, key)
+        line_start = self.text.rfind("\n", 0, offset) + 1
+        return InputError(message, self.source, self.text.count("\n", 0, offset) + 1,
+                          offset - line_start + 1)
+
     def keys(self, table: dict, allowed: set[str], where: str) -> None:
         for key in table:
             if key not in allowed:
@@ -318,28 +379,37 @@ class _Reader:
                              key, value)
         return tuple(float(v) for v in value)
 
-    def seed(self, table: dict, key: str) -> int:
+    def seed(self, table: dict, key: str, element: int | None = None) -> int:
         """A seed: a whole number >= 0, of any size TOML reads (an .lsys file's ``seed:`` takes
-        any; no float range applies, as the seed is only ever hashed)."""
+        any; no float range applies, as the seed is only ever hashed); ``element``: the index
+        of ``table[key]`` in the array ``key`` of the file, where errors are placed."""
         value = table[key]
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise self.error(f"'{key}' must be a whole number >= 0, got {_shown(value)}", key, value)
+            message = f"'{key}' must be a whole number >= 0, got {_shown(value)}"
+            raise (self.error(message, key, value) if element is None
+                   else self.element_error(message, key, element))
         return value
 
-    def file(self, name, key: str, folder: pathlib.Path) -> pathlib.Path:
+    def file(self, name, key: str, folder: pathlib.Path, element: int | None = None) -> pathlib.Path:
+        """The .lsys file ``name`` (the value of ``key``, or its element ``element``) found
+        relative to ``folder``."""
+        def error(message: str) -> InputError:
+            return (self.error(message, key, name) if element is None
+                    else self.element_error(message, key, element))
+
         if name is None:
             raise self.error(f"missing '{key}' (the tree's .lsys file)", None)
         if not isinstance(name, str) or not name or "\0" in name:
-            raise self.error(f"'{key}' must name an .lsys file, got {_shown(name)}", key, name)
+            raise error(f"'{key}' must name an .lsys file, got {_shown(name)}")
         try:
             path = (folder / name).resolve()
             found = path.is_file()
         except (OSError, RuntimeError) as exc:   # a name too long, a loop of links (RuntimeError
                                                  # from Path.resolve on Python 3.11)
-            raise self.error(f"tree file {name[:80]!r}{'…' if len(name) > 80 else ''}: "
-                             f"{getattr(exc, 'strerror', None) or exc}", key, name) from None
+            raise error(f"tree file {name[:80]!r}{'…' if len(name) > 80 else ''}: "
+                        f"{getattr(exc, 'strerror', None) or exc}") from None
         if not found:
-            raise self.error(f"tree file {name!r} not found (looked in {folder})", key, name)
+            raise error(f"tree file {name!r} not found (looked in {folder})")
         return path
 
 
@@ -500,7 +570,7 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
     names = table.get("files")
     if not isinstance(names, list) or not names:
         raise r.error("'files' must be a non-empty list of .lsys files", "files")
-    files = [r.file(n, "files", folder) for n in names]
+    files = [r.file(n, "files", folder, element=k) for k, n in enumerate(names)]
     count = int(r.number(table, "count", None, low=1, integer=True))
     if count > room:
         raise r.error(f"[scatter] count {count:,} makes more trees than the limit of "
@@ -564,4 +634,4 @@ def _tree_seeds(r: _Reader, table: dict) -> list[int] | None:
     if not isinstance(given, list) or not given:
         raise r.error(f"'tree_seeds' must be a non-empty list of whole numbers >= 0, got "
                       f"{_shown(given)}", "tree_seeds", given)
-    return [r.seed({"tree_seeds": v}, "tree_seeds") for v in given]
+    return [r.seed({"tree_seeds": v}, "tree_seeds", element=k) for k, v in enumerate(given)]

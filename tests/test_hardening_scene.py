@@ -606,3 +606,29 @@ def test_a_key_several_tables_set_is_named_in_the_table_being_read(tmp_path, cas
     path.write_text(text)
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
     assert line.startswith(f"{path}:{lines[nth - 1]}:1: error:"), (line, text)
+
+
+@pytest.mark.parametrize("array, bad, message", [
+    ('tree_seeds = [\n  1, 2,   # two "good, ones" [x]\n  -3,\n]\n', "-3", "got -3"),
+    ("tree_seeds = [1, 2, 'a,]b', 4]\n", "'a,]b'", "got 'a,]b'"),
+    ('tree_seeds = [[1], 2]\n', "[1]", "got [1]"),
+    ('files = ["S",\n         "nothere.lsys"]\n', '"nothere.lsys"', "'nothere.lsys' not found"),
+])
+def test_a_bad_element_of_an_array_is_named_at_its_line_and_column(tmp_path, array, bad, message):
+    """An element of `tree_seeds` or `files` was named at its key's line, column 1, however
+    many lines the array ran over (session 25). The expected place is the element's text
+    found in the file, past the comment that holds look-alike commas and brackets."""
+    body = f'[scatter]\ncount = 2\narea = [0, 0, 9, 9]\n'
+    if not array.startswith("files"):
+        body += 'files = ["S"]\n'
+    text = HEAD.format(duration="1") + (body + array).replace('"S"', f'"{STALK}"')
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    offset = text.index(bad, text.index(array.split("=")[0]) if not array.startswith("files")
+                        else text.index("files ="))
+    if "#" in array:
+        offset = text.index("\n  " + bad) + 3
+    line = text.count("\n", 0, offset) + 1
+    column = offset - (text.rfind("\n", 0, offset) + 1) + 1
+    got = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    assert got.startswith(f"{path}:{line}:{column}: error:"), (got, line, column)
