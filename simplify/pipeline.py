@@ -430,7 +430,7 @@ def simplify_explicit(system: LSystem, options: Options,
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
-    notes = _angle_notes(runs.winds, largest)
+    notes = _angle_notes(runs.winds, largest) + _period_notes(original, summary, options)
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
     # the level's text is canonical (what write_lsys writes of it; tests/test_simplify_explicit.py)
@@ -480,6 +480,23 @@ def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
         return []
     return [f"warning: the original's combined angles pass {SMALL_ANGLE_LIMIT:g} rad at "
             f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
+
+
+def _period_notes(original: Tree, summary: Summary, options: Options) -> list[str]:
+    """A warning where no wind gave a period (model.md 6: the mean spacing of two or more
+    upward crossings): runs shorter than two swings of the tree's slowest branch, whose
+    period P = 2π dt / arccos(1 - k dt / 2000) is longest where k is smallest (model.md 4),
+    so the levels were fitted and measured without their periods."""
+    if not math.isnan(summary.period) or original.n_branches == 0:
+        return []
+    from .explicit import period_of_strength
+
+    weakest = min(float(np.min(original.bend_strength)), float(np.min(original.rotation_strength)))
+    slowest = float(period_of_strength(weakest, options.dt))
+    return [f"warning: no period was measured in any wind: the runs of {options.duration:g} s "
+            f"hold fewer than two swings of the tree's slowest branch ({slowest:.3g} s at dt = "
+            f"{options.dt:g} s), so the level's periods are not checked; give --duration "
+            f"{math.ceil(3 * slowest):g} or more"]
 
 
 @finite_fit
@@ -554,7 +571,7 @@ def simplify_grammar(system: LSystem, options: Options,
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
-    notes += _angle_notes(runs.winds, largest)
+    notes += _angle_notes(runs.winds, largest) + _period_notes(original, summary, options)
     header = header_comment(system, options, reports, summary, form="grammar",
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)

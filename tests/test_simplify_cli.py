@@ -226,3 +226,20 @@ def test_a_level_whose_chord_overflows_is_a_run_failure(tmp_path):
                      str(tmp_path / "o.lsys"), exit_code=1)
     assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["far.lsys"]
+
+
+def test_runs_too_short_for_a_period_are_warned_of(tmp_path):
+    """`--duration 3` on stalk8 (every branch k = 20: P = 2π dt / arccos(1 - k dt / 2000) =
+    4.44 s at dt 0.01) measured no period in any wind and said only "period undefined"
+    (session 25, a new user's first hour). The warning names the period and a duration of
+    three of them."""
+    period = 2 * math.pi * 0.01 / math.acos(1 - 20 * 0.01 / 2000)
+    assert abs(period - 4.44) < 0.01
+    result = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "3", "-o",
+                     str(tmp_path / "a.lsys"))
+    assert (f"no period was measured in any wind: the runs of 3 s hold fewer than two swings "
+            f"of the tree's slowest branch ({period:.3g} s at dt = 0.01 s)") in result.stderr
+    assert f"give --duration {math.ceil(3 * period)} or more" in result.stderr
+    quiet = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "14", "-o",
+                    str(tmp_path / "b.lsys"))
+    assert "no period was measured" not in quiet.stderr
