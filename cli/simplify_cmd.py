@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
 
 import click
@@ -145,7 +146,8 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     from plantlod.lsys.build import build
     from plantlod.simplify.chain_workers import chain_levels
     from plantlod.simplify.grouping import merge_levels
-    from plantlod.simplify.pipeline import Options, chain_share
+    from plantlod.simplify.levels import check_moves
+    from plantlod.simplify.pipeline import Options, chain_share, explicit_levels_said
 
     from plantlod.lsys.errors import InputError
 
@@ -160,11 +162,24 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     if mode is not None and not stat.S_ISDIR(mode):
         raise InputError("--levels needs a directory; this is a file", folder)
     original = build(system).tree
+    check_moves(original, display_name(input_path))  # (no branches, no force: as --level refuses)
     groupings = merge_levels(original)
     last = len(groupings) - 1
+    if last == 0:
+        raise InputError(explicit_levels_said(0, sum(1 for p in original.parent if p < 0)),
+                         display_name(input_path))
     names = [f"level{k}.lsys" for k in range(1, last + 1)]
     if mode is not None:                     # an existing DIR: merged into
         check_merge_targets(folder, names)
+        stale = sorted((int(m.group(1)), m.group(0)) for m in
+                       (re.fullmatch(r"level([0-9]+)\.lsys", n) for n in os.listdir(folder))
+                       if m and int(m.group(1)) > last)
+        if stale:                            # (another tree's chain would read as this one's)
+            shown = ", ".join(name for _, name in stale[:3]) + (", …" if len(stale) > 3 else "")
+            raise InputError(f"the folder holds {shown}, past this tree's last level ({last}): "
+                             "they would stay beside its chain as if part of it; expected a "
+                             "folder without them (remove them, or give another --levels)",
+                             folder)
         distinct_paths({f"--levels ({name})": os.path.join(folder, name) for name in names},
                        {"FILE": input_path})     # (simplify DIR/level1.lsys --levels DIR)
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",

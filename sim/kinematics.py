@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantlod.lsys.tree import Tree
+from .constants import REST_HEIGHT_ROUNDING
 
 
 def float_angles(angles) -> np.ndarray:
@@ -191,7 +192,14 @@ def rest_pose(tree: Tree) -> Pose:
 
 
 def rest_height(tree: Tree) -> float:
-    """The largest tip z (m) at rest; 0.0 for a tree without branches."""
+    """The largest tip z (m) at rest; 0.0 for a tree without branches, and for one whose
+    highest tip is within rounding (REST_HEIGHT_ROUNDING of its largest coordinate) of
+    z = 0: a tree lying flat (`&(90)`) has tips at z = 3e-17 m from cos(π/2), which no
+    height can stand for (model.md 6 states tip errors as fractions of it)."""
     if tree.n_branches == 0:
         return 0.0
-    return float(rest_pose(tree).tip[:, 2].max())
+    tips = rest_pose(tree).tip
+    height = float(tips[:, 2].max())
+    if abs(height) <= REST_HEIGHT_ROUNDING * float(np.abs(tips).max()):
+        return 0.0
+    return height

@@ -33,8 +33,8 @@ def _where(tree: Tree, i: int, field: str) -> str:
     same = values[np.asarray(tree.symbol) == tree.symbol[i]]
     if np.all(same == values[i]):
         return f"branch symbol '{tree.symbol[i]}' (e.g. the branch at address {tree.address[i]})"
-    return (f"the branch at address {tree.address[i]} (symbol '{tree.symbol[i]}'; its value is "
-            "its own, from an override or a module's parameter)")
+    return (f"the branch at address {tree.address[i]} (symbol '{tree.symbol[i]}'; a value of "
+            "this branch alone: an override, a module's parameter or a tree file's own)")
 
 
 def largest_stable_s(damping: Damping) -> float:

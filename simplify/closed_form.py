@@ -142,7 +142,8 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                                settings.evaluations, settings.inner)
         if refined is not None:
             kfa, kfp, drag_area_, areas = refined
-            drag_c = drag_area_ / surface
+            # (no surface, no drag: `sequential_solution`)
+            drag_c = np.where(surface > 0, drag_area_ / np.where(surface > 0, surface, 1.0), 0.0)
         values = np.concatenate([kfa, kfp, drag_c * surface, areas])
         static_error = model.worst(np.log(np.maximum(values, np.finfo(float).tiny)))
     branch = {"length": lengths, "bend_strength": kb, "rotation_strength": kr,

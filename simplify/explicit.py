@@ -389,6 +389,18 @@ def strength_of_period(period: np.ndarray, dt: float) -> np.ndarray:
     return 1000.0 * 2.0 * (1.0 - np.cos(2.0 * math.pi * dt / np.asarray(period))) / dt
 
 
+def level_radii(original: Tree, grouping: "Grouping") -> np.ndarray:
+    """(S,) m: each level branch's radius, its group root's; where that is 0 (a branch
+    symbol of no radius, legal), the largest of its group's: the radius enters only the drag
+    area 2π r L, whose C_d the fit sets, so any radius carries the group's drag, and none
+    cannot (a drag coefficient of inf)."""
+    radius = np.asarray(original.radius, dtype=np.float64)
+    out = radius[grouping.root].copy()
+    for g in np.flatnonzero(out == 0):
+        out[g] = radius[np.asarray(grouping.group) == g].max()
+    return out
+
+
 def period_of_strength(strength: np.ndarray, dt: float) -> np.ndarray:
     """Model.md 4's P = 2π dt / arccos(1 - k dt / 2000), s (`sim.damping.step_angle`)."""
     from plantlod.sim.damping import step_angle
@@ -566,7 +578,7 @@ def explicit_system_text(original: Tree, grouping: Grouping, *, name: str, heade
     from plantlod.lsys.system import GAIN_KEYS
 
     root_address = [original.address[r] for r in grouping.root]
-    radius = np.asarray(original.radius, dtype=np.float64)[grouping.root]
+    radius = level_radii(original, grouping)
     # (a name is cut to LEVEL_NAME_CHARS: a name of 999,990 characters, which a file may
     # give, made a level line longer than the reader's limit)
     shown = name if len(name) <= LEVEL_NAME_CHARS else name[:LEVEL_NAME_CHARS].rstrip() + "…"

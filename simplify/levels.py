@@ -34,10 +34,16 @@ def round_sig(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:
 
 
 def check_moves(original, source: str | None) -> None:
-    """Raise InputError unless the original tree (a `Tree`) can move: it has branches, and
-    some branch absorbs force (k_FA > 0, or a gain matrix). A tree that absorbs none stands
-    still in every wind, and every fit divides by its zero swing (it was 'unstable in
-    simplify's winds' or a drag coefficient of NaN)."""
+    """Raise InputError unless the original tree (a `Tree`) can move and be measured: it has
+    branches; some branch absorbs force (k_FA > 0, or a gain matrix); the wind acts on it
+    (model.md 4: some branch has drag, C_d r L > 0, or some leaf a force, s_L A > 0); and it
+    rises above its base (a rest height > 0, which model.md 6's tip errors are fractions of).
+    A tree that absorbs or feels no force stands still in every wind, and every fit divides
+    by its zero swing (it was 'unstable in simplify's winds' or a drag coefficient of NaN);
+    one lying flat or hanging below z = 0 has no height to state its tip errors in (a flat
+    one gave tip errors of 1e15 % of its rounding-noise height)."""
+    from plantlod.sim.kinematics import rest_height
+
     if original.n_branches == 0:
         raise InputError("the original tree has no branches; expected a tree to simplify", source)
     gain = original.force_gain
@@ -48,6 +54,20 @@ def check_moves(original, source: str | None) -> None:
         raise InputError("the tree absorbs no force (force_absorbed is 0 for every branch): it "
                          "stands still in every wind, so there is no motion to simplify; "
                          "expected force_absorbed > 0", source)
+    drag = np.asarray(original.drag_coefficient) * np.asarray(original.radius) \
+        * np.asarray(original.length)
+    leaf = original.leaf_force_scale * np.asarray(original.leaf_area, dtype=np.float64)
+    if not (np.any(drag != 0) or np.any(leaf != 0)):
+        raise InputError("the wind exerts no force on the tree (no branch has drag, C_d r L = 0, "
+                         "and no leaf a force, s_L A = 0): it stands still in every wind, so "
+                         "there is no motion to simplify; expected a drag_coefficient, radius or "
+                         "leaf area > 0", source)
+    height = rest_height(original)
+    if not height > 0:
+        raise InputError(f"the tree's highest tip at rest is at z = {height:g} m (it lies flat or "
+                         "hangs below its base): tip errors are stated as fractions of the rest "
+                         "height (model.md 6), so it has no levels to measure; expected a tree "
+                         "that rises above z = 0", source)
 
 
 def round_sig_down(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:

@@ -197,10 +197,16 @@ def simplify(system: LSystem, options: Options,
         grammar.notes.insert(0, f"grammar form: it misses the level's bounds and the explicit "
                                 f"form does not apply ({exc.message})")
         return grammar
-    if form_rank(explicit.reports, options.level, explicit.largest_angles, stalk) \
-            < form_rank(grammar.reports, options.level, grammar.largest_angles, stalk):
-        explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
-                                 f"({_bounds_text(grammar.reports)})")
+    explicit_rank = form_rank(explicit.reports, options.level, explicit.largest_angles, stalk)
+    if explicit_rank < form_rank(grammar.reports, options.level, grammar.largest_angles, stalk):
+        if explicit_rank[0] == 0:
+            explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
+                                     f"({_bounds_text(grammar.reports)})")
+        else:                               # (form_rank: the winds missed first, then by how much)
+            explicit.notes.insert(0, "explicit form: both forms miss the level's bounds, the "
+                                     "explicit form in fewer winds or by less (grammar: "
+                                     f"{_bounds_text(grammar.reports)}; explicit: "
+                                     f"{_bounds_text(explicit.reports)})")
         return explicit
     grammar.notes.insert(0, "grammar form: both forms miss the level's bounds, the grammar form "
                             f"less ({_bounds_text(grammar.reports)}; explicit: "
@@ -351,6 +357,22 @@ class ChainShare:
         return len(level_counts(self.original)) - 1
 
 
+def explicit_levels_said(last: int, roots: int) -> str:
+    """How many explicit levels a tree has, for a message: ``last`` (the last level's number)
+    and ``roots``, its root branches (groups never join two roots, so the chain ends at one
+    branch per root)."""
+    end = "a single branch" if roots == 1 else f"one branch per root branch, {roots}"
+    if last == 0:
+        return (f"this tree has no levels in the explicit form (it is already "
+                f"{'a single branch' if roots == 1 else f'{roots} root branches'})")
+    return f"this tree has {last} levels in the explicit form (1 to {last}, the last {end})"
+
+
+def roots(system: LSystem) -> int:
+    """The root branches of ``system``'s tree (parent -1)."""
+    return int(np.count_nonzero(np.asarray(build(system).tree.parent) < 0))
+
+
 def chain_share(system: LSystem, options: Options, last_checked=None,
                 built: tuple[Tree, list] | None = None, up_to: int | None = None) -> ChainShare:
     """Build, check, group and simulate the original of ``system`` once (`ChainShare`; the
@@ -400,9 +422,8 @@ def simplify_explicit(system: LSystem, options: Options,
 
     def level_exists(last: int) -> None:
         if grouping is None and not 1 <= options.level <= last:
-            raise InputError(f"level {options.level} is past the last: this tree has {last} "
-                             f"levels in the explicit form (1 to {last}, the last a single "
-                             f"branch)", source)
+            raise InputError(f"level {options.level} is past the last: "
+                             f"{explicit_levels_said(last, roots(system))}", source)
 
     if shared is None and chain is not None:
         shared = chain.share

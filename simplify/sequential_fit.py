@@ -80,7 +80,11 @@ def sequential_solution(skeleton: Tree, gains: np.ndarray, per_leaf: np.ndarray,
         mu = drag_gain(gain, drag_shape[:, g], targets.drag[:, g], lam, in_drag[:, g])
         c_new = mu / kappa
         kfa[g], kfp[g] = kappa, p_new
-        drag_c[g] = c_new / surface[g]
+        # a branch of no surface (radius or length 0, both legal) carries no drag: its group's
+        # members have none of their own (`explicit.level_radii` gives a chord any radius in
+        # its group), or its chord folds back to its base; what drag it would take is lost,
+        # and the level's measures say so
+        drag_c[g] = c_new / surface[g] if surface[g] > 0 else 0.0
         out_leaf = p_new * (in_leaf[:, g] + np.einsum("k,dkj->dj", areas[own], per_leaf[:, own]))
         out_drag = c_new * drag_shape[:, g] + p_new * in_drag[:, g]
         parent = int(skeleton.parent[g])

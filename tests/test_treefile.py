@@ -113,7 +113,7 @@ def test_a_tree_file_that_names_no_source_names_itself_in_messages(tmp_path):
                     .replace('"source": "examples/demo.lsys"', '"source": ""'))
     result = run_cli("simulate", str(path), "--dt", "0.01", "--steps", "5", "--wind-speed", "5",
                      exit_code=2)
-    assert result.stderr.startswith(f"{path}: error: branch symbol 'F'")
+    assert result.stderr.startswith(f"{path}: error: the branch at address 0 (symbol 'F'")
     assert result.stderr.count("\n") == 1
 
 

@@ -1,0 +1,131 @@
+"""Valid trees at the edges of what simplify can make levels of (session 25, found by fuzzing
+unusual shapes): each is either simplified in every form with finite numbers, or refused
+the same way by every form and by `--levels`, with one line naming the file and nothing
+written. Before, a tree lying flat got tip errors of 1e15 % of its rounding-noise height, a
+branch symbol of radius 0 was "far outside what it fits" (exit 1) in the explicit form and
+"drag_coefficient = inf" (exit 2) in the grammar form, `--levels` of a one-branch tree made
+an empty folder and said nothing, and a tree the wind exerts no force on was simplified.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from golden_util import run_cli
+from test_hardening_cli import one_line
+from plantlod.formats.lsys_file import read_lsys
+from plantlod.lsys.build import build
+
+HEAD = ("derivation_length: 3\nbranching_angle: 30\nforce_absorbed: 0.002\nforce_propagated: 0.7\n"
+        "branch F: length=0.5 radius=0.01 bend_strength=30 rotation_strength=30\n"
+        "leaf L: area=0.003\n")
+BUSH = "axiom: {turn}A\nproductions:\n  A -> F [+A L] [-A L]\n"
+
+
+def _write(tmp_path, text: str, name: str = "t.lsys") -> str:
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+REFUSED = {
+    # (the tree's text, a fragment of the one line every form gives)
+    "lying flat (&(90): tips at z = 3e-17 m)": (HEAD + BUSH.format(turn="&(90) "),
+                                                "lies flat or hangs below its base"),
+    "hanging below its base": (HEAD + BUSH.format(turn="^(180) "),
+                               "highest tip at rest is at z = -0.5 m"),
+    "no wind force (no drag, no leaf force)": (
+        HEAD.replace("force_propagated: 0.7\n", "force_propagated: 0.7\nleaf_force_scale: 0\n"
+                     "drag_coefficient: 0\n") + BUSH.format(turn=""),
+        "the wind exerts no force on the tree"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(REFUSED))
+@pytest.mark.parametrize("form", ["explicit", "grammar", "auto", "levels"])
+def test_a_tree_without_levels_to_measure_is_refused_by_every_form(tmp_path, case, form):
+    text, fragment = REFUSED[case]
+    path = _write(tmp_path, text)
+    args = (["--levels", str(tmp_path / "lv")] if form == "levels"
+            else ["--level", "1", "--form", form, "-o", str(tmp_path / "o.lsys")])
+    line = one_line(run_cli("simplify", path, *args, exit_code=None), 2, fragment)
+    assert line.startswith(f"{path}: error:")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
+
+
+def test_a_flat_tree_has_no_height_in_compare_either(tmp_path):
+    path = _write(tmp_path, HEAD + BUSH.format(turn="&(90) "))
+    one_line(run_cli("compare", path, path, "--dt", "0.01", "--duration", "1", "--wind-speed",
+                     "5", exit_code=None), 2, "rest height is 0 m")
+
+
+@pytest.mark.parametrize("form", ["explicit", "grammar"])
+def test_a_branch_symbol_of_radius_zero_is_simplified_with_finite_numbers(tmp_path, form):
+    """A symbol Z of radius 0 (legal: it has no drag) between the drawn F's. Its level
+    branches carry finite drag coefficients; a group of Z alone keeps radius 0 and no drag,
+    and every other level branch has a radius of its group (not 0)."""
+    text = (HEAD + "branch Z: length=0.5 radius=0 bend_strength=30 rotation_strength=30\n"
+            "axiom: A\nproductions:\n  A -> F Z [+A L] [-A L]\n")
+    path = _write(tmp_path, text)
+    out = tmp_path / "l1.lsys"
+    run_cli("simplify", path, "--level", "1", "--form", form, "-o", str(out))
+    level = build(read_lsys(str(out))).tree
+    assert all(math.isfinite(c) and c >= 0 for c in level.drag_coefficient)
+    assert all(math.isfinite(x) for x in level.force_absorbed)
+    original = build(read_lsys(path)).tree
+    if form == "explicit":                   # radius 0 only where the group is all Z
+        groups = {root: [i for i, r in enumerate(level.group_root) if r == root]
+                  for root in level.group_root}
+        for i, root in enumerate(level.group_root):
+            zero_root = original.radius[original.address.index(root.split(":")[0])] == 0
+            assert (level.radius[i] == 0) <= zero_root, (root, level.radius[i])
+        assert groups
+
+
+@pytest.mark.parametrize("text, fragment", [
+    (HEAD.replace("derivation_length: 3", "derivation_length: 0") + "axiom: F L\n",
+     "it is already a single branch"),
+    (HEAD.replace("branch F:", "# branch F:") + BUSH.format(turn=""), "has no branches"),
+])
+def test_levels_of_a_tree_with_none_are_refused_as_level_1_is(tmp_path, text, fragment):
+    """`--levels` made an empty folder, exit 0, and printed nothing."""
+    path = _write(tmp_path, text)
+    one_line(run_cli("simplify", path, "--levels", str(tmp_path / "lv"), exit_code=None), 2,
+             fragment)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
+    one_line(run_cli("simplify", path, "--level", "1", "--form", "explicit", "-o",
+                     str(tmp_path / "o.lsys"), exit_code=None), 2, fragment)
+
+
+def test_a_tree_of_several_roots_ends_at_one_branch_per_root(tmp_path):
+    """Five root branches: groups never join two roots, so the chain's last level has five
+    branches, and asking past it says so (it said "the last a single branch")."""
+    text = HEAD + ("axiom: [F A] [+(90) F A] [-(90) F A] [&(90) F A] F(2) A\n"
+                   "productions:\n  A -> F [+A L] [-A] L\n")
+    path = _write(tmp_path, text)
+    roots = sum(1 for p in build(read_lsys(path)).tree.parent if p < 0)
+    assert roots == 5
+    run_cli("simplify", path, "--levels", str(tmp_path / "lv"))
+    levels = sorted(tmp_path.joinpath("lv").glob("level*.lsys"), key=lambda p: int(p.stem[5:]))
+    counts = [build(read_lsys(str(p))).tree.n_branches for p in levels]
+    assert counts[-1] == roots and counts == sorted(counts, reverse=True)
+    line = one_line(run_cli("simplify", path, "--level", str(len(levels) + 1), "--form",
+                            "explicit", "-o", str(tmp_path / "o.lsys"), exit_code=None), 2)
+    assert f"the last one branch per root branch, {roots}" in line
+
+
+def test_levels_into_a_folder_holding_another_chains_later_levels_are_refused(tmp_path):
+    """A folder holding level1-3 of one tree took a one-level chain of another, replaced
+    level1.lsys and kept level2-3: a chain that grew, of two trees."""
+    deep = _write(tmp_path, HEAD + BUSH.format(turn=""), "deep.lsys")
+    two = _write(tmp_path, HEAD.replace("derivation_length: 3", "derivation_length: 0")
+                 + "axiom: F F L\n", "two.lsys")
+    folder = tmp_path / "lv"
+    run_cli("simplify", deep, "--levels", str(folder))
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    assert len(before) > 1
+    one_line(run_cli("simplify", two, "--levels", str(folder), exit_code=None), 2,
+             "past this tree's last level (1)", "level2.lsys")
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
