@@ -11,7 +11,9 @@ these, and `plantlod compare` reports them.
 
 `plantlod.compare` is both this package and the public function
 ``plantlod.compare(original, *simplified, **options)`` (plantlod.api.compare):
-calling the package calls the function, as with `plantlod.simplify`.
+calling the package calls the function, as with `plantlod.simplify`. Its options: wind,
+dt, steps, duration, window, bounds, damping, wind_speed, wind_direction, damping_ratio
+(``inspect.signature(plantlod.compare)`` and ``help(plantlod.api.compare)`` show them).
 """
 
 import sys as _sys
@@ -24,6 +26,17 @@ class _CallablePackage(_types.ModuleType):
         from plantlod.api import compare   # the API's function; a call, not a dependency
 
         return compare(original, *simplified, **options)
+
+    __call__.__qualname__ = "compare"       # (Python's TypeError for a wrong call names it)
+
+    @property
+    def __signature__(self):
+        """The API function's signature, for `inspect.signature` and a notebook's help."""
+        import inspect
+
+        from plantlod.api import compare
+
+        return inspect.signature(compare)
 
 
 _sys.modules[__name__].__class__ = _CallablePackage

@@ -104,10 +104,12 @@ def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot
             parts.append(f"no columns for branch(es) {_examples(missing)}")
         if extra:
             parts.append(f"columns for branch(es) {_examples(extra)} that the tree does not have")
-        kind = "archive" if str(source).lower().endswith(".npz") else "CSV"
+        kind = ("archive" if str(source).lower().endswith(".npz") else
+                "set (an Angles)" if source == "angles" else "CSV")
         raise InputError(f"the angle {kind} does not belong to the tree {tree.source or '?'}: "
                          f"{'; '.join(parts)}; expected the {kind} that `plantlod simulate` "
-                         f"wrote for this tree ({tree.n_branches} branches)", source)
+                         f"wrote for this tree ({tree.n_branches} branches)",
+                         None if source == "angles" else source)
     order = np.asarray([column[a] for a in tree.address], dtype=np.int64)
     return np.asarray(bend)[:, order], np.asarray(rot)[:, order]
 

@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
 from .constants import GLTF_MAX_TIME, MAX_EXPORT_SAMPLES
@@ -58,9 +58,12 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
                 raise InputError("OpenUSD writes a file of its own; expected the path of a "
                                  "regular file", path)
             os.unlink(tmp)                        # USD creates its own file
-            from .usd import write_usd
+            from .usd import UsdWriteError, write_usd
 
-            write_usd(tmp, tree, times, bend, rot, fps, frames)
+            try:
+                write_usd(tmp, tree, times, bend, rot, fps, frames)
+            except UsdWriteError as exc:     # (its reason names the temporary, not the path)
+                raise RunFailure(f"cannot write {path}: {str(exc).replace(tmp, path)}") from None
 
 
 @contextlib.contextmanager

@@ -55,4 +55,26 @@ def write_usd(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: n
         geom.CreateHeightAttr(float(tree.length[i]))
         geom.CreateAxisAttr(UsdGeom.Tokens.z)
         geom.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, float(tree.length[i]) / 2))
-    stage.GetRootLayer().Save()
+    saved = False
+    try:
+        saved = stage.GetRootLayer().Save()
+    except Exception as exc:              # pxr.Tf.ErrorException: its own lines, its own type
+        raise UsdWriteError(_usd_reason(exc)) from None
+    if not saved:
+        raise UsdWriteError("OpenUSD did not save the layer")
+
+
+class UsdWriteError(Exception):
+    """OpenUSD could not save a layer (a full disk, a file too large); the reason, one line.
+    `export.files` names the file the user asked for (this one writes a temporary)."""
+
+
+def _usd_reason(exc: BaseException) -> str:
+    """What OpenUSD's error says, one line: the quoted message of its first error ("Could not
+    close …"), without the C++ function and source line around it."""
+    import re
+
+    text = " ".join(str(exc).split())
+    quoted = re.search(r" : '(.*?)'(?: |$)", text)
+    reason = (quoted.group(1) if quoted else text).rstrip(",. ")
+    return f"OpenUSD could not save it ({reason[:160]})" if reason else "OpenUSD could not save it"

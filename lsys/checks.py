@@ -32,6 +32,8 @@ def real(name: str, value: Any, *, low: float | None = None, low_open: bool = Fa
     x = float(value) if finite(value) else math.inf
     if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)) \
             or (high is not None and x > high):
+        if low is None and high is None:         # (any finite number: "in [-inf, inf]" misled)
+            raise InputError(f"{name} must be a finite number, got {value!r}")
         bounds = f"{'(' if low_open else '['}{'-inf' if low is None else f'{low:g}'}, " \
                  f"{'inf' if high is None else f'{high:g}'}]"
         raise InputError(f"{name} must be a finite number in {bounds}, got {value!r}")

@@ -76,18 +76,24 @@ def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSyste
 
     A string with a line break (LF or CR) is the text itself (an L-system has several lines); any
     other string, or a path object, names a file (a missing one is an `InputError`
-    "no such file"). Raises `plantlod.InputError` (file:line:col) on bad input.
+    "no such file"); an open text stream is read. ``name`` names a text or a stream in
+    messages. Raises `plantlod.InputError` (file:line:col) on bad input, and names a file of
+    another kind by what it is (an angle CSV, a tree file).
     """
-    from plantlod.lsys.parse import parse_lsys
+    from plantlod.formats.lsys_file import parse_lsys_text
 
     if isinstance(path_or_text, os.PathLike) or (
             isinstance(path_or_text, str) and not _is_text(path_or_text)):
         from plantlod.formats.lsys_file import read_lsys
         return read_lsys(path_of(path_or_text))
+    if hasattr(path_or_text, "read"):
+        stream, stream_name = _text_stream(path_or_text)
+        return parse_lsys_text(stream.read().lstrip("\ufeff"), name or stream_name)
     if not isinstance(path_or_text, str):
-        raise InputError(f"expected a path or the text of an L-system, got "
+        raise InputError(f"expected a path, an open text stream or the text of an L-system, got "
                          f"{type(path_or_text).__name__}")
-    return parse_lsys(path_or_text, name or "<text>")
+    # (a leading byte-order mark is dropped, as the file reader drops it)
+    return parse_lsys_text(path_or_text.lstrip("\ufeff"), name or "<text>")
 
 
 def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> str:
@@ -128,11 +134,22 @@ def derive(system: LSystem | PathOrText, n: int | None = None, *,
 
 
 def read_tree(path_or_file: PathOrFile) -> Tree:
-    """Read a tree file (JSON Lines, docs/tree-format.md)."""
+    """Read a tree file (JSON Lines, docs/tree-format.md) from a path, an open text stream or
+    its text; a path ending in .npz is a tree archive (`plantlod derive -o T.npz`)."""
+    from plantlod.formats.kinds import other_kind
+    from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
     from plantlod.formats.treefile import read_tree as _read
 
+    if isinstance(path_or_file, (str, os.PathLike)) and not _is_text(path_or_file) \
+            and is_npz(path_of(path_or_file)):
+        path = path_of(path_or_file)
+        return read_tree_bytes(read_npz_file(path), path)
     stream, name = _text_stream(path_or_file)
-    return _read(stream, name)
+    text = stream.read()
+    try:
+        return _read(io.StringIO(text), name)
+    except InputError as exc:                  # an L-system or angle CSV given for a tree file
+        raise other_kind(text, name, "tree") or exc from None
 
 
 def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
@@ -141,6 +158,7 @@ def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
 
     if not isinstance(tree, Tree):
         raise InputError(f"write_tree takes a Tree, got {type(tree).__name__}")
+    _checked(tree)
     output_target(path_or_file)
     buf = io.StringIO()
     _write(tree, buf)
@@ -158,11 +176,13 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     """Simulate ``tree`` in ``wind`` (model.md 3-4); an `LSystem` is derived first, a path
     is read (an .lsys file, a tree file or a tree .npz).
 
-    wind     : (vx, vy, vz) m/s, a wind object of plantlod.sim.wind (anything with
-               ``sample(times) -> (K, 3)``), or a list of either: then every array
-               gets a leading lane axis (W,) and the runs step together on all
-               cores (plantlod.sim.lanes; each lane equals its single run bit for bit);
-               ``angles[w]`` is then run w. None: no wind (or ``wind_speed``).
+    wind     : (vx, vy, vz) m/s (a tuple, a list of three numbers or an array (3,)), a
+               wind object of plantlod.sim.wind (anything with ``sample(times) ->
+               (K, 3)``), or several: a list or tuple of those, or an array (W, 3). Then
+               bend and rot get a leading lane axis (W, T, B) (time stays (T,)) and the
+               runs step together on all cores (plantlod.sim.lanes; each lane equals its
+               single run bit for bit); ``angles[w]`` is then run w. None: no wind (or
+               ``wind_speed``).
     wind_speed, wind_direction : instead of ``wind``, as the CLI's --wind-speed and
                --wind-direction: a horizontal wind of this many m/s toward this azimuth
                (degrees, 0 = +x, 90 = +y; default 0)
@@ -186,10 +206,7 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     if not isinstance(every, (int, np.integer)) or every < 1:
         raise InputError(f"every must be an integer >= 1, got {every!r}")
     check_stability(tree, dt, damping)
-    many = isinstance(wind, list)
-    if many and not wind:
-        raise InputError("an empty list of winds; expected at least one wind")
-    winds = [_wind(w) for w in (wind if many else [wind])]
+    winds, many = _winds(wind)
     time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
     _warn_large_angles(tree, time, bend, rot, many)
     if not many:
@@ -238,11 +255,23 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
 
 
 def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
-    """Read an angle CSV (docs/angles-csv.md); ``degrees`` says the file holds degrees."""
-    from plantlod.formats.angles_csv import read_angles_csv
+    """Read an angle CSV (docs/angles-csv.md) from a path, an open text stream or its text;
+    ``degrees`` says the file holds degrees. A path ending in .npz is an angle archive
+    (`plantlod simulate -o A.npz`, radians)."""
+    from plantlod.formats.angles_csv import read_angles_csv, read_angles_file
+    from plantlod.formats.kinds import other_kind
+    from plantlod.formats.npz import is_npz
 
+    if isinstance(path_or_file, (str, os.PathLike)) and not _is_text(path_or_file) \
+            and is_npz(path_of(path_or_file)):
+        time, addresses, bend, rot = read_angles_file(path_of(path_or_file), degrees)
+        return Angles(time, bend, rot, tuple(addresses))
     stream, name = _text_stream(path_or_file)
-    time, addresses, bend, rot = read_angles_csv(stream, name, degrees=degrees)
+    text = stream.read()
+    try:
+        time, addresses, bend, rot = read_angles_csv(io.StringIO(text), name, degrees=degrees)
+    except InputError as exc:                  # an L-system or tree file given for the angles
+        raise other_kind(text, name, "csv") or exc from None
     return Angles(time, bend, rot, tuple(addresses))
 
 
@@ -291,8 +320,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     Returns the document ``plantlod compare --json`` prints (before rounding):
     per simplified tree the worst-group amplitude, period and tip errors, the
     visible-motion figures (motion_error, period_error_major, tip_error_max_m)
-    and every group. ``bounds`` maps figure names (``"motion_error"``, ...) to limits;
-    ``passed`` says whether all held.
+    and every group. ``bounds`` maps figure names (``"motion_error"``, ...; or the report's
+    own ``"max_motion_error"``, ...) to limits; ``passed`` says whether all held.
     """
     from plantlod.compare.runs import BOUND_OPTIONS, Run, check_bounds, compare_runs
     from plantlod.compare.report import comparison_document
@@ -300,7 +329,11 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     if not simplified:
         raise InputError("compare needs at least one simplified tree")
     n = _step_count(dt, steps, duration)
-    w = _wind(_wind_option(wind, wind_speed, wind_direction))
+    given, many = _winds(_wind_option(wind, wind_speed, wind_direction))
+    if many:
+        raise InputError(f"compare runs one wind; got a list of {len(given)} (compare each wind "
+                         "in its own call, or simulate them together with simulate)")
+    w = given[0]
     # every argument checked before any run (a bad bound after a diverging run was a
     # RunFailure; bounds=5 a TypeError)
     if window is not None and not (isinstance(window, (tuple, list)) and len(window) == 2):
@@ -308,10 +341,15 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     t0, t1 = ((None if t is None else real("window", t)) for t in window) if window else (None, None)
     if bounds is not None and not isinstance(bounds, dict):
         raise InputError(f"bounds must map figure names to limits, got {type(bounds).__name__}")
-    unknown = [name for name in (bounds or {}) if name not in BOUND_OPTIONS]
+    # (a report's own bound keys, "max_motion_error", name the same figures)
+    given = {(name[4:] if isinstance(name, str) and name.startswith("max_")
+              and name[4:] in BOUND_OPTIONS else name): limit
+             for name, limit in (bounds or {}).items()}
+    unknown = [name for name in given if name not in BOUND_OPTIONS]
     if unknown:
-        raise InputError(f"unknown bound {unknown[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}")
-    bounds = {name: (bounds or {}).get(name) for name in BOUND_OPTIONS}
+        raise InputError(f"unknown bound {unknown[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}"
+                         " (or the report's max_… names of them)")
+    bounds = {name: given.get(name) for name in BOUND_OPTIONS}
     bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
               for name, b in bounds.items()}
     items = (original,) + simplified
@@ -346,6 +384,9 @@ def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLi
         if not (isinstance(frames, (tuple, list)) and len(frames) == 2):
             raise InputError(f"frames must be (A, B), frames A to B-1, got {frames!r}")
         frames = (whole("frames", frames[0]), whole("frames", frames[1], low=1))
+        if frames[0] >= frames[1]:
+            raise InputError(f"frames {frames} keeps no frame; expected (A, B) with A < B "
+                             "(frames A to B-1)")
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, "angles")
     with _writing(path):
         write(path, tree, time, bend, rot, fps, frames)
@@ -391,7 +432,39 @@ def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
     return count if steps is None else whole("steps", steps)
 
 
+def _winds(wind: Any) -> tuple[list, bool]:
+    """The winds ``wind`` gives, and whether it gives several (a lane axis): one wind is a
+    wind object, a vector (vx, vy, vz) as a tuple, a list of three numbers or an array of
+    shape (3,); several are a list or tuple of winds, or an array of shape (W, 3)."""
+    if hasattr(wind, "sample"):
+        return [wind], False
+    if isinstance(wind, np.ndarray):
+        if wind.ndim == 2 and wind.shape[1:] == (3,):
+            many = list(wind)
+        else:
+            return [_wind(wind)], False
+    elif isinstance(wind, (list, tuple)) and not _is_vector(wind):
+        if all(_is_number(v) for v in wind):    # numbers, but not three: a vector gone wrong
+            return [_wind(wind)], False
+        many = list(wind)
+    else:
+        return [_wind(wind)], False
+    if not many:
+        raise InputError("an empty list of winds; expected at least one wind")
+    return [_wind(w) for w in many], True
+
+
+def _is_vector(value: Any) -> bool:
+    """Three real numbers (not a list of winds)."""
+    return len(value) == 3 and all(_is_number(v) for v in value)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
 def _wind(wind: Any):
+    from plantlod.lsys.errors import shown
     from plantlod.sim.wind import ConstantWind
 
     if hasattr(wind, "sample"):
@@ -401,7 +474,10 @@ def _wind(wind: Any):
     except (TypeError, ValueError):
         vector = np.zeros(0)
     if vector.shape != (3,) or not np.all(np.isfinite(vector)):
-        raise InputError(f"a wind is (vx, vy, vz) in m/s or a wind object, got {wind!r}")
+        got = shown(" ".join(repr(wind).split()), 80)      # (one line: an array's repr has several)
+        raise InputError(f"a wind is (vx, vy, vz) in m/s (a tuple, a list of three numbers or an "
+                         f"array of shape (3,)) or a wind object, and several winds a list of "
+                         f"them or an array (W, 3); got {got}")
     return ConstantWind(vector)
 
 
@@ -440,12 +516,36 @@ def _as_system(item: Any) -> LSystem:
                      f"{type(item).__name__}")
 
 
+def _checked(tree: Tree) -> Tree:
+    """``tree`` as given, once its arrays keep the invariants of `Tree` (shapes, parents
+    before children, leaves on branches that exist, distinct addresses, finite numbers): a
+    Tree built or edited by hand (`dataclasses.replace`) is checked before anything runs on
+    it (a parent cycle made `write_tree` loop forever, a short array leaked numpy's errors)."""
+    from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS
+
+    try:
+        tree.check()
+        arrays = [np.asarray(getattr(tree, name), dtype=np.float64)
+                  for name in BRANCH_FLOAT_FIELDS] + [
+            np.asarray(tree.euler, dtype=np.float64), np.asarray(tree.offset, dtype=np.float64),
+            np.asarray(tree.leaf_area, dtype=np.float64),
+            np.asarray(tree.leaf_normal, dtype=np.float64)]
+        if not all(np.all(np.isfinite(a)) for a in arrays):
+            raise ValueError("its numbers must be finite (a NaN or an infinity in lengths, "
+                             "strengths, forces, rest angles, offsets or leaves)")
+        if len(set(tree.address)) != len(tree.address):
+            raise ValueError("its branch addresses must be distinct")
+    except (ValueError, TypeError, AttributeError, IndexError) as exc:
+        raise InputError(f"the Tree breaks its invariants: {exc}", tree.source or None) from None
+    return tree
+
+
 def _as_tree(item: Any) -> Tree:
     """A `Tree`: as given, derived from an `LSystem`, or read from a path (an .lsys file, a
     tree file, a tree .npz), as the commands read their TREE argument; a string with a line
     break is the text of an .lsys file or a tree file itself (as `read_lsystem` reads it)."""
     if isinstance(item, Tree):
-        return item
+        return _checked(item)
     if isinstance(item, LSystem):
         return derive(item)
     if not isinstance(item, (str, os.PathLike)):
@@ -462,13 +562,17 @@ def _as_tree(item: Any) -> Tree:
         from plantlod.formats.text_input import read_text
 
         text = read_text(path)
-    if text.lstrip().startswith("{"):
+    from plantlod.formats.kinds import other_kind, text_kind
+    from plantlod.formats.lsys_file import parse_lsys_text
+
+    if text.lstrip().startswith("{") and text_kind(text) != "gltf":
         from plantlod.formats.treefile import read_tree as _read
 
-        return _read(io.StringIO(text), path).named(path)
-    from plantlod.lsys.parse import parse_lsys
-
-    return derive(parse_lsys(text, path))
+        try:
+            return _read(io.StringIO(text), path).named(path)
+        except InputError as exc:
+            raise other_kind(text, path, "tree") or exc from None
+    return derive(parse_lsys_text(text, path))
 
 
 def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any:
@@ -510,7 +614,11 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
     if path_or_file is None:
         return
     if hasattr(path_or_file, "write"):
-        path_or_file.write(text)          # type: ignore[union-attr]
+        with _writing(getattr(path_or_file, "name", None) or "the stream"):
+            path_or_file.write(text)          # type: ignore[union-attr]
+            flush = getattr(path_or_file, "flush", None)
+            if flush is not None:
+                flush()                       # (a full disk says so here, not at close)
         return
     from plantlod.formats.atomic import atomic_path, write_whole
 

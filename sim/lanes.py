@@ -91,6 +91,8 @@ def thread_count(threads: int | None = None) -> int:
                 threads = int(env)
             except ValueError:
                 raise InputError(f"{THREADS_ENV}={env!r} is not a whole number") from None
+            if threads < 1:
+                raise InputError(f"{THREADS_ENV}={env!r}: the thread count must be >= 1")
     limit = numba.config.NUMBA_NUM_THREADS
     if threads is None:
         return limit

@@ -3,7 +3,9 @@
 `plantlod.simplify` is both this package and the public function
 ``plantlod.simplify(system, level=1, **options)`` (plantlod.api.simplify): calling
 the package calls the function, so the name means one thing whichever way a
-user reaches it.
+user reaches it. Its options: method, calibrate, wind_range, dt, duration, every,
+max_evaluations, form, damping_ratio (`plantlod.simplify.pipeline.Options`;
+``inspect.signature(plantlod.simplify)`` and ``help(plantlod.api.simplify)`` show them).
 """
 
 import sys as _sys
@@ -17,6 +19,17 @@ class _CallablePackage(_types.ModuleType):
         from plantlod.api import simplify   # the API's function; a call, not a dependency
 
         return simplify(system, level, **options)
+
+    __call__.__qualname__ = "simplify"      # (Python's TypeError for a wrong call names it)
+
+    @property
+    def __signature__(self):
+        """The API function's signature, for `inspect.signature` and a notebook's help."""
+        import inspect
+
+        from plantlod.api import simplify
+
+        return inspect.signature(simplify)
 
 
 _sys.modules[__name__].__class__ = _CallablePackage

@@ -613,7 +613,11 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
     unknown = sorted(set(options) - known)
     if unknown:
         raise InputError(f"unknown option {unknown[0]!r}; expected some of {', '.join(sorted(known))}")
-    return simplify(system, Options(level=level, **options)).system
+    level_system_ = simplify(system, Options(level=level, **options)).system
+    # (named as the level it is: the original's file name made a warning about the level's
+    # branch 3 name a file that has no branch 3)
+    source = f"{system.source or system.name or 'tree'} (level {level})"
+    return replace(level_system_, source=source)
 
 
 def _read_back(system: LSystem) -> Tree:

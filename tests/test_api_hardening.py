@@ -83,12 +83,17 @@ def test_wind_speed_and_direction_as_the_cli_has(tmp_path):
     assert report["comparisons"][0]["tip_error"] == 0
 
 
-def test_compare_labels_a_level_by_its_name():
+def test_compare_labels_a_level_by_its_source():
+    """A level `simplify` made is named as the level of its file (it kept the original's file
+    name, so a warning about the level's branch 3 named a file without one; session 25)."""
     system = plantlod.read_lsystem(STALK)
     level = plantlod.simplify(system, level=1, duration=2)
+    assert level.source == f"{STALK} (level 1)"
     report = plantlod.compare(system, level, wind=(5.0, 0, 0), dt=0.01, duration=1)
     assert report["original"]["file"] == STALK
-    assert report["comparisons"][0]["simplified"]["file"] == "stalk8 level 1 (explicit form)"
+    assert report["comparisons"][0]["simplified"]["file"] == f"{STALK} (level 1)"
+    again = plantlod.compare(system, level, level, wind=(5.0, 0, 0), dt=0.01, duration=1)
+    assert again["comparisons"][1]["simplified"]["file"] == "stalk8 level 1 (explicit form)"
 
 
 def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):

@@ -1,0 +1,183 @@
+"""The library as a Python user first meets it (session 25, from a user's first hour with the
+API): winds written as lists and arrays, archives the commands write, files of the wrong
+kind, a Tree edited by hand, and the messages that answer mistakes. Each check compares
+against a second route (the tuple form of a wind, the CSV form of an archive, the CLI's
+message), not against a reprint of the output.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import io
+import os
+import resource
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import plantlod
+from golden_util import ROOT, run_cli
+from plantlod import InputError, RunFailure
+
+STALK = "examples/stalk8.lsys"
+
+
+@pytest.fixture(autouse=True)
+def _at_root(monkeypatch):
+    monkeypatch.chdir(ROOT)
+
+
+def test_one_wind_as_a_list_or_array_is_the_tuple_wind():
+    """`wind=[2.0, 0.0, 0.0]` was refused ("got 2.0"): a list of three numbers is one wind."""
+    want = plantlod.simulate(STALK, wind=(2.0, 0.0, 0.0), dt=0.01, steps=20)
+    for wind in ([2.0, 0.0, 0.0], np.array([2.0, 0.0, 0.0]), [2, 0, 0]):
+        got = plantlod.simulate(STALK, wind=wind, dt=0.01, steps=20)
+        assert got.bend.shape == want.bend.shape and np.array_equal(got.bend, want.bend)
+
+
+def test_several_winds_as_an_array_or_tuple_are_the_list_of_winds():
+    """An array (W, 3) or a tuple of vectors gave the one-wind error (in two lines)."""
+    want = plantlod.simulate(STALK, wind=[(2, 0, 0), (0, 5, 0)], dt=0.01, steps=20)
+    for wind in (np.array([[2, 0, 0], [0, 5, 0]]), ((2, 0, 0), (0, 5, 0))):
+        got = plantlod.simulate(STALK, wind=wind, dt=0.01, steps=20)
+        assert got.bend.shape == (2, 21, 8) and np.array_equal(got.bend, want.bend)
+
+
+@pytest.mark.parametrize("wind", [[1, 2], np.zeros((2, 2)), [(1, 2)], "x", [True, 0, 0]])
+def test_a_wind_that_is_none_of_those_is_one_line(wind):
+    with pytest.raises(InputError) as err:
+        plantlod.simulate(STALK, wind=wind, dt=0.01, steps=5)
+    assert "\n" not in str(err.value) and "a wind is (vx, vy, vz)" in str(err.value)
+
+
+def test_compare_takes_one_wind_and_says_so():
+    with pytest.raises(InputError, match="compare runs one wind; got a list of 2"):
+        plantlod.compare(STALK, STALK, wind=[(5, 0, 0), (0, 5, 0)], dt=0.01, duration=1)
+
+
+def test_archives_the_commands_write_are_read(tmp_path):
+    """read_tree and read_angles refused the .npz files `derive` and `simulate` write."""
+    run_cli("derive", STALK, "-o", str(tmp_path / "t.npz"))
+    run_cli("derive", STALK, "-o", str(tmp_path / "t.jsonl"))
+    for ext in ("npz", "csv"):
+        run_cli("simulate", STALK, "--dt", "0.01", "--steps", "10", "--wind-speed", "3", "-o",
+                str(tmp_path / f"a.{ext}"))
+    tree, text_tree = plantlod.read_tree(tmp_path / "t.npz"), plantlod.read_tree(tmp_path / "t.jsonl")
+    assert tree.address == text_tree.address and np.array_equal(tree.length, text_tree.length)
+    archive, csv = plantlod.read_angles(tmp_path / "a.npz"), plantlod.read_angles(tmp_path / "a.csv")
+    assert archive.bend.shape == (11, 8)
+    assert np.allclose(archive.bend, csv.bend, rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("call, given, read_as", [
+    (lambda p: plantlod.simulate(p["csv"], wind=(1, 0, 0), dt=0.01, steps=3),
+     "an angle CSV", "an L-system"),
+    (lambda p: plantlod.read_tree(STALK), "an L-system", "a tree file"),
+    (lambda p: plantlod.read_tree(p["csv"]), "an angle CSV", "a tree file"),
+    (lambda p: plantlod.read_angles(p["tree"]), "a tree file", "an angle CSV"),
+    (lambda p: plantlod.read_lsystem(p["csv"]), "an angle CSV", "an L-system"),
+])
+def test_a_file_of_another_kind_is_named_by_what_it_is(tmp_path, call, given, read_as):
+    paths = {"csv": str(tmp_path / "a.csv"), "tree": str(tmp_path / "t.jsonl")}
+    run_cli("simulate", STALK, "--dt", "0.01", "--steps", "5", "-o", paths["csv"])
+    run_cli("derive", STALK, "-o", paths["tree"])
+    with pytest.raises(InputError) as err:
+        call(paths)
+    assert f"{given}" in str(err.value) and f"not {read_as}" in str(err.value)
+
+
+def test_an_lsystem_from_a_stream_or_with_a_byte_order_mark():
+    text = open(STALK, encoding="utf-8").read()
+    want = plantlod.derive(plantlod.read_lsystem(STALK))
+    for given in (io.StringIO(text), "\ufeff" + text):
+        assert plantlod.derive(plantlod.read_lsystem(given)).address == want.address
+    with open(STALK, encoding="utf-8") as handle:
+        assert plantlod.read_lsystem(handle, name="mine").name == "stalk8"
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (dict(parent=np.array([1, 0, 1, 2, 3, 4, 5, 6])), "parent-before-child"),   # a cycle
+    (dict(length=np.ones(3)), "length must have shape (8,)"),
+    (dict(leaf_branch=np.array([42])), "leaf on a branch that does not exist"),
+    (dict(offset=np.full((8, 3), np.nan)), "must be finite"),
+    (dict(address=["0"] * 8), "addresses must be distinct"),
+])
+def test_a_tree_edited_by_hand_is_checked_before_use(tmp_path, edit, fragment):
+    """A parent cycle made write_tree loop forever; a short array leaked numpy's errors; NaN
+    offsets reached the glTF writer; duplicate addresses wrote a file read_tree refuses."""
+    tree = dataclasses.replace(plantlod.derive(STALK), **edit)
+    angles = plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=3)
+    for call in (lambda: plantlod.write_tree(tree),
+                 lambda: plantlod.simulate(tree, wind=(1, 0, 0), dt=0.01, steps=3),
+                 lambda: plantlod.export_animation(tree, angles, tmp_path / "x.glb")):
+        with pytest.raises(InputError, match="the Tree breaks its invariants") as err:
+            call()
+        assert fragment in str(err.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_messages_say_what_a_value_must_be():
+    with pytest.raises(InputError, match=r"must be a finite number, got nan$"):
+        plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=3, damping=float("nan"))
+    angles = plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=100)
+    with pytest.raises(InputError, match=r"keeps no frame; expected \(A, B\) with A < B"):
+        plantlod.export_animation(STALK, angles, "x.glb", frames=(10, 5))
+    other = plantlod.simulate("examples/abop_1_24a.lsys", wind=(1, 0, 0), dt=0.01, steps=3)
+    with pytest.raises(InputError, match="the angle set \\(an Angles\\) does not belong"):
+        plantlod.export_animation(STALK, other, "x.glb")
+
+
+def test_bounds_take_the_reports_own_names():
+    """A report's bounds are named max_motion_error, ...; compare(bounds=...) refused them."""
+    by_figure = plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, duration=1,
+                                 bounds={"motion_error": 0.01})
+    by_report = plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, duration=1,
+                                 bounds={"max_motion_error": 0.01})
+    assert by_report["bounds"] == by_figure["bounds"]
+    assert by_report["bounds"]["max_motion_error"] == 0.01
+
+
+def test_the_callable_packages_show_the_functions_signatures():
+    assert "wind" in inspect.signature(plantlod.compare).parameters
+    assert "level" in inspect.signature(plantlod.simplify).parameters
+    with pytest.raises(TypeError, match=r"^simplify\(\)"):
+        plantlod.simplify(STALK, 1, "explicit")
+
+
+def test_a_thread_count_of_zero_in_the_environment_is_named(monkeypatch):
+    monkeypatch.setenv("PLANTLOD_THREADS", "0")
+    with pytest.raises(InputError, match="PLANTLOD_THREADS='0'"):
+        plantlod.simulate(STALK, wind=[(1, 0, 0), (0, 1, 0)], dt=0.01, steps=3)
+
+
+def test_a_full_disk_under_an_open_stream_is_a_run_failure():
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full on this system")
+    angles = plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=300)
+    with open("/dev/full", "w", encoding="utf-8") as full:
+        with pytest.raises(RunFailure, match="cannot write /dev/full"):
+            plantlod.write_angles(angles, full)
+
+
+@pytest.mark.parametrize("ext", ["usda", "usdc"])
+def test_a_usd_file_too_large_to_write_is_one_line_and_leaves_nothing(tmp_path, ext):
+    """OpenUSD's own exception (about 15 lines) was an internal error in `export`."""
+    csv = tmp_path / "a.csv"
+    run_cli("simulate", STALK, "--dt", "0.01", "--duration", "60", "--wind-speed", "5", "-o",
+            str(csv))
+    out = tmp_path / "out" / f"x.{ext}"
+    out.parent.mkdir()
+
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20 * 1024, 20 * 1024))
+
+    done = subprocess.run([os.path.join(os.path.dirname(sys.executable), "plantlod"), "export",
+                           STALK, str(csv), "-o", str(out)], cwd=ROOT, capture_output=True,
+                          text=True, preexec_fn=small_files, timeout=300)
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert f"cannot write {out}: OpenUSD could not save it" in done.stderr
+    assert list(out.parent.iterdir()) == []
