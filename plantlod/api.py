@@ -329,6 +329,10 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     if not simplified:
         raise InputError("compare needs at least one simplified tree")
     n = _step_count(dt, steps, duration)
+    if n < 1:                               # (it said "window [-, -] s holds 1 sample(s)")
+        raise InputError(f"compare needs a run of at least one step (two samples); "
+                         f"{'steps 0' if steps is not None else f'duration {duration:g} s'} "
+                         f"gives none")
     given, many = _winds(_wind_option(wind, wind_speed, wind_direction))
     if many:
         raise InputError(f"compare runs one wind; got a list of {len(given)} (compare each wind "

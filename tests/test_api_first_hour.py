@@ -181,3 +181,9 @@ def test_a_usd_file_too_large_to_write_is_one_line_and_leaves_nothing(tmp_path, 
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
     assert f"cannot write {out}: OpenUSD could not save it" in done.stderr
     assert list(out.parent.iterdir()) == []
+
+
+def test_a_comparison_of_no_step_says_so():
+    """`duration=0` said "window [-, -] s holds 1 sample(s)", though no window was given."""
+    with pytest.raises(InputError, match=r"needs a run of at least one step .*duration 0 s"):
+        plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, duration=0)
