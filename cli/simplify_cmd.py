@@ -147,7 +147,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     from plantlod.simplify.chain_workers import chain_levels
     from plantlod.simplify.grouping import merge_levels
     from plantlod.simplify.levels import check_moves
-    from plantlod.simplify.pipeline import Options, chain_share, explicit_levels_said
+    from plantlod.simplify.pipeline import Options, chain_share, explicit_levels_said, roots
 
     from plantlod.lsys.errors import InputError
 
@@ -166,7 +166,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     groupings = merge_levels(original)
     last = len(groupings) - 1
     if last == 0:
-        raise InputError(explicit_levels_said(0, sum(1 for p in original.parent if p < 0)),
+        raise InputError(explicit_levels_said(0, roots(original)),
                          display_name(input_path))
     names = [f"level{k}.lsys" for k in range(1, last + 1)]
     if mode is not None:                     # an existing DIR: merged into

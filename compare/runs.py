@@ -89,10 +89,11 @@ class Comparison:
 # --- checking inputs -----------------------------------------------------------------
 
 def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot: np.ndarray,
-                         source: str) -> tuple[np.ndarray, np.ndarray]:
+                         source: str | None) -> tuple[np.ndarray, np.ndarray]:
     """Angle columns (K, B) of a CSV rearranged into ``tree``'s branch order.
 
     addresses : the CSV's branch addresses, one per column of bend and rot
+    source    : the file they were read from, None for an API caller's `Angles`
     Raises InputError when the CSV's addresses are not exactly the tree's.
     """
     column = {a: j for j, a in enumerate(addresses)}
@@ -104,12 +105,11 @@ def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot
             parts.append(f"no columns for branch(es) {_examples(missing)}")
         if extra:
             parts.append(f"columns for branch(es) {_examples(extra)} that the tree does not have")
-        kind = ("archive" if str(source).lower().endswith(".npz") else
-                "set (an Angles)" if source == "angles" else "CSV")
+        kind = ("set (an Angles)" if source is None else
+                "archive" if str(source).lower().endswith(".npz") else "CSV")
         raise InputError(f"the angle {kind} does not belong to the tree {tree.source or '?'}: "
                          f"{'; '.join(parts)}; expected the {kind} that `plantlod simulate` "
-                         f"wrote for this tree ({tree.n_branches} branches)",
-                         None if source == "angles" else source)
+                         f"wrote for this tree ({tree.n_branches} branches)", source)
     order = np.asarray([column[a] for a in tree.address], dtype=np.int64)
     return np.asarray(bend)[:, order], np.asarray(rot)[:, order]
 

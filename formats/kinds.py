@@ -23,7 +23,7 @@ import re
 from plantlod.lsys.errors import InputError
 
 _SCENE_HEADER = re.compile(r"(?m)^[ \t]*\[\[?[ \t]*(camera|camera\.key|tree|scatter|wind)[ \t]*\]\]?"
-                           r"[ \t]*(#.*)?$")
+                           r"[ \t]*(#.*)?\r?$")
 _GLTF_KEY = re.compile(r'"(asset|accessors|bufferViews|buffers|meshes|nodes|scenes)"\s*:\s*[\[{]')
 _LSYS_KEY = re.compile(r"(?m)^[ \t]*(derivation_length|axiom|productions)[ \t]*:")
 SNIFF_CHARS = 65536       # only the start of a text is looked at

@@ -44,7 +44,9 @@ def build(system: LSystem, steps: int | None = None,
         tree = _with_group_roots(system, tree)
     if tree.n_branches == 0:
         warnings.append(no_branches_message(system))
-    elif system.leaves and tree.n_leaves == 0 and not warnings:
+    elif system.leaves and tree.n_leaves == 0 and not warnings and not system.groups:
+        # (an explicit level, whose groups: section names it, declares its leaf symbol
+        # whether or not its original has leaves)
         names = ", ".join(leaf.name for leaf in system.leaves)
         warnings.append(f"the tree has no leaves: no leaf symbol ({names}) is in the derived "
                         "string, so only drag moves its branches (a misspelled symbol?)")

@@ -346,14 +346,19 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     if bounds is not None and not isinstance(bounds, dict):
         raise InputError(f"bounds must map figure names to limits, got {type(bounds).__name__}")
     # (a report's own bound keys, "max_motion_error", name the same figures)
-    given = {(name[4:] if isinstance(name, str) and name.startswith("max_")
-              and name[4:] in BOUND_OPTIONS else name): limit
-             for name, limit in (bounds or {}).items()}
-    unknown = [name for name in given if name not in BOUND_OPTIONS]
+    limits: dict = {}
+    for name, limit in (bounds or {}).items():
+        figure = (name[4:] if isinstance(name, str) and name.startswith("max_")
+                  and name[4:] in BOUND_OPTIONS else name)
+        if figure in limits:
+            raise InputError(f"bounds name {figure!r} twice (as {figure!r} and 'max_{figure}'); "
+                             "expected one")
+        limits[figure] = limit
+    unknown = [name for name in limits if name not in BOUND_OPTIONS]
     if unknown:
         raise InputError(f"unknown bound {unknown[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}"
                          " (or the report's max_… names of them)")
-    bounds = {name: given.get(name) for name in BOUND_OPTIONS}
+    bounds = {name: limits.get(name) for name in BOUND_OPTIONS}
     bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
               for name, b in bounds.items()}
     items = (original,) + simplified
@@ -391,7 +396,7 @@ def export_animation(tree: Tree | LSystem, angles: Angles, path: str | os.PathLi
         if frames[0] >= frames[1]:
             raise InputError(f"frames {frames} keeps no frame; expected (A, B) with A < B "
                              "(frames A to B-1)")
-    bend, rot = angles_in_tree_order(tree, addresses, bend, rot, "angles")
+    bend, rot = angles_in_tree_order(tree, addresses, bend, rot, None)   # (an Angles: no file)
     with _writing(path):
         write(path, tree, time, bend, rot, fps, frames)
 

@@ -206,7 +206,7 @@ def _shown(value) -> str:
 
 # a table header on a line of its own: [wind], [[tree]], [[camera.key]], [ "scatter" ] (an
 # element of an array over several lines, [1, 2], has a comma or a digit-only name)
-_HEADER = re.compile(r"""(?m)^[ \t]*\[\[?[ \t]*([A-Za-z0-9_\-"'. \t]*[A-Za-z_\-"'][A-Za-z0-9_\-"'. \t]*?)[ \t]*\]\]?[ \t]*(?:#.*)?$""")
+_HEADER = re.compile(r"""(?m)^[ \t]*\[\[?[ \t]*([A-Za-z0-9_\-"'. \t]*[A-Za-z_\-"'][A-Za-z0-9_\-"'. \t]*?)[ \t]*\]\]?[ \t]*(?:#.*)?\r?$""")
 
 
 def _table_spans(text: str) -> list[tuple[str, int, int]]:
@@ -320,7 +320,7 @@ class _Reader:
         without one), at its header; before any header, or in a table written inline, at the
         key's first line anywhere."""
         line = _line_of(self.text, key, value, self.span) if key and self.span else None
-        header = self.span is not None and self.span[0] > 0
+        header = self.span is not None and self.name != ""   # (a table's, even at offset 0)
         if line is None and header:              # a sub-table of that name: [wind.extra]
             line = next((self.text.count("\n", 0, start) + 1 for n, start, _ in self.tables
                          if n == f"{self.name}.{key}"), None)

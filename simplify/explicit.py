@@ -396,8 +396,10 @@ def level_radii(original: Tree, grouping: "Grouping") -> np.ndarray:
     cannot (a drag coefficient of inf)."""
     radius = np.asarray(original.radius, dtype=np.float64)
     out = radius[grouping.root].copy()
-    for g in np.flatnonzero(out == 0):
-        out[g] = radius[np.asarray(grouping.group) == g].max()
+    if np.any(out == 0):
+        largest = np.zeros(len(out))
+        np.maximum.at(largest, np.asarray(grouping.group), radius)     # each group's largest
+        out = np.where(out == 0, largest, out)
     return out
 
 

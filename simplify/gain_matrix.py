@@ -99,4 +99,4 @@ def gain_unit(force_absorbed: np.ndarray) -> float:
     largest = float(finite.max()) if finite.size else 0.0
     if not largest > 0.0:
         return 1.0
-    return math.ldexp(1.0, math.frexp(largest)[1])
+    return math.ldexp(1.0, math.frexp(largest)[1] - 1)    # (in [largest / 2, largest]: no overflow)

@@ -55,7 +55,8 @@ FORMS = ("auto", "grammar", "explicit")
 class Options:
     """What `simplify` does.
 
-    level        : n, 1 <= n < N
+    level        : n >= 1: below the derivation length N in the grammar form (N - n steps),
+                   up to the explicit form's last level there (one branch per root)
     method       : "derived" (closed form) or "thesis"
     calibrate    : refine against simulated series (derived method only)
     wind_range   : (low, high) m/s of the measurement and calibration winds
@@ -368,9 +369,9 @@ def explicit_levels_said(last: int, roots: int) -> str:
     return f"this tree has {last} levels in the explicit form (1 to {last}, the last {end})"
 
 
-def roots(system: LSystem) -> int:
-    """The root branches of ``system``'s tree (parent -1)."""
-    return int(np.count_nonzero(np.asarray(build(system).tree.parent) < 0))
+def roots(tree: Tree) -> int:
+    """The root branches of ``tree`` (parent -1)."""
+    return int(np.count_nonzero(np.asarray(tree.parent) < 0))
 
 
 def chain_share(system: LSystem, options: Options, last_checked=None,
@@ -423,7 +424,7 @@ def simplify_explicit(system: LSystem, options: Options,
     def level_exists(last: int) -> None:
         if grouping is None and not 1 <= options.level <= last:
             raise InputError(f"level {options.level} is past the last: "
-                             f"{explicit_levels_said(last, roots(system))}", source)
+                             f"{explicit_levels_said(last, roots(build(system).tree))}", source)
 
     if shared is None and chain is not None:
         shared = chain.share
@@ -451,7 +452,7 @@ def simplify_explicit(system: LSystem, options: Options,
     reports = list(zip(options.winds(), runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
-    notes = _angle_notes(runs.winds, largest) + _period_notes(original, summary, options)
+    notes = _angle_notes(runs.winds, largest) + _period_notes(original, reports, options)
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
     # the level's text is canonical (what write_lsys writes of it; tests/test_simplify_explicit.py)
@@ -503,21 +504,31 @@ def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
             f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
 
 
-def _period_notes(original: Tree, summary: Summary, options: Options) -> list[str]:
-    """A warning where no wind gave a period (model.md 6: the mean spacing of two or more
-    upward crossings): runs shorter than two swings of the tree's slowest branch, whose
-    period P = 2π dt / arccos(1 - k dt / 2000) is longest where k is smallest (model.md 4),
-    so the levels were fitted and measured without their periods."""
-    if not math.isnan(summary.period) or original.n_branches == 0:
+def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],
+                  options: Options) -> list[str]:
+    """A warning where the original itself shows no period in any wind (model.md 6: the mean
+    spacing of two or more upward crossings), so the level's periods were neither fitted nor
+    checked: runs shorter than two swings of the tree's slowest branch, whose period
+    P = 2π dt / arccos(1 - k dt / 2000) is longest where k is smallest (model.md 4), slowed
+    by a damping ratio ζ to P / sqrt(1 - ζ²), or no swing at all at ζ >= 1 (overdamped).
+    Where only the level lacks a period, the figures say so ("period undefined")."""
+    if original.n_branches == 0 or any(
+            np.isfinite(np.asarray(r.table.period_original)).any() for _, r in reports):
         return []
+    zeta = options.damping_ratio
+    if zeta >= 1.0:
+        return [f"warning: no period was measured in any wind: at damping ratio {zeta:g} the "
+                "tree is overdamped and swings back without oscillating, so the level's "
+                "periods are not checked"]
     from .explicit import period_of_strength
 
     weakest = min(float(np.min(original.bend_strength)), float(np.min(original.rotation_strength)))
-    slowest = float(period_of_strength(weakest, options.dt))
+    slowest = float(period_of_strength(weakest, options.dt)) / math.sqrt(1.0 - zeta * zeta)
+    longer = max(math.ceil(3 * slowest), math.floor(options.duration) + 1)
     return [f"warning: no period was measured in any wind: the runs of {options.duration:g} s "
             f"hold fewer than two swings of the tree's slowest branch ({slowest:.3g} s at dt = "
-            f"{options.dt:g} s), so the level's periods are not checked; give --duration "
-            f"{math.ceil(3 * slowest):g} or more"]
+            f"{options.dt:g} s{f', damping ratio {zeta:g}' if zeta else ''}), so the level's "
+            f"periods are not checked; give a duration of {longer:g} s or more"]
 
 
 @finite_fit
@@ -592,7 +603,7 @@ def simplify_grammar(system: LSystem, options: Options,
     reports = list(zip(winds, runs.compare(tree)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
-    notes += _angle_notes(runs.winds, largest) + _period_notes(original, summary, options)
+    notes += _angle_notes(runs.winds, largest) + _period_notes(original, reports, options)
     header = header_comment(system, options, reports, summary, form="grammar",
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)

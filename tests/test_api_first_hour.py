@@ -11,7 +11,6 @@ import dataclasses
 import inspect
 import io
 import os
-import resource
 import subprocess
 import sys
 
@@ -119,15 +118,23 @@ def test_a_tree_edited_by_hand_is_checked_before_use(tmp_path, edit, fragment):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_messages_say_what_a_value_must_be():
+def test_messages_say_what_a_value_must_be(tmp_path):
     with pytest.raises(InputError, match=r"must be a finite number, got nan$"):
         plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=3, damping=float("nan"))
     angles = plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=100)
     with pytest.raises(InputError, match=r"keeps no frame; expected \(A, B\) with A < B"):
-        plantlod.export_animation(STALK, angles, "x.glb", frames=(10, 5))
+        plantlod.export_animation(STALK, angles, tmp_path / "x.glb", frames=(10, 5))
     other = plantlod.simulate("examples/abop_1_24a.lsys", wind=(1, 0, 0), dt=0.01, steps=3)
-    with pytest.raises(InputError, match="the angle set \\(an Angles\\) does not belong"):
-        plantlod.export_animation(STALK, other, "x.glb")
+    with pytest.raises(InputError, match="the angle set \\(an Angles\\) does not belong") as err:
+        plantlod.export_animation(STALK, other, tmp_path / "x.glb")
+    assert err.value.file is None
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bound_named_twice_is_refused():
+    with pytest.raises(InputError, match="bounds name 'motion_error' twice"):
+        plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, duration=1,
+                         bounds={"motion_error": 0.01, "max_motion_error": 0.02})
 
 
 def test_bounds_take_the_reports_own_names():
@@ -171,12 +178,12 @@ def test_a_usd_file_too_large_to_write_is_one_line_and_leaves_nothing(tmp_path, 
     out = tmp_path / "out" / f"x.{ext}"
     out.parent.mkdir()
 
-    def small_files():
-        resource.setrlimit(resource.RLIMIT_FSIZE, (20 * 1024, 20 * 1024))
-
-    done = subprocess.run([os.path.join(os.path.dirname(sys.executable), "plantlod"), "export",
-                           STALK, str(csv), "-o", str(out)], cwd=ROOT, capture_output=True,
-                          text=True, preexec_fn=small_files, timeout=300)
+    # files of at most 20 KiB (bash's ulimit -f counts 1024-byte blocks), set by the shell
+    # that execs the command (not a preexec_fn in this process, whose threads make that unsafe)
+    plantlod_cmd = os.path.join(os.path.dirname(sys.executable), "plantlod")
+    done = subprocess.run(["bash", "-c", 'ulimit -f 20 && exec "$@"', "bash", plantlod_cmd,
+                           "export", STALK, str(csv), "-o", str(out)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
     assert done.returncode == 1, done.stderr
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
     assert f"cannot write {out}: OpenUSD could not save it" in done.stderr

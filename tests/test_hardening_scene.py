@@ -632,3 +632,22 @@ def test_a_bad_element_of_an_array_is_named_at_its_line_and_column(tmp_path, arr
     column = offset - (text.rfind("\n", 0, offset) + 1) + 1
     got = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
     assert got.startswith(f"{path}:{line}:{column}: error:"), (got, line, column)
+
+
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_tables_are_found_at_the_file_start_and_with_crlf(tmp_path, newline):
+    """A file opening with its first table header took that table for "no header" (a missing
+    key named no line), and CRLF line ends hid every header (the old whole-file search named
+    a [scatter]'s seed for a [[tree]]'s); review of session 25."""
+    lines = ["[[tree]]", f'file = "{STALK}"', "[[tree]]", "position = [1, 0, 0]",
+             "[camera]", "position = [0, -40, 1.7]", "target = [0, 0, 1.7]"]
+    path = tmp_path / "s.toml"
+    path.write_bytes(newline.join(lines).encode() + newline.encode())
+    one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+             f"{path}:3:1: error: missing 'file'")
+    lines = ["[scatter]", f'files = ["{STALK}"]', "count = 2", "seed = -1", "area = [0, 0, 9, 9]",
+             "[[tree]]", f'file = "{STALK}"', "seed = -1",
+             "[camera]", "position = [0, -40, 1.7]", "target = [0, 0, 1.7]"]
+    path.write_bytes(newline.join(lines).encode() + newline.encode())
+    one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+             f"{path}:8:1: error: 'seed' must be a whole number >= 0")

@@ -242,7 +242,15 @@ def test_runs_too_short_for_a_period_are_warned_of(tmp_path):
                      str(tmp_path / "a.lsys"))
     assert (f"no period was measured in any wind: the runs of 3 s hold fewer than two swings "
             f"of the tree's slowest branch ({period:.3g} s at dt = 0.01 s)") in result.stderr
-    assert f"give --duration {math.ceil(3 * period)} or more" in result.stderr
+    assert f"give a duration of {math.ceil(3 * period)} s or more" in result.stderr
+    # a damping ratio slows the swing to P / sqrt(1 - ζ²); at ζ >= 1 there is none to measure
+    damped = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "3",
+                     "--damping-ratio", "0.6", "--form", "grammar", "-o", str(tmp_path / "c.lsys"))
+    assert f"({period / 0.8:.3g} s at dt = 0.01 s, damping ratio 0.6)" in damped.stderr
+    over = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "20",
+                   "--damping-ratio", "2", "--form", "grammar", "-o", str(tmp_path / "d.lsys"))
+    assert "at damping ratio 2 the tree is overdamped" in over.stderr
+    assert "give a duration" not in over.stderr
     quiet = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "14", "-o",
                     str(tmp_path / "b.lsys"))
     assert "no period was measured" not in quiet.stderr

@@ -159,3 +159,17 @@ def test_export_of_some_frames_says_which(files, tmp_path):
     doc = pygltflib.GLTF2.load(str(out))
     times = doc.accessors[doc.animations[0].samplers[0].input]
     assert times.count == 10 and abs(times.max[0] - 9 / 30) < 1e-6
+
+
+def test_an_explicit_level_of_a_leafless_tree_is_not_warned_of(tmp_path):
+    """Explicit levels declare their leaf symbol whether or not the original has leaves: the
+    no-leaf warning (meant for a misspelled symbol) fired on every use of such a level."""
+    bare = tmp_path / "bare.lsys"
+    bare.write_text(open(STALK, encoding="utf-8").read().replace("axiom: F L", "axiom: F"))
+    level = tmp_path / "bare-l1.lsys"
+    run_cli("simplify", str(bare), "--level", "1", "--form", "explicit", "--duration", "5",
+            "-o", str(level))
+    assert "leaf L" in level.read_text()
+    result = run_cli("derive", str(level), "-o", "/dev/null")
+    assert "0 leaves" in result.stderr and "no leaf symbol" not in result.stderr
+    assert "no leaf symbol (L)" in run_cli("derive", str(bare), "-o", "/dev/null").stderr
