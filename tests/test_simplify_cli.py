@@ -180,15 +180,20 @@ def test_a_chain_whose_fit_meets_numbers_that_are_not_finite_is_a_run_failure(tm
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
 
 
+def _edited_stalk8(tmp_path, old: str, new: str):
+    """examples/stalk8.lsys with ``old`` replaced by ``new``, written to tmp_path/t.lsys."""
+    lsys = tmp_path / "t.lsys"
+    lsys.write_text((ROOT / "examples" / "stalk8.lsys").read_text().replace(old, new))
+    assert new in lsys.read_text()
+    return lsys
+
+
 def test_a_tree_of_tiny_force_absorbed_has_an_explicit_level(tmp_path):
     """force_absorbed=1e-300 (legal; the grammar form simplified it) overflowed the gain
     matrices' normal equations, and the explicit level, all NaN, was refused as "unstable in
     simplify's winds; lower force_absorbed" (session 25). The gains are now solved for in a
     power-of-two unit near k_FA."""
-    lsys = tmp_path / "t.lsys"
-    lsys.write_text((ROOT / "examples" / "stalk8.lsys").read_text()
-                    .replace("force_absorbed: 0.005 ", "force_absorbed: 1e-300"))
-    assert "force_absorbed: 1e-300" in lsys.read_text()
+    lsys = _edited_stalk8(tmp_path, "force_absorbed: 0.005 ", "force_absorbed: 1e-300")
     run_cli("simplify", str(lsys), "--level", "1", "--form", "explicit", "--duration", "2",
             "-o", str(tmp_path / "o.lsys"))
     assert "g_bx=" in (tmp_path / "o.lsys").read_text()
@@ -200,10 +205,7 @@ def test_branches_of_no_surface_are_simplified_with_finite_numbers(tmp_path):
     ("unstable in simplify's winds ... lower force_absorbed, the wind or dt", advice that
     cannot help). A branch of no surface carries no drag (session 25,
     `sequential_fit.sequential_solution`): the levels are written, with finite numbers."""
-    lsys = tmp_path / "t.lsys"
-    lsys.write_text((ROOT / "examples" / "stalk8.lsys").read_text()
-                    .replace("branch F: length=1 ", "branch F: length=1e-300 "))
-    assert "length=1e-300" in lsys.read_text()
+    lsys = _edited_stalk8(tmp_path, "branch F: length=1 ", "branch F: length=1e-300 ")
     run_cli("simplify", str(lsys), "--level", "1", "--form", "explicit", "--duration", "2",
             "-o", str(tmp_path / "o.lsys"))
     run_cli("simplify", str(lsys), "--levels", str(tmp_path / "lv"), "--duration", "2")
