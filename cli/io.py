@@ -135,7 +135,8 @@ def check_output_path(path: str | None) -> None:
     if path is None or path == "-":
         return
     if not path:
-        raise InputError("the output file name is empty; expected -o FILE or -o - for stdout")
+        raise InputError("the output file name is empty; expected a file name, or - for standard "
+                         "output")
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
     special_target(path)
@@ -175,6 +176,10 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
     -o x.lsys` replaced its own L-system). ``outputs`` and
     ``inputs`` map an option's name to its path (None or ``-``: none); a device or a pipe
     (``/dev/null``) may take several outputs."""
+    to_stdout = [option for option, path in outputs.items() if path == "-"]
+    if len(to_stdout) > 1:                  # (a PNG and a JSON report mixed in one stream)
+        raise click.UsageError(f"{to_stdout[0]} and {to_stdout[1]} both write to standard output "
+                               "(-); give one of them a file")
     seen: dict[str, str] = {}
     for option, path in outputs.items():
         if path is None or path == "-":

@@ -8,7 +8,7 @@ import sys
 import click
 
 from .io import (check_output_kind, check_output_path, distinct_paths, is_terminal, open_output,
-                 output_folder, say)
+                 output_folder, say, warn, warn_once_running)
 
 
 @click.command()
@@ -75,6 +75,10 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     if angles_path is not None:
         import os
 
+        if angles_path in ("", "-"):
+            raise click.UsageError(f"--angles writes a Zarr store, a folder: "
+                                   f"{'standard output' if angles_path else 'an empty name'} "
+                                   "cannot hold one; expected the name of a new folder")
         if os.path.lexists(angles_path):
             raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
         check_output_path(angles_path)
@@ -90,6 +94,9 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
 
         raise InputError("not a folder; expected a folder for the cached level chains (--cache "
                          "DIR, $PLANTLOD_CACHE) or --no-cache", str(cache))
+    if spec.wind.speed == 0:                 # (a missing [wind] is no wind: a still forest)
+        warn_once_running("the wind is zero, so the trees stay at rest; give [wind] speed = S "
+                          "(m/s) in the scene")
     show = is_terminal(sys.stderr)
     bar = _ProgressBar() if show else None
 
@@ -116,6 +123,10 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
         + f", {report['wall_s']:.1f} s")
+    if verify and report["max_error_px"] is not None and report["max_error_px"] > spec.budget_px:
+        warn(f"the verified max error {report['max_error_px']:.3f} px is above the budget of "
+             f"{spec.budget_px:g} px: a level's tip error was measured in steady winds, and this "
+             "scene's switching or gusts cost more (docs/scene.md, \"Limits\")")
 
 
 def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float) -> None:

@@ -230,6 +230,14 @@ def _line_of(text: str, key: str, value=_ANY, span: tuple[int, int] | None = Non
     return None if found is None else text.count("\n", 0, found.start()) + 1
 
 
+def _loose_line(text: str, key: str, span: tuple[int, int] | None) -> int | None:
+    """The line of the first ``key =`` anywhere on a line (an inline table's, a dotted key's
+    last part, a quoted key), within ``span`` where given; None where there is none."""
+    pattern = re.compile(rf"""(?<![\w-])["']?{re.escape(key)}["']?[ \t]*=""")
+    found = pattern.search(text, *span) if span is not None else pattern.search(text)
+    return None if found is None else text.count("\n", 0, found.start()) + 1
+
+
 def _key_match(text: str, key: str, value=_ANY, span: tuple[int, int] | None = None):
     """The match of ``key = …`` that `_line_of` names (group 1: the text after ``=`` on its
     line), None where there is none."""
@@ -326,6 +334,8 @@ class _Reader:
                          if n == f"{self.name}.{key}"), None)
         if line is None and key and not header:
             line = _line_of(self.text, key, value)
+        if line is None and key:                 # inline, dotted or quoted: `wind = {speed = -5}`,
+            line = _loose_line(self.text, key, self.span if header else None)   # `"scale" = -2`
         if line is None and header:
             line = self.text.count("\n", 0, self.span[0]) + 1
         return InputError(message, self.source, line, 1 if line else None)
@@ -409,6 +419,9 @@ class _Reader:
             raise error(f"tree file {name[:80]!r}{'…' if len(name) > 80 else ''}: "
                         f"{getattr(exc, 'strerror', None) or exc}") from None
         if not found:
+            if path.is_dir():
+                raise error(f"tree file {name!r} is a folder (in {folder}); expected an .lsys "
+                            "file")
             raise error(f"tree file {name!r} not found (looked in {folder})")
         return path
 
@@ -463,6 +476,9 @@ def read_scene(path: str) -> Scene:
                     r.number(wind_t, "gust_strength", 0.0, low=0),
                     int(r.number(wind_t, "gust_seed", 0, low=0, integer=True)),
                     r.number(wind_t, "front_speed", 0.0, low=0))
+        if "gust_seed" in wind_t and wind.gust_strength == 0:     # (as simulate refuses it)
+            raise r.error("'gust_seed' applies to gusts; give gust_strength > 0 too (or drop "
+                          "gust_seed)", "gust_seed")
         peak = wind.speed * gust_peak_factor(wind.gust_strength)
         if peak > MAX_WIND_SPEED:      # the levels are fitted at the strongest gust (scene.run)
             raise r.error(f"'gust_strength' {wind.gust_strength:g} lets a {wind.speed:g} m/s wind "

@@ -279,7 +279,9 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     if store_path is not None:
         from .store import open_store
 
-        store = open_store(store_path, levels, files, rows, every * scene.dt)
+        # (one level column per stored row: a last frame shorter than ``every`` steps has
+        # a level but no row, and `levels` had that column more than the report's frames)
+        store = open_store(store_path, levels[:, :rows], files, rows, every * scene.dt)
     started = time.perf_counter()
     spent = switches = 0
     verify_s = 0.0                                    # not part of the simulation's speed

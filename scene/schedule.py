@@ -3,23 +3,25 @@
 At frame f (time f / frame_rate) a tree at distance d from the camera shows level l's tip
 error e_l (metres, times the tree's scale) as p_l = e_l H / (2 d tan(fov / 2)) pixels.
 
-A level's error does not stay behind when the tree switches: the state carried into a
-finer level is off by up to the coarser level's error, and the model is undamped, so that
-difference swings on for the rest of the run (forest_walk: a tree jumping from a single
-branch to level 1 and then to full detail as the camera passed it was 58.8 px off). The
-camera's path is known in advance (keyed), so each frame is judged by the **nearest the
-tree will come from then on**, where it is in view:
+What scenes run is `two_way_schedule`: at each frame a tree is judged at its current
+distance; it starts at the coarsest level with p_l <= budget, goes finer as soon as its
+level passes the budget, and coarser only to a level with p_l <= HYSTERESIS x budget (so
+it does not flicker between two levels). Going finer is affordable because the finer
+level's state is predicted from the tree's wind history (`switch.Transfer.predicted`), so
+the coarser level's error is not carried into it; going coarser carries the state.
+
+`coarsest_levels` (the coarsest level within the budget at each frame, switching free) is
+the report's ``speedup_bound``. `level_schedule` is the earlier one-way rule, kept for its
+tests: the camera's path is known in advance (keyed), so each frame is judged by the
+**nearest the tree will come from then on**, where it is in view,
 
     p_l(f) = e_l · max over f' >= f of pixels_per_metre(d(f')), taken where the tree is ahead
 
-(0 for a tree that stays behind the camera, infinite for one the camera will stand on).
-That bound only falls with time, so trees only switch coarser, and what they carry is
-within the budget wherever they are seen later.
-
-- The first frame takes the coarsest level with p_l <= budget.
-- Afterwards a tree moves coarser only to a level with p_l <= HYSTERESIS x budget, so a
-  tree does not flicker between two levels. It never needs to go finer: p_l only falls,
-  so a level within the budget stays within it.
+(0 for a tree that stays behind the camera, infinite for one the camera will stand on);
+that bound only falls with time, so trees only switch coarser. Carrying a coarser level's
+error into finer levels made it necessary (forest_walk: a tree jumping from a single
+branch to level 1 and then to full detail as the camera passed it was 58.8 px off); the
+prediction made it unnecessary, and it cost a moving camera half its speed-up.
 """
 
 from __future__ import annotations

@@ -651,3 +651,46 @@ def test_tables_are_found_at_the_file_start_and_with_crlf(tmp_path, newline):
     path.write_bytes(newline.join(lines).encode() + newline.encode())
     one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
              f"{path}:8:1: error: 'seed' must be a whole number >= 0")
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--plot", "-"], "--report and --plot both write to standard output"),
+    (["--report", "r.json", "--angles", "-"], "--angles writes a Zarr store, a folder: standard output"),
+    (["--angles", ""], "--angles writes a Zarr store, a folder: an empty name"),
+])
+def test_outputs_that_cannot_share_standard_output_are_refused(tmp_path, options, message,
+                                                                monkeypatch):
+    """`--plot -` wrote the PNG and the JSON report into one stream, exit 0; `--angles -` made
+    a folder named '-' (session 25, a scene user's first hour)."""
+    monkeypatch.chdir(tmp_path)
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, "--no-cache", *options, exit_code=None), 2, message)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+@pytest.mark.parametrize("body, marker, message", [
+    ('wind = { speed = -5, direction = 0 }\n', "wind = {", "'speed' must be >= 0"),
+    ('wind.speed = -5\n', "wind.speed", "'speed' must be >= 0"),
+    (f'[[tree]]\nfile = "{STALK}"\n"scale" = -2\n', '"scale"', "'scale' must be > 0"),
+    ('[wind]\nspeed = 3\ngust_seed = 4\n', "gust_seed", "'gust_seed' applies to gusts"),
+])
+def test_inline_dotted_and_quoted_keys_are_located(tmp_path, body, marker, message):
+    """Errors in an inline or dotted [wind], or a quoted key, named no line, or the table's
+    header (session 25); a gust seed without gusts ran (simulate refuses it)."""
+    head = "dt = 0.01\nduration = 1\n"
+    tail = '[camera]\nposition = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n'
+    if "[[tree]]" not in body:
+        tail += f'[[tree]]\nfile = "{STALK}"\n'
+    text = head + (body + tail if not body.startswith("[[tree]]") else tail + body)
+    line = next(k + 1 for k, t in enumerate(text.splitlines()) if t.startswith(marker))
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+             f"{path}:{line}:1: error: {message}")
+
+
+def test_a_tree_file_that_is_a_folder_says_so(tmp_path):
+    (tmp_path / "eval").mkdir()
+    path = scene_file(tmp_path, '[[tree]]\nfile = "eval"\n')
+    one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+             "tree file 'eval' is a folder")

@@ -334,7 +334,7 @@ def test_angles_store_holds_every_tree_at_its_level(tmp_path, chains):
                                 str(store)).stdout)
     group = zarr.open_group(str(store), mode="r")
     levels = group["levels"][:]
-    assert levels.shape[0] == report["trees"] and "_levels" not in report
+    assert levels.shape == (report["trees"], report["frames"]) and "_levels" not in report
     seen = []
     scene = read_scene(path)
     winds = tree_winds(scene, scene.steps)
@@ -566,3 +566,27 @@ def test_a_worker_reads_each_chain_once(tmp_path, chains):
         np.testing.assert_array_equal(a, b)
     other = chain_from_texts(TWIN, chain.texts[:-1], chain.tip_error_m[:-1])
     assert other is not first and len(other.trees) == len(first.trees) - 1
+
+
+@pytest.mark.parametrize("budget", ["0.2", "0.5"])
+def test_a_verified_error_above_the_budget_is_warned_of(tmp_path, chains, budget):
+    """`--verify` printed a max error above the budget (0.231 px at 0.2 px) without a word
+    (session 25, a scene user's first hour). The warning is there exactly when the report's
+    figure is above the budget."""
+    path = _keyed_scene(tmp_path, [(0.0, -150.0), (3.0, -22.0)], duration=3.0,
+                        budget_px=float(budget)).source
+    assert path.endswith("keyed.toml")
+    result = run_cli("scene", path, "--cache", str(chains), "--verify")
+    report = json.loads(result.stdout)
+    above = report["max_error_px"] > report["budget_px"]
+    assert ("is above the budget of" in result.stderr) == above, (report["max_error_px"], budget)
+
+
+def test_a_scene_without_wind_is_warned_of(tmp_path):
+    """A scene without [wind] is a still forest: it ran without a word (session 25)."""
+    body = BASE.replace("[wind]\nspeed = 5\n", "").split("[scatter]")[0]
+    assert "[wind]" not in body and "[[tree]]" in body
+    result = run_cli("scene", _scene(tmp_path, body), "--no-cache")
+    assert "warning: the wind is zero, so the trees stay at rest" in result.stderr
+    assert "warning" not in run_cli("scene", _scene(tmp_path, BASE.split("[scatter]")[0], "w.toml"),
+                                    "--no-cache").stderr
