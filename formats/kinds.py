@@ -12,6 +12,8 @@ kind has at its start:
   ``"accessors": [``, …; `plantlod export` writes them sorted, pretty-printed);
 - OpenUSD text (.usda): its first line starts ``#usda`` (a binary .usdc starts with
   USDC_MAGIC, which `text_input.BINARY_KINDS` and `plantlod view` name);
+- a report: other JSON with a key of a scene's or compare's report (``"speedup":``,
+  ``"comparisons":``);
 - a scene: a line that is one of a scene's table headers (``[camera]``, ``[[tree]]``, …);
 - an L-system: a line ``derivation_length:``, ``axiom:`` or ``productions:``.
 """
@@ -25,6 +27,7 @@ from plantlod.lsys.errors import InputError
 _SCENE_HEADER = re.compile(r"(?m)^[ \t]*\[\[?[ \t]*(camera|camera\.key|tree|scatter|wind)[ \t]*\]\]?"
                            r"[ \t]*(#.*)?\r?$")
 _GLTF_KEY = re.compile(r'"(asset|accessors|bufferViews|buffers|meshes|nodes|scenes)"\s*:\s*[\[{]')
+_REPORT_KEY = re.compile(r'"(speedup|branch_steps_full|comparisons)"\s*:')
 _LSYS_KEY = re.compile(r"(?m)^[ \t]*(derivation_length|axiom|productions)[ \t]*:")
 SNIFF_CHARS = 65536       # only the start of a text is looked at
 USDC_MAGIC = b"PXR-USDC"  # the first bytes of a binary OpenUSD file (.usdc, .usd)
@@ -37,6 +40,8 @@ KINDS = {
     "usd": ("an OpenUSD file (.usda)", "`plantlod export` writes it for other programs; "
                                        "plantlod reads none"),
     "scene": ("a scene file (TOML)", "`plantlod scene` reads it"),
+    "report": ("a report (JSON)", "`plantlod scene` or `plantlod compare --json` wrote it; no "
+                                  "command reads it"),
     "lsys": ("an L-system (.lsys)", "derive, simulate, simplify, compare and export read it"),
 }
 
@@ -55,6 +60,8 @@ def text_kind(text: str) -> str | None:
             return "tree"
         if _GLTF_KEY.search(head):
             return "gltf"
+        if _REPORT_KEY.search(head):
+            return "report"
         return None
     if _SCENE_HEADER.search(head):
         return "scene"

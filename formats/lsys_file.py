@@ -182,7 +182,9 @@ def parse_lsys_text(text: str, name: str) -> LSystem:
     if not text.strip():
         where = "standard input is" if name == "<stdin>" else "the file is"
         raise InputError(f"{where} empty; expected an L-system (docs/lsys-format.md)", name, 1, 1)
-    if text.lstrip().startswith("{") and text_kind(text) != "gltf":
+    if text.lstrip().startswith("{"):            # JSON: a tree file, a glTF, a report
+        if text_kind(text) in ("gltf", "report"):
+            raise other_kind(text, name, "lsys")
         raise InputError("a tree file (JSON Lines), not an L-system; expected an .lsys file "
                          "(simulate, compare and export also read tree files)", name, 1, 1)
     try:

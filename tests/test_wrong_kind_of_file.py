@@ -32,12 +32,15 @@ def files(tmp_path_factory):
     for ext in ("gltf", "usda", "usdc", "glb"):
         made[ext] = str(d / f"s.{ext}")
         run_cli("export", STALK, made["csv"], "-o", made[ext])
+    made["report"] = str(d / "c.json")
+    run_cli("compare", STALK, STALK, "--dt", "0.01", "--duration", "1", "--json", "-o",
+            made["report"])
     return made
 
 
 @pytest.mark.parametrize("kind, expected", [
     ("lsys", "lsys"), ("scene", "scene"), ("csv", "csv"), ("tree", "tree"),
-    ("gltf", "gltf"), ("usda", "usd"),
+    ("gltf", "gltf"), ("usda", "usd"), ("report", "report"),
 ])
 def test_each_kind_is_told_by_its_start(files, kind, expected):
     with open(files[kind], encoding="utf-8") as handle:
@@ -58,6 +61,9 @@ WRONG = [
     ("derive {usda} -o /dev/null", "usd", "lsys"),
     ("view {lsys} -o {out}.html", "lsys", "gltf"),
     ("view {tree} -o {out}.html", "tree", "gltf"),
+    ("scene {report} --no-cache", "report", "scene"),         # a report given as the scene
+    ("derive {report} -o /dev/null", "report", "lsys"),
+    ("simulate {report} --dt 0.01 --duration 1 -o /dev/null", "report", "tree"),
 ]
 
 
