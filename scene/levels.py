@@ -357,8 +357,12 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
     from plantlod.simplify.motion_fit import measurement_runs_for
     from plantlod.simplify.regroup import regrouped
 
+    from plantlod.simplify.levels import rises
+
     system = parse_lsys_text(data.decode("utf-8"), str(path)).grown_from(seed)
     original = build(system).tree
+    if not rises(original):      # no height to measure levels against: full detail only
+        return [], np.zeros(1)
     header = level_header(system)
     levels = merge_levels(original)
     winds = [WindCase(speed, d) for d in TIP_ERROR_DIRECTIONS]

@@ -472,7 +472,7 @@ def check_scene(scene: Scene) -> None:
     from plantlod.lsys.build import build
     from plantlod.sim.damping import Damping
     from plantlod.sim.stability import check_stability
-    from plantlod.simplify.levels import check_moves
+    from plantlod.simplify.levels import check_moves, lies_flat, rises
 
     steps = scene.steps
     if steps < 1:
@@ -498,7 +498,11 @@ def check_scene(scene: Scene) -> None:
                               stacklevel=2)
             tree = built.tree
             if tree.n_branches:                 # (a tree without branches runs, and warns;
-                check_moves(tree, str(path))    # one that has some but stands still has no levels)
+                check_moves(tree, str(path), height=False)   # one that stands still has no levels)
+                if not rises(tree):             # (no height for simplify's measures: no levels)
+                    warnings.warn(f"{source_name(source, full=True)}: {lies_flat(tree)}: it has "
+                                  "no levels to measure, so it runs at full detail",
+                                  PlantlodWarning, stacklevel=2)
             check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
         branches[source] = max(1, tree.n_branches)
     work = sum(branches[t.source] for t in scene.trees) * steps

@@ -33,17 +33,16 @@ def round_sig(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:
     return float(f"{x:.{digits}g}")
 
 
-def check_moves(original, source: str | None) -> None:
+def check_moves(original, source: str | None, height: bool = True) -> None:
     """Raise InputError unless the original tree (a `Tree`) can move and be measured: it has
     branches; some branch absorbs force (k_FA > 0, or a gain matrix); the wind acts on it
     (model.md 4: some branch has drag, C_d r L > 0, or some leaf a force, s_L A > 0); and it
-    rises above its base (a rest height > 0, which model.md 6's tip errors are fractions of).
+    rises above its base (a rest height > 0, which model.md 6's tip errors are fractions of;
+    ``height=False`` leaves that to the caller: a scene runs such a tree at full detail).
     A tree that absorbs or feels no force stands still in every wind, and every fit divides
     by its zero swing (it was 'unstable in simplify's winds' or a drag coefficient of NaN);
     one lying flat or hanging below z = 0 has no height to state its tip errors in (a flat
     one gave tip errors of 1e15 % of its rounding-noise height)."""
-    from plantlod.sim.kinematics import rest_height
-
     if original.n_branches == 0:
         raise InputError("the original tree has no branches; expected a tree to simplify", source)
     gain = original.force_gain
@@ -62,12 +61,25 @@ def check_moves(original, source: str | None) -> None:
                          "and no leaf a force, s_L A = 0): it stands still in every wind, so "
                          "there is no motion to simplify; expected a drag_coefficient, radius or "
                          "leaf area > 0", source)
-    height = rest_height(original)
-    if not height > 0:
-        raise InputError(f"the tree's highest tip at rest is at z = {height:g} m (it lies flat or "
-                         "hangs below its base): tip errors are stated as fractions of the rest "
+    if height and not rises(original):
+        raise InputError(f"{lies_flat(original)}: tip errors are stated as fractions of the rest "
                          "height (model.md 6), so it has no levels to measure; expected a tree "
                          "that rises above z = 0", source)
+
+
+def rises(original) -> bool:
+    """Whether the tree's highest tip at rest is above z = 0 (`sim.kinematics.rest_height`)."""
+    from plantlod.sim.kinematics import rest_height
+
+    return rest_height(original) > 0
+
+
+def lies_flat(original) -> str:
+    """What a tree that does not rise (`rises`) is, for a message."""
+    from plantlod.sim.kinematics import rest_height
+
+    return (f"the tree's highest tip at rest is at z = {rest_height(original):g} m (it lies "
+            "flat or hangs below its base)")
 
 
 def round_sig_down(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:

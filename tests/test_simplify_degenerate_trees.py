@@ -9,7 +9,9 @@ an empty folder and said nothing, and a tree the wind exerts no force on was sim
 
 from __future__ import annotations
 
+import json
 import math
+import pathlib
 
 import pytest
 
@@ -129,3 +131,24 @@ def test_levels_into_a_folder_holding_another_chains_later_levels_are_refused(tm
     one_line(run_cli("simplify", two, "--levels", str(folder), exit_code=None), 2,
              "past this tree's last level (1)", "level2.lsys")
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+def test_a_scene_runs_a_tree_without_levels_at_full_detail(tmp_path):
+    """A scene measures levels in metres, but simplify has no height to fit a flat tree's
+    levels against: the scene runs it at full detail, with a warning, and the other trees at
+    their levels (refusing the whole scene for one fallen log would be worse). Its
+    branch-steps are spent whole: 7 branches x 200 steps, counted independently."""
+    flat = _write(tmp_path, HEAD + BUSH.format(turn="&(90) "), "flat.lsys")
+    stalk = str(pathlib.Path(__file__).resolve().parents[1] / "examples" / "stalk8.lsys")
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'duration = 2\n[wind]\nspeed = 5\n[camera]\nposition = [0, -300, 2]\n'
+                     f'target = [0, 0, 2]\n[[tree]]\nfile = "{stalk}"\n[[tree]]\nfile = "{flat}"\n'
+                     'position = [3, 0, 0]\n')
+    result = run_cli("scene", str(scene), "--no-cache", "--verify")
+    assert "lies flat or hangs below its base): it has no levels to measure, so it runs at " \
+           "full detail" in result.stderr
+    report = json.loads(result.stdout)
+    flat_branches = build(read_lsys(flat)).tree.n_branches
+    assert flat_branches == 7
+    assert report["branch_steps_spent"] >= flat_branches * 200
+    assert report["max_error_px"] <= report["budget_px"]
