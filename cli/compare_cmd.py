@@ -120,7 +120,9 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
         inputs[f"SIMPLIFIED {k + 1}"] = path
     for k, path in enumerate(simplified_angles or ()):
         inputs[f"--simplified-angles {k + 1}"] = path
-    distinct_paths({"-o": output, "--obj": obj_dir, "--plot": plot_path}, inputs)
+    # (-o unset is standard output too: `--plot -` there mixed the PNG into the table)
+    distinct_paths({"-o": "-" if output is None else output, "--obj": obj_dir,
+                    "--plot": plot_path}, inputs)
     check_output_kind(output, "-o", "the report (a table, or JSON with --json)", (".txt", ".json"))
     check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))
     if angles_mode:

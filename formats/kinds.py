@@ -10,7 +10,7 @@ kind has at its start:
 - a tree file: JSON Lines whose first record names ``"format": "plantlod-tree"``;
 - a glTF (.gltf): other JSON with one of glTF's top-level keys (``"asset": {``,
   ``"accessors": [``, …; `plantlod export` writes them sorted, pretty-printed);
-- OpenUSD text (.usda): its first line starts ``#usda`` (a binary .usdc starts with
+- OpenUSD text (.usda): its first line starts ``#usda`` and a version (a binary .usdc starts with
   USDC_MAGIC, which `text_input.BINARY_KINDS` and `plantlod view` name);
 - a report: other JSON with a key of a scene's or compare's report (``"speedup":``,
   ``"comparisons":``);
@@ -46,36 +46,46 @@ KINDS = {
 }
 
 
-def text_kind(text: str) -> str | None:
-    """The kind (a key of KINDS) that the start of ``text`` shows, None where none does."""
+def text_kinds(text: str) -> list[str]:
+    """Every kind (keys of KINDS) whose signature the start of ``text`` shows, in the order
+    the kinds are told apart: JSON is one kind only (a tree file's header first, so a tree
+    file with a stray glTF-like key is a tree file); other text may show several (an
+    L-system with a `[tree]` line under its productions shows a scene's header too)."""
     head = text[:SNIFF_CHARS].lstrip("\ufeff")
     stripped = head.lstrip()
     first = stripped.split("\n", 1)[0].rstrip("\r")
-    if re.match(r"t,b:[^,]+,r:", first) or first == "t":
-        return "csv"
-    if first.startswith("#usda"):
-        return "usd"
     if stripped.startswith("{"):
-        if re.match(r'\{\s*"format"\s*:\s*"plantlod-tree', first):
-            return "tree"
+        if re.search(r'"format"\s*:\s*"plantlod-tree', first):
+            return ["tree"]
         if _GLTF_KEY.search(head):
-            return "gltf"
+            return ["gltf"]
         if _REPORT_KEY.search(head):
-            return "report"
-        return None
+            return ["report"]
+        return []
+    kinds = []
+    if re.match(r"t,b:[^,]+,r:", first) or first == "t":
+        kinds.append("csv")
+    if re.match(r"#usda [0-9]", first):
+        kinds.append("usd")
     if _SCENE_HEADER.search(head):
-        return "scene"
+        kinds.append("scene")
     if _LSYS_KEY.search(head):
-        return "lsys"
-    return None
+        kinds.append("lsys")
+    return kinds
+
+
+def text_kind(text: str) -> str | None:
+    """The kind (a key of KINDS) that the start of ``text`` shows first, None where none does."""
+    kinds = text_kinds(text)
+    return kinds[0] if kinds else None
 
 
 def other_kind(text: str, name: str | None, own: str) -> InputError | None:
     """The error for ``text`` (named ``name``) that its reader of kind ``own`` could not parse,
-    where its start shows it is a file of another kind; None where it does not (the reader's
-    own error stands)."""
-    kind = text_kind(text)
-    if kind is None or kind == own:
+    where its start shows it is a file of another kind; None where it does not, or where it
+    shows its own kind too (a broken file of the reader's kind keeps the reader's error)."""
+    kinds = text_kinds(text)
+    if not kinds or own in kinds:
         return None
-    what, who = KINDS[kind]
+    what, who = KINDS[kinds[0]]
     return InputError(f"{what}, not {KINDS[own][0]} ({who})", name)

@@ -17,6 +17,7 @@ import contextlib
 import io
 import math
 import os
+import re
 from dataclasses import dataclass
 from typing import IO, Any, Union
 
@@ -479,6 +480,8 @@ def _wind(wind: Any):
     if hasattr(wind, "sample"):
         return wind
     try:
+        if np.iscomplexobj(wind):                 # (float64 of it drops the imaginary part)
+            raise TypeError("complex")
         vector = np.asarray(wind, dtype=np.float64)
     except (TypeError, ValueError):
         vector = np.zeros(0)
@@ -525,6 +528,9 @@ def _as_system(item: Any) -> LSystem:
                      f"{type(item).__name__}")
 
 
+ADDRESS_TEXT = re.compile(r"[0-9]+(?:\.[0-9]+)*(?::[0-9]+)?")   # docs/tree-format.md
+
+
 def _checked(tree: Tree) -> Tree:
     """``tree`` as given, once its arrays keep the invariants of `Tree` (shapes, parents
     before children, leaves on branches that exist, distinct addresses, finite numbers): a
@@ -533,15 +539,33 @@ def _checked(tree: Tree) -> Tree:
     from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS
 
     try:
+        for name in ("parent", "leaf_branch"):
+            if not np.issubdtype(np.asarray(getattr(tree, name)).dtype, np.integer):
+                raise ValueError(f"{name} must hold whole numbers (indices)")
         tree.check()
         arrays = [np.asarray(getattr(tree, name), dtype=np.float64)
                   for name in BRANCH_FLOAT_FIELDS] + [
             np.asarray(tree.euler, dtype=np.float64), np.asarray(tree.offset, dtype=np.float64),
             np.asarray(tree.leaf_area, dtype=np.float64),
-            np.asarray(tree.leaf_normal, dtype=np.float64)]
+            np.asarray(tree.leaf_normal, dtype=np.float64),
+            np.asarray([tree.leaf_force_scale], dtype=np.float64)] + [
+            np.asarray(a, dtype=np.float64) for a in (tree.force_gain, tree.swing_roll)
+            if a is not None]
         if not all(np.all(np.isfinite(a)) for a in arrays):
             raise ValueError("its numbers must be finite (a NaN or an infinity in lengths, "
-                             "strengths, forces, rest angles, offsets or leaves)")
+                             "strengths, forces, rest angles, offsets, leaves, gains or rolls)")
+        if np.any(np.asarray(tree.leaf_area) < 0) or np.any(
+                np.linalg.norm(np.asarray(tree.leaf_normal, dtype=np.float64), axis=-1) == 0):
+            raise ValueError("its leaves need areas >= 0 and normals that are not zero")
+        addresses = [*tree.address, *tree.leaf_address, *tree.group_root]
+        if not all(isinstance(a, str) and ADDRESS_TEXT.fullmatch(a) for a in addresses):
+            raise ValueError("its addresses must be strings like '0.2.1' (a branch's may end "
+                             "in ':K')")
+        if not all(isinstance(s, str) and len(s) == 1 and s.isprintable() for s in tree.symbol):
+            raise ValueError("its symbols must be single characters")
+        if tree.group_root and len(tree.group_root) != tree.n_branches:
+            raise ValueError(f"group_root must name a root for each of its {tree.n_branches} "
+                             "branches, or none")
         if len(set(tree.address)) != len(tree.address):
             raise ValueError("its branch addresses must be distinct")
     except (ValueError, TypeError, AttributeError, IndexError) as exc:

@@ -230,12 +230,26 @@ def _line_of(text: str, key: str, value=_ANY, span: tuple[int, int] | None = Non
     return None if found is None else text.count("\n", 0, found.start()) + 1
 
 
-def _loose_line(text: str, key: str, span: tuple[int, int] | None) -> int | None:
-    """The line of the first ``key =`` anywhere on a line (an inline table's, a dotted key's
-    last part, a quoted key), within ``span`` where given; None where there is none."""
-    pattern = re.compile(rf"""(?<![\w-])["']?{re.escape(key)}["']?[ \t]*=""")
-    found = pattern.search(text, *span) if span is not None else pattern.search(text)
-    return None if found is None else text.count("\n", 0, found.start()) + 1
+def _loose_line(text: str, key: str, span: tuple[int, int] | None, value=_ANY) -> int | None:
+    """The line of a ``key =`` anywhere on a line (an inline table's, a dotted key's last
+    part, a quoted key), not in a comment, within ``span`` where given: the first whose value
+    reads as ``value`` where one does, else the first; None where there is none."""
+    pattern = re.compile(rf"""(?<![\w-])["']?{re.escape(key)}["']?[ \t]*=[ \t]*([^,}}\]\n#]*)""")
+    found = [m for m in (pattern.finditer(text, *span) if span is not None
+                         else pattern.finditer(text))
+             if "#" not in text[text.rfind("\n", 0, m.start()) + 1:m.start()]]
+    if not found:
+        return None
+    chosen = found[0]
+    if value is not _ANY:
+        for m in found:
+            try:
+                if tomllib.loads(f"v = {m.group(1).strip()}")["v"] == value:
+                    chosen = m
+                    break
+            except (tomllib.TOMLDecodeError, RecursionError, ValueError):
+                continue
+    return text.count("\n", 0, chosen.start()) + 1
 
 
 def _key_match(text: str, key: str, value=_ANY, span: tuple[int, int] | None = None):
@@ -248,14 +262,16 @@ def _key_match(text: str, key: str, value=_ANY, span: tuple[int, int] | None = N
     if not found:
         return None
     chosen = found[0]
-    if value is not _ANY and len(found) > 1:
+    if value is not _ANY:
+        unread = False
         for m in found:
             try:
                 if tomllib.loads(f"v ={m.group(1)}")["v"] == value:
-                    chosen = m
-                    break
+                    return m
             except (tomllib.TOMLDecodeError, RecursionError, ValueError):  # (an array over
-                continue                  # several lines; an integer past Python's digit limit)
+                unread = True             # several lines; an integer past Python's digit limit)
+        if not unread:                    # every one read, none holds it: an inline table's
+            return None                   # (`tree = [{seed = -1}]`), found by `_loose_line`
     return chosen
 
 
@@ -335,7 +351,7 @@ class _Reader:
         if line is None and key and not header:
             line = _line_of(self.text, key, value)
         if line is None and key:                 # inline, dotted or quoted: `wind = {speed = -5}`,
-            line = _loose_line(self.text, key, self.span if header else None)   # `"scale" = -2`
+            line = _loose_line(self.text, key, self.span if header else None, value)  # `"scale"`
         if line is None and header:
             line = self.text.count("\n", 0, self.span[0]) + 1
         return InputError(message, self.source, line, 1 if line else None)

@@ -194,3 +194,28 @@ def test_a_comparison_of_no_step_says_so():
     """`duration=0` said "window [-, -] s holds 1 sample(s)", though no window was given."""
     with pytest.raises(InputError, match=r"needs a run of at least one step .*duration 0 s"):
         plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, duration=0)
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (dict(leaf_force_scale=float("nan")), "must be finite"),
+    (dict(address=list(range(8))), "addresses must be strings"),
+    (dict(symbol=[1] * 8), "symbols must be single characters"),
+    (dict(group_root=["q"] * 3), "addresses must be strings"),
+    (dict(parent=np.array([-1, 0.5, 1, 2, 3, 4, 5, 6])), "parent must hold whole numbers"),
+    (dict(leaf_normal=np.zeros((1, 3))), "normals that are not zero"),
+    (dict(leaf_area=np.array([-1.0])), "areas >= 0"),
+])
+def test_more_hand_edits_are_caught_before_use(edit, fragment):
+    """Edits `_checked` let through (a regression fuzz of session 25): raw TypeErrors and
+    IndexErrors from the writers, a diverging run blamed on force_absorbed, files that
+    read_tree then refused."""
+    tree = dataclasses.replace(plantlod.derive(STALK), **edit)
+    with pytest.raises(InputError, match="the Tree breaks its invariants") as err:
+        plantlod.write_tree(tree)
+    assert fragment in str(err.value)
+
+
+def test_a_complex_wind_is_refused():
+    """np.array([1+5j, 0, 0]) ran as (1, 0, 0): float64 dropped the imaginary part."""
+    with pytest.raises(InputError, match="a wind is"):
+        plantlod.simulate(STALK, wind=np.array([1 + 5j, 0, 0]), dt=0.01, steps=3)

@@ -694,3 +694,22 @@ def test_a_tree_file_that_is_a_folder_says_so(tmp_path):
     path = scene_file(tmp_path, '[[tree]]\nfile = "eval"\n')
     one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
              "tree file 'eval' is a folder")
+
+
+def test_inline_tables_are_located_by_the_value_they_hold(tmp_path):
+    """`tree = [{…}, {…, seed = -1}]` was named at a later [scatter]'s `seed = 42`, and an
+    inline wind under a comment holding the same key at the comment (regression fuzz)."""
+    text = (f'dt = 0.01\nduration = 1\n# wind = {{speed = 5}} is what we want\n'
+            f'wind = {{speed = -5}}\n'
+            f'[camera]\nposition = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n')
+    path = tmp_path / "s.toml"
+    path.write_text(text + f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+             f"{path}:4:1: error: 'speed' must be >= 0")
+    text = (f'dt = 0.01\nduration = 1\ntree = [{{file = "{STALK}", seed = 3}}, '
+            f'{{file = "{STALK}", seed = -1}}]\n'
+            f'[camera]\nposition = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n'
+            f'[scatter]\nfiles = ["{STALK}"]\ncount = 2\nseed = 42\narea = [0, 0, 9, 9]\n')
+    path.write_text(text)
+    one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+             f"{path}:3:1: error: 'seed' must be a whole number >= 0, got -1")

@@ -179,3 +179,36 @@ def test_an_explicit_level_of_a_leafless_tree_is_not_warned_of(tmp_path):
     result = run_cli("derive", str(level), "-o", "/dev/null")
     assert "0 leaves" in result.stderr and "no leaf symbol" not in result.stderr
     assert "no leaf symbol (L)" in run_cli("derive", str(bare), "-o", "/dev/null").stderr
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda t: "#usda-style comment\n" + t.replace("axiom: F L", "axiom: F("), "unexpected end of line"),
+    (lambda t: t.replace("  F -> F F", "  F -> F F\n[tree]"), "cannot be a predecessor"),
+])
+def test_a_broken_file_that_also_shows_its_own_kind_keeps_its_own_error(tmp_path, edit,
+                                                                        fragment):
+    """An L-system whose comment began `#usda`, or with a `[tree]` line among its productions,
+    was named "an OpenUSD file" or "a scene file" (a regression fuzz of session 25): the
+    sniffer now speaks only where the text shows no sign of the reader's own kind."""
+    path = tmp_path / "t.lsys"
+    path.write_text(edit(open(STALK, encoding="utf-8").read()))
+    line = one_line(run_cli("derive", str(path), "-o", "/dev/null", exit_code=None), 2, fragment)
+    assert "not an L-system" not in line and line.startswith(f"{path}:")
+
+
+@pytest.mark.parametrize("stray", ['"nodes": [1]', '"speedup": 1'])
+def test_a_tree_file_with_a_stray_key_keeps_its_own_error(files, tmp_path, stray):
+    """A tree file with a key a glTF or a report has was named "a glTF" / "a report"."""
+    lines = open(files["tree"], encoding="utf-8").read().splitlines()
+    lines[2] = lines[2][:-1] + ", " + stray + "}"
+    path = tmp_path / "t.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    line = one_line(run_cli("simulate", str(path), "--dt", "0.01", "--steps", "5", "-o",
+                            "/dev/null", exit_code=None), 2, "unknown key")
+    assert line.startswith(f"{path}:3:")
+
+
+def test_compare_plot_to_standard_output_beside_the_table_is_refused(tmp_path):
+    """`compare --plot -` without -o put the PNG after the table on standard output."""
+    one_line(run_cli("compare", STALK, STALK, "--dt", "0.01", "--duration", "1", "--plot", "-",
+                     exit_code=None), 2, "-o and --plot both write to standard output")
