@@ -477,10 +477,10 @@ def read_scene(path: str) -> Scene:
                       f"{2 * SIMPLIFY_EVERY} steps, too short to fit levels in; expected a "
                       "longer scene or a smaller dt", "duration" if "duration" in data else "dt")
     damping_ratio = r.number(data, "damping_ratio", 0.0, low=0, high=MAX_DAMPING_RATIO)
-    budget = r.number(data, "budget_px", 1.0, low=0)
-    if budget == 0:
+    if data.get("budget_px") == 0 and not isinstance(data.get("budget_px"), bool):
         raise r.error("'budget_px' is 0: no level but the full tree shows no error; expected a "
                       "positive pixel budget", "budget_px")
+    budget = r.number(data, "budget_px", 1.0, low=0, low_open=True)   # (-1: "must be > 0")
 
     wind_t = data.get("wind", {})
     if not isinstance(wind_t, dict):

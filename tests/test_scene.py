@@ -258,6 +258,8 @@ def test_the_bound_uses_each_frames_current_distance(tmp_path):
     (BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "")
      + "[[camera.key]]\nt = 0\nposition = [0, 1, 1]\nlook = [0, 0, 1]\n", "unknown key 'look'"),
     ("budget_px = 0\n" + BASE, "'budget_px' is 0"),
+    ("budget_px = -1\n" + BASE, "'budget_px' must be > 0, got -1"),   # (">= 0" while 0 is refused)
+    ("budget_px = 0.0\n" + BASE, "'budget_px' is 0"),
     (BASE.replace("count = 12", "count = 5000"), "cannot place"),
     ("dt = [\n", "not valid TOML"),
 ])
