@@ -17,8 +17,8 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import (check_output_kind, check_output_path, display_name, distinct_paths, is_terminal, open_output, say,
-                 warn, warn_once_running)
+from .io import (check_output_kind, check_output_path, display_name, distinct_paths,
+                 is_terminal, open_output, say, warn, warn_once_running)
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options

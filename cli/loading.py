@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import io
-
 from plantlod.lsys.errors import InputError
 
 from .io import display_name, read_text
@@ -41,12 +39,9 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     if looks_like_tree_file(text):
         if steps is not None:
             raise InputError("-n applies to .lsys input, not to a tree file", name)
-        from plantlod.formats.kinds import other_kind
-        from plantlod.formats.treefile import read_tree
-        try:
-            return read_tree(io.StringIO(text), name).named(name), None
-        except InputError as exc:          # a glTF (JSON) given for a tree
-            raise other_kind(text, name, "tree") or exc from None
+        from plantlod.formats.treefile import read_tree_text
+
+        return read_tree_text(text, name).named(name), None
     from plantlod.formats.lsys_file import parse_lsys_text
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES

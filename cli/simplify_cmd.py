@@ -14,8 +14,8 @@ from plantlod.simplify.constants import (
 )
 
 from .discipline import require_together
-from .io import (check_merge_targets, check_output_kind, display_name, distinct_paths, is_terminal, open_output,
-                 output_folder, say)
+from .io import (check_merge_targets, check_output_kind, display_name, distinct_paths,
+                 is_terminal, open_output, output_folder, say)
 
 
 def _wind_range(ctx, param, value):

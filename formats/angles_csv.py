@@ -168,9 +168,6 @@ def read_angles_file(path: str, degrees: bool = False
                      ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
     """The angles of ``path`` (``-``: stdin): an .npz archive (radians) or an angle CSV, as
     `read_angles_csv` returns them; ``degrees`` applies to a CSV only (InputError for an .npz)."""
-    import io
-
-    from .kinds import other_kind
     from .npz import is_npz, read_angles_bytes, read_npz_file
     from .constants import MAX_CSV_LINE_BYTES
     from .text_input import read_text, source_name
@@ -181,8 +178,16 @@ def read_angles_file(path: str, degrees: bool = False
             raise InputError("--degrees applies to an angle CSV; an .npz archive holds radians",
                              name)
         return read_angles_bytes(read_npz_file(path), name)
-    text = read_text(path, MAX_CSV_LINE_BYTES)
-    try:
-        return read_angles_csv(io.StringIO(text), name, degrees=degrees)
-    except InputError as exc:       # an L-system, a tree file given for the angles
-        raise other_kind(text, name, "csv") or exc from None
+    return read_angles_text(read_text(path, MAX_CSV_LINE_BYTES), name, degrees)
+
+
+def read_angles_text(text: str, source: str | None, degrees: bool = False
+                     ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """`read_angles_csv` of a file's whole ``text``; a file of another kind (an L-system, a
+    tree file) is named by what it is (`formats.kinds`)."""
+    import io
+
+    from .kinds import named_by_kind
+
+    with named_by_kind(text, source, "csv"):
+        return read_angles_csv(io.StringIO(text), source, degrees=degrees)

@@ -20,7 +20,9 @@ kind has at its start:
 
 from __future__ import annotations
 
+import contextlib
 import re
+from typing import Iterator
 
 from plantlod.lsys.errors import InputError
 
@@ -78,6 +80,16 @@ def text_kind(text: str) -> str | None:
     """The kind (a key of KINDS) that the start of ``text`` shows first, None where none does."""
     kinds = text_kinds(text)
     return kinds[0] if kinds else None
+
+
+@contextlib.contextmanager
+def named_by_kind(text: str, name: str | None, own: str) -> Iterator[None]:
+    """A reader of kind ``own`` parsing ``text`` inside: its InputError, where the text is a
+    file of another kind (`other_kind`), becomes the one that says so."""
+    try:
+        yield
+    except InputError as exc:
+        raise other_kind(text, name, own) or exc from None
 
 
 def other_kind(text: str, name: str | None, own: str) -> InputError | None:

@@ -20,7 +20,7 @@ from plantlod.lsys.system import (
     BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
-from .kinds import other_kind, text_kind
+from .kinds import named_by_kind, other_kind, text_kind
 from .text_input import read_text, source_name
 
 _INDENT = "  "
@@ -187,7 +187,5 @@ def parse_lsys_text(text: str, name: str) -> LSystem:
             raise other_kind(text, name, "lsys")
         raise InputError("a tree file (JSON Lines), not an L-system; expected an .lsys file "
                          "(simulate, compare and export also read tree files)", name, 1, 1)
-    try:
+    with named_by_kind(text, name, "lsys"):   # an angle CSV, a scene given for an L-system
         return parse_lsys(text, name)
-    except InputError as exc:      # an angle CSV, a scene, a glTF given for an L-system
-        raise other_kind(text, name, "lsys") or exc from None

@@ -193,7 +193,7 @@ def _strings(arrays: dict, name: str, source: str, pattern=None) -> list[str]:
 def read_tree_bytes(data: bytes, source: str) -> Tree:
     """The tree of an archive written by `tree_bytes`; every field checked (types, shapes,
     finite amounts, addresses, parents before children) as the tree-file reader checks."""
-    from .treefile import _BRANCH_ADDRESS, _LEAF_ADDRESS, NON_NEGATIVE_FIELDS
+    from .treefile import BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS
 
     arrays = _load(data, source, TREE_FORMAT)
     values: dict = {}
@@ -207,14 +207,14 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     f = len(values["leaf_branch"])
     values["leaf_area"] = _numbers(arrays, "leaf_area", source, (f,), non_negative=True)
     values["leaf_normal"] = _numbers(arrays, "leaf_normal", source, (f, 3))
-    values["address"] = _strings(arrays, "address", source, _BRANCH_ADDRESS)
+    values["address"] = _strings(arrays, "address", source, BRANCH_ADDRESS)
     values["symbol"] = _strings(arrays, "symbol", source)
     long = next((s for s in values["symbol"] if len(s) != 1), None)
     if long is not None:
         raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one character "
                          "a branch", source)
-    values["leaf_address"] = _strings(arrays, "leaf_address", source, _LEAF_ADDRESS)
-    values["group_root"] = (_strings(arrays, "group_root", source, _BRANCH_ADDRESS)
+    values["leaf_address"] = _strings(arrays, "leaf_address", source, LEAF_ADDRESS)
+    values["group_root"] = (_strings(arrays, "group_root", source, BRANCH_ADDRESS)
                             if "group_root" in arrays else [])
     if values["group_root"] and len(values["group_root"]) != b:
         raise InputError(f"'group_root' in the archive holds {len(values['group_root'])} "
@@ -257,10 +257,10 @@ def angles_bytes(times: np.ndarray, addresses: list[str], bend: np.ndarray, rot:
 
 def read_angles_bytes(data: bytes, source: str) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
     """(times (T,), addresses [B], bend (T, B), rot (T, B)), as `read_angles_csv` returns them."""
-    from .treefile import _BRANCH_ADDRESS
+    from .treefile import BRANCH_ADDRESS
 
     arrays = _load(data, source, ANGLES_FORMAT)
-    addresses = _strings(arrays, "address", source, _BRANCH_ADDRESS)
+    addresses = _strings(arrays, "address", source, BRANCH_ADDRESS)
     t = _numbers(arrays, "time", source, (None,))
     b = _numbers(arrays, "bend", source, (len(t), len(addresses)))
     r = _numbers(arrays, "rotation", source, (len(t), len(addresses)))

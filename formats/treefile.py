@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import io
 import json
 import math
 import re
@@ -49,8 +50,8 @@ LEAF_KEYS = ("type", "index", "address", "branch", "area", "normal")
 # Each pattern matches one address; the "many" forms match a block of them
 # joined by "\n" (one regex call per block instead of one per record).
 _ADDRESS = r"[0-9]+(?:\.[0-9]+)*"
-_BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::[0-9]+)?\Z")
-_LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
+BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::[0-9]+)?\Z")
+LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
 _BRANCH_ADDRESSES = re.compile(rf"(?:{_ADDRESS}(?::[0-9]+)?\n)*\Z")
 _LEAF_ADDRESSES = re.compile(rf"(?:{_ADDRESS}\n)*\Z")
 _LINES_PER_WRITE = 4096
@@ -353,6 +354,15 @@ def read_tree(stream: TextIO, source: str) -> Tree:
         return _read(_Lines(stream, source))
 
 
+def read_tree_text(text: str, source: str) -> Tree:
+    """`read_tree` of a file's whole ``text``; a file of another kind (an L-system, a glTF, a
+    report) is named by what it is (`formats.kinds`)."""
+    from .kinds import named_by_kind
+
+    with named_by_kind(text, source, "tree"):
+        return read_tree(io.StringIO(text), source)
+
+
 @contextlib.contextmanager
 def _gc_paused():
     """Pause the cyclic garbage collector (parsing makes a dict per record; the
@@ -582,7 +592,7 @@ class _Branches:
             parent = line.integer("parent", -1, i - 1,
                                   f'"parent" is {line.record["parent"]}; expected -1 {earlier}: '
                                   "parents come before children")
-            address = line.address(_BRANCH_ADDRESS, '"0.2.1" or "0.2.1:1"')
+            address = line.address(BRANCH_ADDRESS, '"0.2.1" or "0.2.1:1"')
             if address in self.seen:
                 raise line.error(f'branch address "{address}" repeats branch '
                                  f"{self.seen[address]}; branch addresses are unique", "address")
@@ -595,7 +605,7 @@ class _Branches:
             extra = {}
             if "group_root" in self.extras:
                 root = line.string("group_root")
-                if not _BRANCH_ADDRESS.match(root):
+                if not BRANCH_ADDRESS.match(root):
                     raise line.error(f'"group_root" must be an address like "0.2.1" or "0.2.1:1", got '
                                      f"{json.dumps(root, ensure_ascii=False)}", "group_root")
                 extra["group_root"] = root
@@ -651,7 +661,7 @@ class _Leaves:
             branch = line.integer("branch", 0, last,
                                   f'"branch" is {line.record["branch"]}, which is not a branch '
                                   f"of this file (0..{last})")
-            address = line.address(_LEAF_ADDRESS, '"0.2.1"')
+            address = line.address(LEAF_ADDRESS, '"0.2.1"')
             area = line.number("area")
             normal = line.vector("normal")
             if abs(math.sqrt(sum(c * c for c in normal)) - 1.0) > NORMAL_UNIT_TOL:

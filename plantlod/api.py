@@ -17,7 +17,6 @@ import contextlib
 import io
 import math
 import os
-import re
 from dataclasses import dataclass
 from typing import IO, Any, Union
 
@@ -137,20 +136,14 @@ def derive(system: LSystem | PathOrText, n: int | None = None, *,
 def read_tree(path_or_file: PathOrFile) -> Tree:
     """Read a tree file (JSON Lines, docs/tree-format.md) from a path, an open text stream or
     its text; a path ending in .npz is a tree archive (`plantlod derive -o T.npz`)."""
-    from plantlod.formats.kinds import other_kind
-    from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
-    from plantlod.formats.treefile import read_tree as _read
+    from plantlod.formats.npz import read_npz_file, read_tree_bytes
+    from plantlod.formats.treefile import read_tree_text
 
-    if isinstance(path_or_file, (str, os.PathLike)) and not _is_text(path_or_file) \
-            and is_npz(path_of(path_or_file)):
-        path = path_of(path_or_file)
-        return read_tree_bytes(read_npz_file(path), path)
+    archive = _npz_path(path_or_file)
+    if archive is not None:
+        return read_tree_bytes(read_npz_file(archive), archive)
     stream, name = _text_stream(path_or_file)
-    text = stream.read()
-    try:
-        return _read(io.StringIO(text), name)
-    except InputError as exc:                  # an L-system or angle CSV given for a tree file
-        raise other_kind(text, name, "tree") or exc from None
+    return read_tree_text(stream.read(), name)
 
 
 def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
@@ -259,21 +252,26 @@ def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
     """Read an angle CSV (docs/angles-csv.md) from a path, an open text stream or its text;
     ``degrees`` says the file holds degrees. A path ending in .npz is an angle archive
     (`plantlod simulate -o A.npz`, radians)."""
-    from plantlod.formats.angles_csv import read_angles_csv, read_angles_file
-    from plantlod.formats.kinds import other_kind
+    from plantlod.formats.angles_csv import read_angles_file, read_angles_text
+
+    archive = _npz_path(path_or_file)
+    if archive is not None:
+        time, addresses, bend, rot = read_angles_file(archive, degrees)
+    else:
+        stream, name = _text_stream(path_or_file)
+        time, addresses, bend, rot = read_angles_text(stream.read(), name, degrees)
+    return Angles(time, bend, rot, tuple(addresses))
+
+
+def _npz_path(path_or_file: Any) -> str | None:
+    """The path of an .npz archive that ``path_or_file`` names, None for anything else (a
+    stream, a text, another file)."""
     from plantlod.formats.npz import is_npz
 
-    if isinstance(path_or_file, (str, os.PathLike)) and not _is_text(path_or_file) \
-            and is_npz(path_of(path_or_file)):
-        time, addresses, bend, rot = read_angles_file(path_of(path_or_file), degrees)
-        return Angles(time, bend, rot, tuple(addresses))
-    stream, name = _text_stream(path_or_file)
-    text = stream.read()
-    try:
-        time, addresses, bend, rot = read_angles_csv(io.StringIO(text), name, degrees=degrees)
-    except InputError as exc:                  # an L-system or tree file given for the angles
-        raise other_kind(text, name, "csv") or exc from None
-    return Angles(time, bend, rot, tuple(addresses))
+    if isinstance(path_or_file, (str, os.PathLike)) and not _is_text(path_or_file):
+        path = path_of(path_or_file)
+        return path if is_npz(path) else None
+    return None
 
 
 def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
@@ -528,14 +526,12 @@ def _as_system(item: Any) -> LSystem:
                      f"{type(item).__name__}")
 
 
-ADDRESS_TEXT = re.compile(r"[0-9]+(?:\.[0-9]+)*(?::[0-9]+)?")   # docs/tree-format.md
-
-
 def _checked(tree: Tree) -> Tree:
     """``tree`` as given, once its arrays keep the invariants of `Tree` (shapes, parents
     before children, leaves on branches that exist, distinct addresses, finite numbers): a
     Tree built or edited by hand (`dataclasses.replace`) is checked before anything runs on
     it (a parent cycle made `write_tree` loop forever, a short array leaked numpy's errors)."""
+    from plantlod.formats.treefile import BRANCH_ADDRESS, LEAF_ADDRESS
     from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS
 
     try:
@@ -557,8 +553,9 @@ def _checked(tree: Tree) -> Tree:
         if np.any(np.asarray(tree.leaf_area) < 0) or np.any(
                 np.linalg.norm(np.asarray(tree.leaf_normal, dtype=np.float64), axis=-1) == 0):
             raise ValueError("its leaves need areas >= 0 and normals that are not zero")
-        addresses = [*tree.address, *tree.leaf_address, *tree.group_root]
-        if not all(isinstance(a, str) and ADDRESS_TEXT.fullmatch(a) for a in addresses):
+        addresses = [(a, BRANCH_ADDRESS) for a in [*tree.address, *tree.group_root]] + [
+            (a, LEAF_ADDRESS) for a in tree.leaf_address]          # (as the tree files' readers)
+        if not all(isinstance(a, str) and pattern.match(a) for a, pattern in addresses):
             raise ValueError("its addresses must be strings like '0.2.1' (a branch's may end "
                              "in ':K')")
         if not all(isinstance(s, str) and len(s) == 1 and s.isprintable() for s in tree.symbol):
@@ -595,16 +592,13 @@ def _as_tree(item: Any) -> Tree:
         from plantlod.formats.text_input import read_text
 
         text = read_text(path)
-    from plantlod.formats.kinds import other_kind, text_kind
+    from plantlod.formats.kinds import text_kind
     from plantlod.formats.lsys_file import parse_lsys_text
 
     if text.lstrip().startswith("{") and text_kind(text) != "gltf":
-        from plantlod.formats.treefile import read_tree as _read
+        from plantlod.formats.treefile import read_tree_text
 
-        try:
-            return _read(io.StringIO(text), path).named(path)
-        except InputError as exc:
-            raise other_kind(text, path, "tree") or exc from None
+        return read_tree_text(text, path).named(path)
     return derive(parse_lsys_text(text, path))
 
 

@@ -33,7 +33,7 @@ from .constants import (EXPLICIT_REFINE_EVALUATIONS, EXPLICIT_REFINE_FLOOR,
 from plantlod.compare.groups import carry_matrix
 from .lengths import fit_lengths
 from .refine import StaticModel
-from .sequential_fit import sequential_solution, unit_leaf_forces
+from .sequential_fit import drag_per_area, sequential_solution, unit_leaf_forces
 from .static import angle_gains, fit_directions, own_drag_shape, rest_frames
 from .targets import GroupMap, group_strengths, static_targets
 
@@ -142,8 +142,7 @@ def closed_form(original: Tree, skeleton: Tree, gmap: GroupMap,
                                settings.evaluations, settings.inner)
         if refined is not None:
             kfa, kfp, drag_area_, areas = refined
-            # (no surface, no drag: `sequential_solution`)
-            drag_c = np.where(surface > 0, drag_area_ / np.where(surface > 0, surface, 1.0), 0.0)
+            drag_c = drag_per_area(drag_area_, surface)
         values = np.concatenate([kfa, kfp, drag_c * surface, areas])
         static_error = model.worst(np.log(np.maximum(values, np.finfo(float).tiny)))
     branch = {"length": lengths, "bend_strength": kb, "rotation_strength": kr,

@@ -80,11 +80,7 @@ def sequential_solution(skeleton: Tree, gains: np.ndarray, per_leaf: np.ndarray,
         mu = drag_gain(gain, drag_shape[:, g], targets.drag[:, g], lam, in_drag[:, g])
         c_new = mu / kappa
         kfa[g], kfp[g] = kappa, p_new
-        # a branch of no surface (radius or length 0, both legal) carries no drag: its group's
-        # members have none of their own (`explicit.level_radii` gives a chord any radius in
-        # its group), or its chord folds back to its base; what drag it would take is lost,
-        # and the level's measures say so
-        drag_c[g] = c_new / surface[g] if surface[g] > 0 else 0.0
+        drag_c[g] = drag_per_area(c_new, surface[g])
         out_leaf = p_new * (in_leaf[:, g] + np.einsum("k,dkj->dj", areas[own], per_leaf[:, own]))
         out_drag = c_new * drag_shape[:, g] + p_new * in_drag[:, g]
         parent = int(skeleton.parent[g])
@@ -92,6 +88,18 @@ def sequential_solution(skeleton: Tree, gains: np.ndarray, per_leaf: np.ndarray,
             in_leaf[:, parent] += out_leaf
             in_drag[:, parent] += out_drag
     return SequentialSolution(kfa, kfp, drag_c, areas)
+
+
+def drag_per_area(drag_area, surface):
+    """C_d = drag area / surface (2π r L, m²), elementwise; 0 where the surface is 0. A branch
+    of no surface (radius or length 0, both legal) carries no drag: its group's members have
+    none of their own (`explicit.level_radii` gives a chord any radius in its group), or its
+    chord folds back to its base; what drag it would take is lost, and the level's measures
+    say so."""
+    surface = np.asarray(surface, dtype=np.float64)
+    has = surface > 0
+    out = np.where(has, np.asarray(drag_area, dtype=np.float64) / np.where(has, surface, 1.0), 0.0)
+    return out if out.ndim else float(out)
 
 
 def leaf_split(gain: np.ndarray, incoming: np.ndarray, own: np.ndarray, target: np.ndarray,
