@@ -220,9 +220,13 @@ def equivalent_leaf_rules(system: LSystem) -> list[Production]:
     by S, so what it shows now, e.g. an apex leaf, goes), L being the leaf part
     of S (`_leaf_part`); for a leaf (``L ->`` erasing old leaves) or a module
     shown through interpretation whose successor attaches no leaf, the rule is
-    empty, since in the original it is gone. Branch symbols whose successor
-    attaches no leaf, plain modules that show nothing, and branch symbols with
-    interpretation rules of their own get no rule.
+    empty, since in the original it is gone. A module whose interpretation draws
+    branches keeps them (they are the level's branches, each standing for its group):
+    its rule draws its interpretation with the leaves left out, then the leaf part
+    of S (``X -> P X`` shown as ``X -> P L``: ``X -> P[L]``). Branch symbols whose
+    successor attaches no leaf, plain modules that show nothing, branch symbols with
+    interpretation rules of their own, and modules shown through several or
+    conditional interpretation rules get no rule.
     """
     branches = {b.name for b in system.branches}
     leaf_names = {leaf.name for leaf in system.leaves}
@@ -234,15 +238,35 @@ def equivalent_leaf_rules(system: LSystem) -> list[Production]:
         prod = _single_rule(system.productions, name)
         if prod is None:
             continue
+        params = tuple(_name_expr(p) for p in prod.pred.params)
+        if name in branches:
+            head = (Module(name, params),)
+        elif name in interpreted:
+            head = _drawn_without_leaves(system, name, params)
+            if head is None:
+                continue
+        else:
+            head = ()
         leaves = _leaf_part(prod.successor, system)
         shows_now = name in leaf_names or name in interpreted
         if not leaves and (name in branches or not shows_now):
             continue
-        head = (Module(name, tuple(_name_expr(p) for p in prod.pred.params)),) \
-            if name in branches else ()
         tail = (Module("["),) + tuple(leaves) + (Module("]"),) if leaves else ()
         rules.append(Production(Pattern(name, prod.pred.params), tuple(head) + tail))
     return rules
+
+
+def _drawn_without_leaves(system: LSystem, name: str, params: tuple) -> tuple[Module, ...] | None:
+    """What module ``name`` draws through its one plain interpretation rule, leaves left out
+    (its branches, moves and turns, so every branch keeps its place), with the rule's
+    parameters renamed to ``params`` (the production's); None where the module is shown
+    through several or conditional rules, or one of another parameter count."""
+    rule = _single_rule(system.interpretation, name)
+    if rule is None or len(rule.pred.params) != len(params):
+        return None
+    leaf_names = {leaf.name for leaf in system.leaves}
+    shown = _apply_rule(rule, Module(name, params))
+    return tuple(m for m in shown if m.name not in leaf_names)
 
 
 def _mode(values: list[float]) -> float:

@@ -567,6 +567,10 @@ def simplify_grammar(system: LSystem, options: Options,
     else:
         skeleton, expanded = level_system(system, options.level, equivalent_leaves=loses_leaves)
         skeleton_tree = build(skeleton).tree if expanded else plain_tree
+        if expanded and list(skeleton_tree.address) != list(plain_tree.address):
+            # (the leaf rules must not move a branch: each stands for its group; drawn
+            # otherwise, the level goes without equivalent leaves)
+            skeleton, skeleton_tree, expanded = plain, plain_tree, []
         if expanded:
             notes.append(f"equivalent leaves at the modules {', '.join(expanded)}")
         # fitted where compare reads it: in each group root's frame W_0 (model.md 6)

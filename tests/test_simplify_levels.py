@@ -66,6 +66,52 @@ def test_equivalent_leaf_rules_by_hand():
         "A(l,w) -> [[&(a0)L]/(d)L]", "B(l,w) -> [[-(a2)$L]L]", "C(l,w) -> [[+(a2)$L]L]"]
 
 
+# A module drawn through interpretation (X shows a branch P and a leaf): a new user's fern.
+INTERPRETED_BRANCH = """derivation_length: 3
+branching_angle: 40
+force_absorbed: 0.002
+force_propagated: 0.7
+branch S: length=0.3 radius=0.015 bend_strength=45 rotation_strength=45
+branch P: length=0.12 radius=0.004 bend_strength=35 rotation_strength=32
+leaf L: area=0.002
+axiom: A
+productions:
+  A -> S [+X] A
+  X -> P X
+interpretation:
+  X -> /(30) P L
+"""
+
+
+def test_a_module_drawing_a_branch_keeps_it_under_equivalent_leaves():
+    # X -> P X, shown as /(30) P L: in the original X is replaced by P X, shown as
+    # P /(30) P L, so the level's X keeps what it draws (its P stands for its group), the
+    # roll included, and its own leaf goes; the successor's leaf comes in brackets.
+    system = parse_lsys(INTERPRETED_BRANCH)
+    rules = {r.pred.name: format_production(r) for r in equivalent_leaf_rules(system)}
+    assert rules["X"] == "X -> /(30)P[/(30)L]"
+    plain, _ = level_system(system, 1, equivalent_leaves=False)
+    skeleton, expanded = level_system(system, 1, equivalent_leaves=True)
+    assert "X" in expanded
+    assert build(skeleton).tree.address == build(plain).tree.address
+    original = build(system).tree
+    assert build(skeleton).tree.n_leaves == original.n_leaves   # one leaf per X, as before
+
+
+def test_simplify_a_module_drawing_a_branch_in_either_form(tmp_path):
+    # It used to stop with "internal error" (the leaf rule dropped X's branch, so the
+    # level's branches no longer matched its groups).
+    from golden_util import run_cli
+    path = tmp_path / "fern.lsys"
+    path.write_text(INTERPRETED_BRANCH)
+    for form in ("grammar", "auto"):
+        out = tmp_path / f"l1-{form}.lsys"
+        run = run_cli("simplify", str(path), "--level", "1", "--form", form, "-o", str(out))
+        assert "internal error" not in run.stderr
+        level = build(parse_lsys(out.read_text())).tree
+        assert 0 < level.n_branches < build(parse_lsys(INTERPRETED_BRANCH)).tree.n_branches
+
+
 def test_equivalent_leaves_have_the_originals_rest_normals():
     # Level 1 of abop_2_6 at N = 3: every original leaf at step 3 hangs under an apex of
     # step 2, and the equivalent leaves repeat the turns that lead to it, so the sets of
