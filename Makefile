@@ -20,6 +20,10 @@ STAMP  := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,all]'
+	# the installed plantlod ahead of a folder named plantlod beside a script (the clone
+	# itself, seen as an empty namespace package): the editable finder asked first
+	printf '%s\n' 'import sys; sys.meta_path.sort(key=lambda f: getattr(f, "__name__", "") != "_EditableFinder")' \
+	    > "$$($(PY) -c 'import sysconfig; print(sysconfig.get_path("purelib"))')/plantlod-first.pth"
 	touch $(STAMP)
 
 # make demo: the short version of the thesis' experiment (examples/Makefile, QUICK=1):

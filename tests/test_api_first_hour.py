@@ -11,6 +11,7 @@ import dataclasses
 import inspect
 import io
 import os
+import pathlib
 import subprocess
 import sys
 
@@ -219,3 +220,18 @@ def test_a_complex_wind_is_refused():
     """np.array([1+5j, 0, 0]) ran as (1, 0, 0): float64 dropped the imaginary part."""
     with pytest.raises(InputError, match="a wind is"):
         plantlod.simulate(STALK, wind=np.array([1 + 5j, 0, 0]), dt=0.01, steps=3)
+
+
+def test_a_script_beside_the_clone_imports_the_installed_package(tmp_path):
+    # A clone at ~/plantlod and a script at ~/t.py: the clone's folder (no __init__.py)
+    # would be found first as an empty namespace package `plantlod` and the API's names
+    # would be missing; the Makefile's plantlod-first.pth asks the editable finder first.
+    (tmp_path / "plantlod").symlink_to(ROOT, target_is_directory=True)
+    script = tmp_path / "t.py"
+    script.write_text("import plantlod\nprint(plantlod.read_lsystem.__name__, plantlod.__file__)\n")
+    run = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    name, where = run.stdout.split()
+    assert name == "read_lsystem"
+    assert pathlib.Path(where).resolve() == (ROOT / "plantlod" / "__init__.py").resolve()
