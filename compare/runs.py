@@ -15,7 +15,7 @@ in metres.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -119,14 +119,30 @@ def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name
     a, b = np.asarray(times_a, np.float64), np.asarray(times_b, np.float64)
     if a.shape != b.shape:
         raise InputError(f"{name_a} has {len(a)} samples ({_span(a)}) but {name_b} has {len(b)} "
-                         f"({_span(b)}); expected both runs sampled at the same times "
-                         f"(same --dt, duration and --every)")
+                         f"({_span(b)}); expected both runs over the same span with the same "
+                         f"--dt (one may keep every K-th sample of the other: simulate --every)")
     tol = TIME_MATCH_RTOL * np.maximum(1.0, np.abs(a))
     bad = np.flatnonzero(np.abs(a - b) > tol)
     if len(bad):
         k = int(bad[0])
         raise InputError(f"sample {k} is at t = {a[k]:.10g} s in {name_a} but t = {b[k]:.10g} s "
                          f"in {name_b}; expected both runs sampled at the same times")
+
+
+def common_samples(a: Run, b: Run) -> tuple[Run, Run]:
+    """The two runs at the samples they share, where one keeps every K-th sample of the other
+    (`simulate --every K`: its times are the other's times[::K], within TIME_MATCH_RTOL);
+    the runs as they are otherwise (`check_same_times` then says what differs)."""
+    for fine, coarse, swap in ((a, b, False), (b, a, True)):
+        n, m = len(fine.times), len(coarse.times)
+        if m < 2 or m >= n or (n - 1) % (m - 1):
+            continue
+        k = (n - 1) // (m - 1)
+        picked = fine.times[::k]
+        if np.all(np.abs(picked - coarse.times) <= TIME_MATCH_RTOL * np.maximum(1.0, np.abs(picked))):
+            thinned = replace(fine, times=picked, bend=fine.bend[::k], rot=fine.rot[::k])
+            return (coarse, thinned) if swap else (thinned, coarse)
+    return a, b
 
 
 # --- tips ------------------------------------------------------------------------
@@ -151,6 +167,7 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     combined angles are returned for the whole run (for plots); the report
     covers the window only.
     """
+    original, simplified = common_samples(original, simplified)
     check_same_times(original.times, simplified.times, original.samples_name,
                      simplified.samples_name)
     groups = assign_groups(original.tree, simplified.tree)

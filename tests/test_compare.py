@@ -134,7 +134,7 @@ def test_times_must_match():
     original, simplified = two_stalks()
     z2, z1 = np.zeros((len(T), 2)), np.zeros((len(T), 1))
     o = Run(original, T, z2, z2, "a.csv")
-    with pytest.raises(InputError, match="same times"):
+    with pytest.raises(InputError, match="same span with the same --dt"):
         compare_runs(o, Run(simplified, T[:-1], z1[:-1], z1[:-1], "b.csv"))
     with pytest.raises(InputError, match=r"sample 3 .* same times"):
         shifted = T.copy()

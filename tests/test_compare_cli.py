@@ -298,3 +298,34 @@ def test_a_simplified_file_whose_groups_miss_the_original_is_named(tmp_path):
                      "--dt", "0.01", "--steps", "20", "--wind-speed", "5", exit_code=2)
     lines = result.stderr.strip().splitlines()
     assert lines[-1].startswith(f"{bad}: error:") and "9.9.9.9" in lines[-1], lines
+
+
+def test_an_angle_csv_kept_every_k_steps_is_compared_at_its_samples(tmp_path):
+    # simulate --every 10 keeps every 10th sample; the simplified side, simulated here at
+    # every step, is read at those samples: the same figures as two CSVs both kept every
+    # 10th sample (no thinning on that route).
+    level = tmp_path / "l1.lsys"
+    level.write_text(STALK8_LEVEL1)
+    wind = ["--dt", "0.01", "--duration", "6", "--wind-speed", "5"]
+    for name, tree in (("o10.csv", "examples/stalk8.lsys"), ("s10.csv", str(level))):
+        run_cli("simulate", tree, *wind, "--every", "10", "-o", str(tmp_path / name))
+    mixed = run_cli("compare", "examples/stalk8.lsys", str(level), "--original-angles",
+                    str(tmp_path / "o10.csv"), *wind, "--json")
+    both = run_cli("compare", "examples/stalk8.lsys", str(level), "--original-angles",
+                   str(tmp_path / "o10.csv"), "--simplified-angles", str(tmp_path / "s10.csv"),
+                   "--json")
+    a, b = json.loads(mixed.stdout), json.loads(both.stdout)
+    assert a["samples"] == b["samples"] == 61
+    a, b = a["comparisons"][0], b["comparisons"][0]
+    assert a.keys() == b.keys() and len(a["groups"]) == len(b["groups"]) == 4
+    for key, value in a.items():          # (the CSV keeps 10 digits of the simplified angles)
+        if isinstance(value, float):
+            assert value == pytest.approx(b[key], rel=1e-6, abs=1e-12), key
+        elif key not in ("simplified", "groups"):
+            assert value == b[key], key
+    assert "61 samples" in mixed.stderr
+    # another span is still refused, and the message names the way that works
+    short = run_cli("compare", "examples/stalk8.lsys", str(level), "--original-angles",
+                    str(tmp_path / "o10.csv"), "--dt", "0.01", "--duration", "5",
+                    "--wind-speed", "5", exit_code=2)
+    assert "simulate --every" in short.stderr and "--obj" not in short.stderr
