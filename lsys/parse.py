@@ -110,6 +110,8 @@ ARROWS = ("-->", "->", "→")
 # Values that are amounts of something and cannot be negative.
 NON_NEGATIVE_KEYS = frozenset({"length", "radius", "area", "force_absorbed", "force_propagated",
                                "drag_coefficient", "leaf_force_scale"})
+# Spring strengths: 0 or less never brings a branch back (model.md 4), so no run could use it.
+POSITIVE_KEYS = frozenset({"bend_strength", "rotation_strength"})
 
 
 # --- the cursor and the tokenizer ------------------------------------------------------
@@ -439,10 +441,14 @@ def _constant(cur: _Cursor, defines: dict[str, float]) -> tuple[Expr, float]:
 
 
 def _check_not_negative(cur: _Cursor, key: str, value: float, at: int) -> None:
-    """Lengths, radii, areas and force coefficients are amounts: refuse a negative one."""
+    """Lengths, radii, areas and force coefficients are amounts: refuse a negative one; a
+    bend or rotation strength must be above 0 (a spring of no strength never comes back)."""
     if key in NON_NEGATIVE_KEYS and value < 0:
         raise cur.error(f"{key} must not be negative, got {format_number(value)}; "
                         "expected a number >= 0", at)
+    if key in POSITIVE_KEYS and not value > 0:
+        raise cur.error(f"{key} must be > 0, got {format_number(value)}; a spring of no "
+                        "strength never brings its branch back", at)
 
 
 # --- modules and patterns ----------------------------------------------------------

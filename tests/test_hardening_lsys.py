@@ -134,6 +134,22 @@ def test_negative_amounts_rejected_where_written(body, what):
     assert info.value.line is not None and info.value.col is not None
 
 
+@pytest.mark.parametrize("body, what, col", [
+    ("branch G: length=1 radius=0.02 bend_strength=-60 rotation_strength=20\naxiom: G\n",
+     "bend_strength", 46),
+    ("branch G: length=1 radius=0.02 bend_strength=20 rotation_strength=0\naxiom: G\n",
+     "rotation_strength", 67),
+    ("branch G: length=1 radius=0.02 bend_strength=20 rotation_strength=2*0\naxiom: G\n",
+     "rotation_strength", 67),
+    ("axiom: F\noverrides:\n  0: bend_strength=0\n", "bend_strength", 20),
+])
+def test_strengths_of_zero_or_below_rejected_where_written(body, what, col):
+    # `derive` used to accept them and `simulate` to refuse the tree without a place
+    with pytest.raises(InputError, match=f"{what} must be > 0") as info:
+        system(body)
+    assert info.value.col == col
+
+
 @pytest.mark.parametrize("axiom, what", [("F(-1)", "length"), ("F L(-0.5)", "area"),
                                          ("!(-0.1) F", "radius")])
 def test_negative_turtle_parameters_rejected(axiom, what):
