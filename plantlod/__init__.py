@@ -24,7 +24,7 @@ from plantlod.blas_kernels import pin_openblas_kernels
 
 pin_openblas_kernels()          # before numpy loads OpenBLAS: the same bits on any x86-64 CPU
 
-__all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "RunFailure", "Tree",
+__all__ = ["Angles", "InputError", "LSystem", "PlantlodError", "PlantlodWarning", "RunFailure", "Tree",
            "__version__", "compare", "derive", "export_animation", "read_angles", "read_lsystem",
            "read_tree", "simplify", "simulate", "write_angles", "write_lsystem", "write_tree",
            "write_view"]
@@ -35,6 +35,7 @@ _FROM = {
                                          "read_lsystem", "read_tree", "simulate",
                                          "write_angles", "write_lsystem", "write_tree")},
     "InputError": "plantlod.lsys.errors", "PlantlodError": "plantlod.lsys.errors",
+    "PlantlodWarning": "plantlod.lsys.errors",
     "RunFailure": "plantlod.lsys.errors", "LSystem": "plantlod.lsys.system",
     "Tree": "plantlod.lsys.tree",
 }
@@ -43,7 +44,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and editors only
     from plantlod.api import (Angles, compare, derive, export_animation, read_angles,
                               read_lsystem, read_tree, simplify, simulate, write_angles,
                               write_lsystem, write_tree, write_view)
-    from plantlod.lsys.errors import InputError, PlantlodError, RunFailure
+    from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning, RunFailure
     from plantlod.lsys.system import LSystem
     from plantlod.lsys.tree import Tree
 

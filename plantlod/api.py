@@ -166,7 +166,8 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
              steps: int | None = None, *, duration: float | None = None, every: int = 1,
              damping: float = 0.0, threads: int | None = None,
              wind_speed: float | None = None, wind_direction: float | None = None,
-             damping_ratio: float | None = None) -> Angles:
+             damping_ratio: float | None = None, gust_strength: float = 0.0,
+             gust_seed: int | None = None) -> Angles:
     """Simulate ``tree`` in ``wind`` (model.md 3-4); an `LSystem` is derived first, a path
     is read (an .lsys file, a tree file or a tree .npz).
 
@@ -180,6 +181,9 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     wind_speed, wind_direction : instead of ``wind``, as the CLI's --wind-speed and
                --wind-direction: a horizontal wind of this many m/s toward this azimuth
                (degrees, 0 = +x, 90 = +y; default 0)
+    gust_strength, gust_seed : as the CLI's --gust-strength and --gust-seed: each wind
+               scaled by seeded gusts of this RMS relative strength
+               (`plantlod.sim.wind.GustyWind`; seed default 0)
     steps    : time steps, or ``duration`` seconds (rounded to whole steps)
     every    : keep every ``every``-th step (row 0 is t = 0)
     threads  : engine threads for a list of winds (default: all cores or $PLANTLOD_THREADS)
@@ -201,6 +205,7 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
         raise InputError(f"every must be an integer >= 1, got {every!r}")
     check_stability(tree, dt, damping)
     winds, many = _winds(wind)
+    winds = _gusty(winds, gust_strength, gust_seed)
     time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
     _warn_large_angles(tree, time, bend, rot, many)
     if not many:
@@ -311,7 +316,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
             window: tuple[float | None, float | None] | None = None,
             bounds: dict[str, float] | None = None, damping: float = 0.0,
             wind_speed: float | None = None, wind_direction: float | None = None,
-            damping_ratio: float | None = None) -> dict:
+            damping_ratio: float | None = None, gust_strength: float = 0.0,
+            gust_seed: int | None = None) -> dict:
     """Compare simplified trees with the original in one wind (model.md 6); trees, systems
     or paths, and the wind as `simulate` takes them. Each is labelled by its file, or, where
     that repeats an earlier one (a level made by `simplify`), by its name.
@@ -336,6 +342,7 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     if many:
         raise InputError(f"compare runs one wind; got a list of {len(given)} (compare each wind "
                          "in its own call, or simulate them together with simulate)")
+    given = _gusty(given, gust_strength, gust_seed)
     w = given[0]
     # every argument checked before any run (a bad bound after a diverging run was a
     # RunFailure; bounds=5 a TypeError)
@@ -460,6 +467,29 @@ def _winds(wind: Any) -> tuple[list, bool]:
     if not many:
         raise InputError("an empty list of winds; expected at least one wind")
     return [_wind(w) for w in many], True
+
+
+def _gusty(winds: list, strength: Any, seed: Any) -> list:
+    """``winds`` with seeded gusts of RMS relative ``strength`` (the CLI's --gust-strength,
+    --gust-seed; `GustyWind`), and a `PlantlodWarning` where every wind is a steady zero
+    (the tree stays at rest, as the CLI warns)."""
+    import warnings
+
+    from plantlod.lsys.errors import PlantlodWarning
+    from plantlod.sim.wind import ConstantWind, GustyWind, wind_samples
+
+    strength = real("gust_strength", strength, low=0)
+    if seed is not None and not strength:
+        raise InputError("gust_seed applies to gusts; give gust_strength > 0 too")
+    if strength:
+        winds = [GustyWind(w, seed=0 if seed is None else whole("gust_seed", seed, low=0),
+                           strength=strength) for w in winds]
+    steady = [getattr(w, "base", w) for w in winds]     # (a gust scales its base wind)
+    if all(isinstance(w, ConstantWind) and not np.any(wind_samples(w, np.zeros(1)))
+           for w in steady):
+        warnings.warn("the wind is zero, so the tree stays at rest; give wind=(vx, vy, vz) or "
+                      "wind_speed=S", PlantlodWarning, stacklevel=3)
+    return winds
 
 
 def _is_vector(value: Any) -> bool:

@@ -235,3 +235,44 @@ def test_a_script_beside_the_clone_imports_the_installed_package(tmp_path):
     name, where = run.stdout.split()
     assert name == "read_lsystem"
     assert pathlib.Path(where).resolve() == (ROOT / "plantlod" / "__init__.py").resolve()
+
+
+def test_gusts_as_the_cli_gives_them(tmp_path):
+    # simulate(gust_strength=, gust_seed=) is the CLI's --gust-strength/--gust-seed: the
+    # same angles as the command's CSV (10 digits), and as the wind object written out
+    from plantlod.sim.wind import GustyWind, wind_from_speed
+
+    out = tmp_path / "g.csv"
+    run_cli("simulate", STALK, "--dt", "0.01", "--steps", "300", "--wind-speed", "6",
+            "--gust-strength", "0.4", "--gust-seed", "3", "-o", str(out))
+    got = plantlod.simulate(STALK, dt=0.01, steps=300, wind_speed=6, gust_strength=0.4,
+                            gust_seed=3)
+    cli = plantlod.read_angles(str(out))
+    np.testing.assert_allclose(got.bend, cli.bend, rtol=1e-8, atol=1e-15)
+    by_hand = plantlod.simulate(STALK, GustyWind(wind_from_speed(6, 0), seed=3, strength=0.4),
+                                dt=0.01, steps=300)
+    np.testing.assert_array_equal(got.bend, by_hand.bend)
+    calm = plantlod.simulate(STALK, dt=0.01, steps=300, wind_speed=6)
+    assert np.abs(got.bend - calm.bend).max() > 1e-4      # the gusts do something
+    with pytest.raises(InputError, match="gust_seed applies to gusts"):
+        plantlod.simulate(STALK, dt=0.01, steps=10, wind_speed=6, gust_seed=3)
+    with pytest.raises(InputError, match="gust_strength must be a finite number in"):
+        plantlod.simulate(STALK, dt=0.01, steps=10, wind_speed=6, gust_strength=-1)
+    report = plantlod.compare(STALK, STALK, dt=0.01, steps=300, wind_speed=6,
+                              gust_strength=0.4, gust_seed=3)
+    assert report["comparisons"][0]["amplitude_error"] == 0.0
+
+
+def test_a_zero_wind_is_warned_of_as_the_cli_does():
+    from plantlod.lsys.errors import PlantlodWarning
+
+    with pytest.warns(PlantlodWarning, match="the wind is zero"):
+        plantlod.simulate(STALK, dt=0.01, steps=10)
+    with pytest.warns(PlantlodWarning, match="the wind is zero"):
+        plantlod.simulate(STALK, (0, 0, 0), dt=0.01, steps=10, gust_strength=0.3)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PlantlodWarning)
+        plantlod.simulate(STALK, [(0, 0, 0), (1, 0, 0)], dt=0.01, steps=10)   # one blows
+    cli = run_cli("simulate", STALK, "--dt", "0.01", "--steps", "10", "-o", "-")
+    assert "the wind is zero" in cli.stderr
