@@ -58,8 +58,7 @@ def as_damping(damping: "float | Damping | None" = 0.0, ratio: float | None = No
             raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
                              f"got {z:g}")
         if base.c != 0.0 or (base.ratio and base.ratio != z):
-            raise InputError("give either the damping c (--damping) or the damping ratio "
-                             "(--damping-ratio), not both")
+            raise InputError("give either the damping c or the damping ratio ζ, not both")
         base = Damping(c=0.0, ratio=z)
     if base.ratio and not (math.isfinite(base.ratio) and 0.0 <= base.ratio <= MAX_DAMPING_RATIO):
         raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "

@@ -104,10 +104,10 @@ def check_level(system: LSystem, level: int) -> None:
     """Raise InputError unless 1 <= level < the derivation length."""
     n = system.derivation_length
     if level < 1:
-        raise InputError(f"--level {level}: expected a level of at least 1 (level 0 is the "
+        raise InputError(f"level {level}: expected a level of at least 1 (level 0 is the "
                          f"original)", system.source or None)
     if level >= n:
-        raise InputError(f"--level {level}: expected a level below the derivation length {n} "
+        raise InputError(f"level {level}: expected a level below the derivation length {n} "
                          f"(a level-n tree derives N - n >= 1 steps)", system.source or None)
 
 
