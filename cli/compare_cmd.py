@@ -22,6 +22,7 @@ from .io import (check_output_kind, check_output_path, display_name, distinct_pa
 from .compare_exports import prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
+from plantlod.lsys.words import counted
 
 
 def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[float | None]:
@@ -281,7 +282,8 @@ def _write_report(comparisons, bounds, violations, as_json: bool, output: str | 
 def _summarise(comp) -> None:
     r = comp.report
     say(f"compare: {comp.simplified.name} against {comp.original.name}: "
-        f"{len(r.groups)} groups, {len(comp.original.times)} samples; worst amplitude error "
+        f"{counted(len(r.groups), 'group')}, "
+        f"{counted(comp.window.stop - comp.window.start, 'sample')}; worst amplitude error "
         f"{_g(r.amplitude_error)}, period error {_g(r.period_error)}, tip error {_g(r.tip_error)}")
     if r.undefined_periods:
         warn(f"{comp.simplified.name}: {len(r.undefined_periods)} counted component(s) have no "
@@ -317,6 +319,7 @@ def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, a
     if limit is not None and largest > limit:       # one line, the summary's figure in it
         raise RunFailure(f"largest angle difference {largest * scale:.4g} {unit} > --atol {atol:g} "
                          f"at branch {diff.addresses[j]} {component}, t = {t:g} s")
-    say(f"compare: {name_a} against {name_b}: {len(addr_a)} branches, {len(times_a)} samples; "
+    say(f"compare: {name_a} against {name_b}: {counted(len(addr_a), 'branch')}, "
+        f"{counted(len(times_a), 'sample')}; "
         f"largest difference {largest * scale:.4g} {unit} at branch {diff.addresses[j]} "
         f"{component}, t = {t:g} s")

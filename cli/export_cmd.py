@@ -6,6 +6,7 @@ import click
 
 from .io import check_output_path, display_name, distinct_paths, say
 from .loading import load_tree
+from plantlod.lsys.words import counted
 
 
 @click.command(name="export")
@@ -50,4 +51,4 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     span = (f"{times[-1]:g} s at {fps:g} fps" if frames is None else      # (time restarts at 0)
             f"frames {frames[0]}:{frames[1]} ({frames[1] - frames[0]:,} frames, "
             f"{(frames[1] - frames[0] - 1) / fps:g} s) at {fps:g} fps")
-    say(f"export: {display_name(tree_path)}: {tree.n_branches:,} branches, {span} -> {output}")
+    say(f"export: {display_name(tree_path)}: {counted(tree.n_branches, 'branch')}, {span} -> {output}")

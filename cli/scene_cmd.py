@@ -7,6 +7,8 @@ import sys
 
 import click
 
+from plantlod.lsys.words import counted
+
 from .io import (check_output_kind, check_output_path, distinct_paths, is_terminal, open_output,
                  output_folder, say, warn, warn_once_running)
 
@@ -118,7 +120,7 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
             if bar is not None:
                 bar.stop()
         _write_outputs(spec, report, plot_path, report_path, frame_rate)
-    say(f"scene: {report['trees']:,} trees, {report['branch_steps_spent']:,} of "
+    say(f"scene: {counted(report['trees'], 'tree')}, {report['branch_steps_spent']:,} of "
         f"{report['branch_steps_full']:,} branch-steps ("
         + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")

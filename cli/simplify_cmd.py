@@ -13,6 +13,8 @@ from plantlod.simplify.constants import (
     CALIBRATION_EVALUATIONS, CHAIN_JOBS, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMPLIFY_WIND_RANGE,
 )
 
+from plantlod.lsys.words import counted
+
 from .discipline import require_together
 from .io import (check_merge_targets, check_output_kind, display_name, distinct_paths,
                  is_terminal, open_output, output_folder, say)
@@ -133,8 +135,8 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     form_used = "explicit" if result.tree.group_root else "grammar"
     say(f"simplify: {display_name(input_path)} level {level}, {form_used} form ({method}"
         f"{', calibrated' if calibrate else ''}): {result.original.n_branches:,} -> "
-        f"{result.tree.n_branches:,} branches; worst over every measurement wind: amplitude "
-        f"error {_pct(s.amplitude)}, period {_pct(s.period)}, tip {_pct(s.tip)} of height")
+        f"{counted(result.tree.n_branches, 'branch')}; worst over every measurement wind: "
+        f"amplitude error {_pct(s.amplitude)}, period {_pct(s.period)}, tip {_pct(s.tip)} of height")
     for note in result.notes:
         say(f"simplify: {note}")
 
@@ -192,7 +194,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
             with open_output(os.path.join(tmp, f"level{level.level}.lsys")) as out:
                 out.write(level.text)
             say(f"simplify: {display_name(input_path)} level {level.level}/{last}: "
-                f"{level.branches[0]:,} -> {level.branches[1]:,} branches; "
+                f"{level.branches[0]:,} -> {counted(level.branches[1], 'branch')}; "
                 f"worst amplitude {_pct(level.amplitude)}, tip {_pct(level.tip)} of height, "
                 f"tip error (max) {level.tip_max_m:.4g} m at {wind_range[0]:g}-{wind_range[1]:g} m/s")
 

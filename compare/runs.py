@@ -26,6 +26,7 @@ from .groups import assign_groups, carry_angles, combined_angles, main_paths, sw
 from plantlod.compare.measures import Report, Worst, compare_groups, window
 
 from .constants import TIME_MATCH_RTOL
+from plantlod.lsys.words import counted
 
 
 @dataclass
@@ -109,7 +110,7 @@ def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot
                 "archive" if str(source).lower().endswith(".npz") else "CSV")
         raise InputError(f"the angle {kind} does not belong to the tree {tree.source or '?'}: "
                          f"{'; '.join(parts)}; expected the {kind} that `plantlod simulate` "
-                         f"wrote for this tree ({tree.n_branches} branches)", source)
+                         f"wrote for this tree ({counted(tree.n_branches, 'branch')})", source)
     order = np.asarray([column[a] for a in tree.address], dtype=np.int64)
     return np.asarray(bend)[:, order], np.asarray(rot)[:, order]
 

@@ -11,6 +11,7 @@ import numpy as np
 from plantlod.lsys.errors import RunFailure
 
 from .file import Scene
+from plantlod.lsys.words import counted
 
 
 def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
@@ -54,7 +55,8 @@ def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
     top.set_xlim(far[0][0], far[1][0])
     top.set_ylim(far[0][1], far[1][1])
     top.set_aspect("equal")
-    top.set_title(f"{len(scene.trees):,} trees, budget {scene.budget_px:g} px (levels at t = 0)")
+    top.set_title(f"{counted(len(scene.trees), 'tree')}, budget {scene.budget_px:g} px "
+                  "(levels at t = 0)")
     top.set_xlabel("x (m)")
     top.set_ylabel("y (m)")
     t = np.arange(len(in_use)) * frame_s

@@ -43,6 +43,7 @@ from .levels import check_level, check_moves, level_system, round_sig, write_par
 from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
 from .finite import finite_fit
+from plantlod.lsys.words import counted
 
 if TYPE_CHECKING:
     from .grouping import Grouping
@@ -650,7 +651,8 @@ def header_comment(system: LSystem, options: Options, reports: list[tuple[WindCa
     """The header: source, level, form, method, and the section-6 errors simplify measured."""
     shape = (f"derivation length {system.derivation_length} -> {system.derivation_length - options.level}"
              if form == "grammar" else
-             f"explicit form, {branches[0]:,} -> {branches[1]:,} branches" if branches else "explicit form")
+             f"explicit form, {branches[0]:,} -> {counted(branches[1], 'branch')}" if branches
+             else "explicit form")
     lines = [
         f"plantlod simplify: level {options.level} of {system.source or '<input>'} ({shape})",
         f"form: {form}",
