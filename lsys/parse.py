@@ -104,6 +104,8 @@ FOREIGN_WORDS = {
 _FOREIGN_LINE = re.compile(r"\s*(" + "|".join(FOREIGN_WORDS) + r")\b")
 _ASSIGNMENT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?!=)")   # L-Py's `c = 1`
 _PREPROCESSOR = re.compile(r"\s*#(define|include|ifdef|ifndef|if|else|endif|undef)\b")
+# cpfg's probability after a successor, `A --> B : 0.3`: pointed to plantlod's `A -> (0.3) B`
+_CPFG_PROBABILITY = re.compile(r":\s*[0-9.eE+-]+\s*")
 # The production arrow as ABOP prints it, as L-Py and cpfg write it, and plantlod's own;
 # longest first. docs/notation.md.
 ARROWS = ("-->", "->", "→")
@@ -467,6 +469,10 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
                             "directly, as in F(1)")
         if c in UNSUPPORTED_SYMBOLS:
             raise cur.error(UNSUPPORTED_SYMBOLS[c])
+        if c == ":" and _CPFG_PROBABILITY.fullmatch(text, cur.i):
+            raise cur.error("a probability is written in parentheses after the arrow, as in "
+                            "'A -> (0.3) B' (cpfg's ': 0.3' after the successor; "
+                            "docs/notation.md)")
         if c in RESERVED_CHARS:
             raise cur.error(f"unexpected character '{c}'; expected a module")
         cur.i += 1

@@ -504,7 +504,9 @@ def read_scene(path: str) -> Scene:
 
     cam_t = data.get("camera")
     if not isinstance(cam_t, dict):
-        raise r.error("missing [camera] (position, target, fov_deg, height_px)", "camera")
+        raise r.error("missing [camera]: expected position and target (or [[camera.key]] "
+                      "entries), and optionally fov_deg (default 60) and height_px (default "
+                      "1080)", "camera")
     with r.table("camera"):
         r.keys(cam_t, CAMERA_KEYS, "[camera]")
         camera = _camera(r, cam_t)

@@ -43,6 +43,7 @@ def parse_error(text: str) -> InputError:
     (STALK.replace("axiom: F L", 'axiom: F "L'), (29, 10), "multiply the length"),
     (STALK.replace("axiom: F L", "axiom: F ;L"), (29, 10), "colour index"),
     ("from math import *\n" + STALK, (1, 1), "Python code (L-Py) is not read here"),
+    (STALK.replace("F -> F F", "F -> F F : 0.3"), (31, 12), "'A -> (0.3) B'"),
 ])
 def test_lpy_and_cpfg_spellings_get_a_hint(text, where, fragment):
     error = parse_error(text)

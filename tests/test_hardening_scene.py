@@ -713,3 +713,18 @@ def test_inline_tables_are_located_by_the_value_they_hold(tmp_path):
     path.write_text(text)
     one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
              f"{path}:3:1: error: 'seed' must be a whole number >= 0, got -1")
+
+
+def test_a_scene_without_a_camera_says_which_keys_it_needs(tmp_path):
+    # fov_deg and height_px have defaults (60°, 1080 px): the message lists them as optional
+    path = tmp_path / "s.toml"
+    path.write_text(f'dt = 0.01\nduration = 1\n[wind]\nspeed = 5\n[[tree]]\nfile = "{STALK}"\n')
+    run = run_cli("scene", str(path), "--no-cache", exit_code=2)
+    one_line(run, 2, "missing [camera]", "position and target",
+             "optionally fov_deg (default 60) and height_px (default 1080)")
+    path.write_text(f'dt = 0.01\nduration = 1\n[wind]\nspeed = 5\n[camera]\n'
+                    f'position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n[[tree]]\nfile = "{STALK}"\n'
+                    f'position = [0, 0, 0]\n')
+    from plantlod.scene.file import read_scene
+    camera = read_scene(str(path)).camera
+    assert (camera.fov_deg, camera.height_px) == (60.0, 1080)
