@@ -209,6 +209,8 @@ _DEFINE_NAMES = ["a", "b", "len_unit", "e", "min", "r1"]
 _FINITE = st.floats(allow_nan=False, allow_infinity=False)
 _AMOUNT = st.floats(min_value=0, allow_nan=False, allow_infinity=False)   # lengths, areas, ...
 _SMALL = st.floats(min_value=0, max_value=1e6, allow_nan=False)
+_STRENGTH = st.floats(min_value=0, exclude_min=True, allow_nan=False,   # k_bs, k_rs: > 0
+                      allow_infinity=False)
 
 
 @functools.lru_cache(maxsize=None)
@@ -291,7 +293,7 @@ def systems(draw) -> LSystem:
     define_names = draw(st.lists(st.sampled_from(_DEFINE_NAMES), unique=True, max_size=4))
     defines = tuple((n, draw(st.floats(-1e6, 1e6))) for n in define_names)
     branches = tuple(
-        BranchSymbol(c, draw(_AMOUNT), draw(_AMOUNT), draw(_FINITE), draw(_FINITE),
+        BranchSymbol(c, draw(_AMOUNT), draw(_AMOUNT), draw(_STRENGTH), draw(_STRENGTH),
                      **{k: draw(st.none() | _AMOUNT)
                         for k in ("force_absorbed", "force_propagated", "drag_coefficient")})
         for c in _BRANCH if draw(st.booleans()))
@@ -300,7 +302,7 @@ def systems(draw) -> LSystem:
     plain_keys = sorted(set(OVERRIDE_KEYS) - set(GAIN_KEYS))
     overrides = tuple(
         Override(address, tuple(sorted(
-            [(k, draw(_AMOUNT)) for k in draw(
+            [(k, draw(_STRENGTH if k.endswith("_strength") else _AMOUNT)) for k in draw(
                 st.lists(st.sampled_from(plain_keys), min_size=1, max_size=3, unique=True))
              if not (gain and k == "force_absorbed")]
             + ([(k, draw(st.floats(-1.0, 1.0))) for k in GAIN_KEYS] if gain else []))))
