@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from plantlod.lsys.words import counted
+
 from .io import check_output_kind, distinct_paths, open_output, say
 
 
@@ -35,4 +37,4 @@ def view(gltf_paths, output, wind_direction, title):
     check_output_kind(output, "-o", "a web page", (".html", ".htm"))
     with open_output(output) as out:          # refuses a bad target before any work
         write_view(list(gltf_paths), out, wind_direction=wind_direction, title=title)
-    say(f"view: {len(gltf_paths)} tree(s) -> {output}")
+    say(f"view: {counted(len(gltf_paths), 'tree')} -> {output}")

@@ -25,6 +25,8 @@ GLB_JSON_CHUNK = 0x4E4F534A
 GLB_BIN_CHUNK = 0x004E4942
 COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+TOP_LEVEL_ARRAYS = ("accessors", "animations", "buffers", "bufferViews", "cameras", "images",
+                    "materials", "meshes", "nodes", "samplers", "scenes", "skins", "textures")
 ANIMATION_PATHS = ("translation", "rotation", "scale", "weights")   # glTF 2.0 channel targets
 
 
@@ -104,7 +106,15 @@ class _Checker:
             return []
         if not isinstance(value, list):
             self.fail(f"'{name}' must be a list")
-        return value
+        return self.objects(value, name)
+
+    def objects(self, values: list, what: str) -> list:
+        """``values``, each an object (a JSON null or number in a list of glTF objects was
+        an internal error when its members were read)."""
+        for k, value in enumerate(values):
+            if value is None or isinstance(value, (bool, int, float, str, list, dict)):
+                self.fail(f"{what}[{k}] is {_json(value)}; expected an object")
+        return values
 
     def count(self, value, what: str, default: int | None = None) -> int:
         if value is None and default is not None:
@@ -129,6 +139,8 @@ def check_document(doc, blob_length: int, path: str) -> None:
     ``blob_length``: the bytes of its one binary buffer (after external and data-URI buffers
     were folded in), which buffer 0 may not declare more of."""
     c = _Checker(doc, path)
+    for name in TOP_LEVEL_ARRAYS:                 # every element an object, used or not
+        c.items(name)
     buffers = c.items("buffers")
     for i, buffer in enumerate(buffers):
         size = c.count(getattr(buffer, "byteLength", None), f"buffers[{i}].byteLength")
@@ -154,10 +166,13 @@ def check_document(doc, blob_length: int, path: str) -> None:
     for i, anim in enumerate(c.items("animations")):
         samplers = anim.samplers if isinstance(anim.samplers, list) else c.fail(
             f"animations[{i}].samplers must be a list")
+        c.objects(samplers, f"animations[{i}].samplers")
+        channels = c.objects(anim.channels if isinstance(anim.channels, list) else [],
+                             f"animations[{i}].channels")
         for j, sampler in enumerate(samplers):
             c.index(sampler.input, "accessors", f"animations[{i}].samplers[{j}].input")
             c.index(sampler.output, "accessors", f"animations[{i}].samplers[{j}].output")
-        for j, channel in enumerate(anim.channels if isinstance(anim.channels, list) else []):
+        for j, channel in enumerate(channels):
             if not isinstance(channel.sampler, int) or not 0 <= channel.sampler < len(samplers):
                 c.fail(f"animations[{i}].channels[{j}].sampler is {channel.sampler!r}; expected "
                        f"0..{len(samplers) - 1}")
@@ -212,6 +227,16 @@ def _check_references(c: _Checker) -> None:
                 c.index(ref.bufferView, "bufferViews", f"accessors[{i}].sparse.{part}.bufferView")
 
 
+def _json(value) -> str:
+    """A JSON value as the file writes it, shortened (null, true, 5, "x")."""
+    import json
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def _listed(c: _Checker, value, what: str) -> list:
     """``value`` where it is a list, [] where it is absent."""
     if value is None:
@@ -245,6 +270,7 @@ def _check_meshes(c: _Checker) -> None:
     for i, mesh in enumerate(c.items("meshes")):
         primitives = mesh.primitives if isinstance(mesh.primitives, list) else c.fail(
             f"meshes[{i}].primitives must be a list")
+        c.objects(primitives, f"meshes[{i}].primitives")
         for j, prim in enumerate(primitives):
             what = f"meshes[{i}].primitives[{j}]"
             _check_attributes(c, prim.attributes, f"{what}.attributes")

@@ -23,6 +23,9 @@ from plantlod.lsys.errors import InputError
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
 from .gltf_check import GLB_MAGIC, check_buffer_uris, check_document, check_glb_container
 
+GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
+OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
+
 
 def glb_from_file(path: str) -> tuple[bytes, int | None]:
     """The GLB bytes of a .glb or .gltf file (external buffers folded in) and its branch count.
@@ -50,6 +53,7 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     if doc is None or not isinstance(doc.nodes, list) or not doc.nodes:
         raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)
     check_buffer_uris(doc, path, VIEW_MAX_FILE_BYTES)
+    _plain_buffer_uris(doc)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -70,6 +74,22 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     branches = mine.get("branches") if isinstance(mine, dict) else None
     ok = isinstance(branches, int) and not isinstance(branches, bool) and branches >= 0
     return glb, (branches if ok else None)
+
+
+def _plain_buffer_uris(doc) -> None:
+    """Buffer URIs as pygltflib reads them: glTF 2.0's own data-URI type
+    (``data:application/gltf-buffer;base64,``) as ``application/octet-stream``, and a
+    percent-encoded file name (``buf%2Ebin``) decoded (`check_buffer_uris` checked it)."""
+    import urllib.parse
+
+    for buffer in doc.buffers if isinstance(doc.buffers, list) else []:
+        uri = getattr(buffer, "uri", None)
+        if not isinstance(uri, str):
+            continue
+        if uri.startswith(GLTF_BUFFER_DATA_URI):
+            buffer.uri = OCTET_STREAM_DATA_URI + uri[len(GLTF_BUFFER_DATA_URI):]
+        elif not uri.startswith("data:"):
+            buffer.uri = urllib.parse.unquote(uri)
 
 
 def _why(exc: BaseException) -> str:

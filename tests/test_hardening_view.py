@@ -104,6 +104,46 @@ def test_indices_and_lengths_are_checked(files, tmp_path, edit, fragment):
     view_refuses(tmp_path, make_glb(doc, blob), fragment)
 
 
+@pytest.mark.parametrize("edit, fragment", [
+    # a JSON null where glTF has an object was an internal error (AttributeError) in any
+    # list of objects, top-level or nested (session 26, found by fuzzing)
+    (lambda d: d["nodes"].__setitem__(0, None), "nodes[0] is null; expected an object"),
+    (lambda d: d.update(scenes=[None]), "scenes[0] is null"),
+    (lambda d: d["accessors"].__setitem__(1, None), "accessors[1] is null"),
+    (lambda d: d["bufferViews"].__setitem__(0, None), "bufferViews[0] is null"),
+    (lambda d: d.update(cameras=[None]), "cameras[0] is null"),
+    (lambda d: d.update(samplers=[None]), "samplers[0] is null"),
+    (lambda d: d["animations"][0]["channels"].__setitem__(0, None),
+     "animations[0].channels[0] is null"),
+    (lambda d: d["animations"][0]["samplers"].__setitem__(0, None),
+     "animations[0].samplers[0] is null"),
+])
+def test_a_null_where_glTF_has_an_object_is_bad_input(files, tmp_path, edit, fragment):
+    doc, blob = glb_parts(files / "s.glb")
+    edit(doc)
+    view_refuses(tmp_path, make_glb(doc, blob), fragment)
+
+
+def test_buffer_uris_as_glTF_writes_them(files, tmp_path):
+    # glTF 2.0's own data-URI type and a percent-encoded file name (both refused before,
+    # the second as "holds 0 bytes"): the same page as the file plantlod wrote
+    import base64
+
+    doc = json.loads((files / "s.gltf").read_text())
+    data = base64.b64decode(doc["buffers"][0]["uri"].split(",", 1)[1])
+    pages = {}
+    for name, uri in (("own", doc["buffers"][0]["uri"]),
+                      ("gltf-buffer", "data:application/gltf-buffer;base64,"
+                       + base64.b64encode(data).decode()),
+                      ("encoded", "buf%2Ebin")):
+        (tmp_path / "buf.bin").write_bytes(data)
+        doc["buffers"][0]["uri"] = uri
+        path = tmp_path / "t.gltf"
+        path.write_text(json.dumps(doc))
+        pages[name] = glb_from_file(str(path))
+    assert pages["gltf-buffer"] == pages["own"] == pages["encoded"]
+
+
 def test_external_buffers_are_checked(files, tmp_path):
     doc = json.loads((files / "s.gltf").read_text())
     (tmp_path / "folder.bin").mkdir()
