@@ -33,7 +33,7 @@ from typing import Callable
 import click
 
 from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning
-from plantlod.formats.atomic import remove_pending
+from plantlod.formats.atomic import defer_signal, end_deferred, remove_pending
 from plantlod.sim.constants import CAUGHT_SIGNALS  # (cli.io reads it from here too)
 
 # Signals that end a command: temporary files removed, exit 128 + n.
@@ -62,6 +62,13 @@ def _end_on_signal(signum, _frame):
     # whose ImportError printed a traceback or was swallowed and the run went on
     for other in CAUGHT_SIGNALS:                # once: a group-wide signal arrives twice
         signal.signal(other, signal.SIG_IGN)
+    if defer_signal(signum):                    # writes in flight: ended when they are done
+        return
+    _end_now(signum)
+
+
+def _end_now(signum: int) -> None:
+    """Remove what is half written, say why, exit 128 + n."""
     remove_pending()
     code, line = describe_failure(_named(Terminated(signum), _current["command"]))
     _say(line)
@@ -76,6 +83,7 @@ def _named(exc: BaseException, command: str | None) -> BaseException:
 def install_signal_handlers() -> None:
     """SIGINT, SIGTERM and SIGHUP end the command cleanly (unless ignored by the parent);
     a broken pipe ends the process quietly."""
+    end_deferred[0] = _end_now
     for signum in CAUGHT_SIGNALS:
         if signal.getsignal(signum) != signal.SIG_IGN:
             signal.signal(signum, _end_on_signal)

@@ -15,6 +15,35 @@ import tempfile
 from typing import Iterator
 
 _pending: set[str] = set()        # temporary files and folders held right now
+_children: set = set()            # worker processes (subprocess.Popen) running right now
+_uninterrupted = [0]              # blocks of writes open right now (`uninterrupted`)
+_deferred: list[int] = []         # a signal that arrived during one, for `end_deferred`
+end_deferred = [None]             # what ends the command on a deferred signal (cli.discipline)
+
+
+@contextlib.contextmanager
+def uninterrupted() -> Iterator[None]:
+    """A block of writes a signal must not cut short. zarr writes chunks on its own I/O
+    thread while the caller waits; a signal's handler that removed the pending folder and
+    exited during that wait let the chunks in flight land in a folder already removed (a
+    ``.plantlod-*.zarr`` left behind). A signal that arrives in the block is held
+    (`defer_signal`) and handled as it ends, when no write is in flight."""
+    _uninterrupted[0] += 1
+    try:
+        yield
+    finally:
+        _uninterrupted[0] -= 1
+        if not _uninterrupted[0] and _deferred and end_deferred[0] is not None:
+            end_deferred[0](_deferred[0])
+
+
+def defer_signal(signum: int) -> bool:
+    """True where a block of `uninterrupted` writes is open: the signal is then held until
+    it ends (a signal handler asks this first)."""
+    if _uninterrupted[0] and end_deferred[0] is not None:
+        _deferred.append(signum)
+        return True
+    return False
 
 
 def usual_file_mode(folder: bool = False) -> int:
@@ -34,8 +63,25 @@ def release(path: str) -> None:
     _pending.discard(path)
 
 
+def hold_child(proc) -> None:
+    """Register a worker process (a `subprocess.Popen`) for `remove_pending` to end."""
+    _children.add(proc)
+
+
+def release_child(proc) -> None:
+    _children.discard(proc)
+
+
 def remove_pending() -> None:
-    """Remove every registered temporary file and folder (a signal handler calls this)."""
+    """End every registered worker process (killed and reaped, so none outlives the command,
+    not even as a zombie its new parent has yet to reap), then remove every registered
+    temporary file and folder (a signal handler calls this)."""
+    for proc in list(_children):
+        with contextlib.suppress(OSError):
+            proc.kill()
+    for proc in list(_children):
+        with contextlib.suppress(Exception):
+            proc.wait(timeout=2.0)
     for path in list(_pending):
         if os.path.isdir(path) and not os.path.islink(path):
             shutil.rmtree(path, ignore_errors=True)

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from plantlod.formats.atomic import uninterrupted
+
 from .constants import STORE_BATCH_TREES, STORE_TIME_CHUNK
 
 
@@ -31,6 +33,12 @@ def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], 
     file name, its scene trees (row order), its level trees (for the branch counts and
     addresses) and its seed (None: the file's own); rows: R; dt: seconds between rows.
     """
+    with uninterrupted():                 # (chunks in flight land before a signal ends it)
+        return _new_store(path, levels, files, rows, dt)
+
+
+def _new_store(path: str, levels: np.ndarray, files: list, rows: int, dt: float):
+    """`open_store`'s writes (metadata, levels, tree rows), in one thread."""
     import zarr
 
     group = zarr.open_group(path, mode="w-")
@@ -68,5 +76,7 @@ def write_block(group, file_index: int, level: int, first: int, row0: int,
         return
     lv = group[f"file_{file_index}/level_{level}"]
     n, k = bend.shape[:2]
-    lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
-    lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)
+
+    with uninterrupted():                 # (chunks in flight land before a signal ends it)
+        lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
+        lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)

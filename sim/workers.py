@@ -20,8 +20,9 @@ computes them, and come back in job order.
 - Workers are new processes, not forks (GNU OpenMP, numba's threading layer here, is not
   fork-safe once a parallel region has run), run numba on one thread (the processes fill the
   cores), fix the heap's threshold as commands do (`sim.heap`), ignore SIGINT, SIGTERM and
-  SIGHUP (the command handles them and ends at once, `cli.discipline`) and are killed with
-  their parent (Linux's PR_SET_PDEATHSIG); they write no file. While it has workers this
+  SIGHUP (the command handles them and ends at once, `cli.discipline`, killing and reaping
+  its workers first: `formats.atomic.remove_pending`) and are killed with their parent
+  otherwise (Linux's PR_SET_PDEATHSIG); they write no file. While it has workers this
   process ignores SIGPIPE, so that a worker's end cannot end it (an output reader gone then
   raises BrokenPipeError, which the commands end on quietly).
 """
@@ -35,6 +36,8 @@ import sys
 import threading
 import warnings
 from typing import Any, Callable, Iterator
+
+from plantlod.formats.atomic import hold_child, release_child
 
 from .constants import CAUGHT_SIGNALS, WORKER_POLL
 
@@ -104,6 +107,7 @@ def run_jobs(first: int, last: int, here: Callable[[int], Any], workers: int,
         for _ in range(min(workers, last - first)):
             link, proc = _start()
             procs.append(proc)
+            hold_child(proc)                      # (a signal's handler ends it at once)
             threading.Thread(target=_serve, args=(link, (target, payload), jobs, answers or {}),
                              daemon=True, name="plantlod-worker-link").start()
         next_out = first
@@ -127,6 +131,7 @@ def run_jobs(first: int, last: int, here: Callable[[int], Any], workers: int,
             except subprocess.TimeoutExpired:     # (a worker ignores SIGTERM)
                 proc.kill()
                 proc.wait()
+            release_child(proc)
         if old_pipe is not None:
             signal.signal(signal.SIGPIPE, old_pipe)
 
