@@ -6,6 +6,9 @@ OBJ_TIP_TAPER = 0.7           # top radius / radius, for a branch without childr
 OBJ_LAYOUT_MARGIN = 0.25      # gap between trees side by side, x the tallest rest height
 OBJ_DIGITS = 6                # decimals of OBJ coordinates (micrometres)
 GLTF_CYLINDER_SIDES = 8        # sides of a branch tube in glTF
+MAX_USD_DEPTH = 2_000            # branches in a chain, root to tip, of an OpenUSD export: a prim
+                                # per branch nests in its parent's, so the file (and the prim
+                                # paths) grow with the square of the depth (4,000: 579 MB of .usda)
 MAX_EXPORT_SAMPLES = 500_000_000  # frames x branches of one export (a quaternion each: 8 GB of
                                   # float32 rotations, 16 GB as computed)
 

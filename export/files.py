@@ -10,7 +10,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
-from .constants import GLTF_MAX_TIME, MAX_EXPORT_SAMPLES
+from .constants import GLTF_MAX_TIME, MAX_EXPORT_SAMPLES, MAX_USD_DEPTH
 
 FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
 
@@ -45,6 +45,11 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     if ext not in FORMATS:
         raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "
                          f"{', '.join(FORMATS)}", path)
+    if ext.startswith(".usd") and tree.depth() > MAX_USD_DEPTH:
+        raise InputError(f"the tree is {tree.depth():,} branches deep, more than the "
+                         f"{MAX_USD_DEPTH:,} an OpenUSD export nests (a prim per branch inside "
+                         f"its parent's: the file grows with the square of the depth); expected "
+                         f"a .glb or .gltf for this tree", path)
     from plantlod.formats.atomic import atomic_path, write_whole
 
     with atomic_path(path, suffix=ext) as tmp, _angles_named(angles_name):

@@ -204,3 +204,28 @@ def test_frame_times_past_float32_are_bad_input_in_the_angles_file(run, tmp_path
                      "--fps", "1e-38", exit_code=2)
     assert result.stderr.startswith(f"{edited}: error: the angles run to 1e+39 s, past")
     assert result.stderr.count("\n") == 1 and not (tmp_path / "x.glb").exists()
+
+
+def test_a_tree_deeper_than_openusd_export_nests_is_refused(tmp_path, monkeypatch):
+    # a chain of N branches nested [&F[&F...]]: its .usda grew with N² (4,000 deep: 579 MB;
+    # 50,001 deep, which the other commands take, about 90 GB): refused past MAX_USD_DEPTH
+    # with exit 2 and no file, while .glb (a flat node list) takes it
+    from plantlod.export import constants, files
+
+    depth = 12
+    text = ("derivation_length: 1\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+            "force_propagated: 0.7\nbranch F: length=1 radius=0.02 bend_strength=20 "
+            "rotation_strength=20\naxiom: F" + "[&F" * (depth - 1) + "]" * (depth - 1) + "\n")
+    tree = plantlod.derive(text)
+    assert tree.depth() == depth
+    angles = plantlod.simulate(tree, wind=(5, 0, 0), dt=0.01, steps=5)
+    monkeypatch.setattr(files, "MAX_USD_DEPTH", depth - 1)
+    for ext in ("usda", "usdc"):
+        with pytest.raises(plantlod.InputError, match=f"the tree is {depth} branches deep, "
+                                                      f"more than the {depth - 1}"):
+            plantlod.export_animation(tree, angles, tmp_path / f"t.{ext}")
+    plantlod.export_animation(tree, angles, tmp_path / "t.glb")
+    assert sorted(os.listdir(tmp_path)) == ["t.glb"]
+    monkeypatch.setattr(files, "MAX_USD_DEPTH", depth)          # at the limit: written
+    plantlod.export_animation(tree, angles, tmp_path / "t.usda")
+    assert constants.MAX_USD_DEPTH == 2_000
