@@ -33,6 +33,9 @@ def view(gltf_paths, output, wind_direction, title):
 
     if not math.isfinite(wind_direction):
         raise click.BadParameter("expected a finite number of degrees", param_hint="--wind-direction")
+    if "-" in gltf_paths:                     # (it said "-: no such file")
+        raise click.UsageError("view reads .glb or .gltf files by name (a .gltf's buffers lie "
+                               "beside it); standard input ('-') is not read")
     distinct_paths({"-o": output}, {f"input {k + 1}": p for k, p in enumerate(gltf_paths)})
     check_output_kind(output, "-o", "a web page", (".html", ".htm"))
     with open_output(output) as out:          # refuses a bad target before any work

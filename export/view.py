@@ -25,6 +25,7 @@ from .gltf_check import GLB_MAGIC, check_buffer_uris, check_document, check_glb_
 
 GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
 OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
+ZIP_MAGIC = b"PK\x03\x04"                                       # an .npz is a zip archive
 
 
 def glb_from_file(path: str) -> tuple[bytes, int | None]:
@@ -40,6 +41,9 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     if data.startswith(USDC_MAGIC) or text_kind(head) == "usd":
         raise InputError("an OpenUSD file, not a glTF; `plantlod view` plays glTF only: export "
                          "the tree to .glb or .gltf", path)
+    if data.startswith(ZIP_MAGIC):
+        raise InputError("a zip archive (a tree or angles .npz?), not a glTF; `plantlod view` "
+                         "plays the .glb or .gltf that `plantlod export` writes", path)
     if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
                                  and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
         check_glb_container(data, path)
@@ -101,6 +105,8 @@ def _why(exc: BaseException) -> str:
         return "its JSON is not UTF-8 text"
     if isinstance(exc, (AttributeError, TypeError, KeyError, IndexError)):
         return "a member is not of the kind glTF 2.0 gives it"
+    if isinstance(exc, ValueError) and "int_max_str_digits" in str(exc):
+        return "its JSON holds a whole number of more digits than Python reads (4,300)"
     return str(exc) or "unreadable"
 
 

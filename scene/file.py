@@ -438,6 +438,8 @@ class _Reader:
             if path.is_dir():
                 raise error(f"tree file {name!r} is a folder (in {folder}); expected an .lsys "
                             "file")
+            if path.exists():                    # /dev/null, a FIFO, a socket
+                raise error(f"tree file {name!r} is not a regular file; expected an .lsys file")
             raise error(f"tree file {name!r} not found (looked in {folder})")
         return path
 

@@ -728,3 +728,10 @@ def test_a_scene_without_a_camera_says_which_keys_it_needs(tmp_path):
     from plantlod.scene.file import read_scene
     camera = read_scene(str(path)).camera
     assert (camera.fov_deg, camera.height_px) == (60.0, 1080)
+
+
+def test_a_tree_file_that_is_not_regular_is_named_so(tmp_path):
+    # /dev/null exists: it was said to be "not found"
+    path = scene_file(tmp_path, '[[tree]]\nfile = "/dev/null"\n')
+    run = run_cli("scene", path, "--no-cache", exit_code=2)
+    one_line(run, 2, "tree file '/dev/null' is not a regular file")

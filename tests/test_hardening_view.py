@@ -301,3 +301,20 @@ def test_a_gltf_that_does_not_parse_is_said_in_words(tmp_path, text, reason):
     line = one_line(run_cli("view", str(path), "-o", str(tmp_path / "p.html"), exit_code=None), 2,
                     f"{path}: error: not a glTF file ({reason}")
     assert "Error" not in line
+
+
+def test_inputs_of_another_kind_are_named(files, tmp_path):
+    # a tree .npz was "not a glTF file (its JSON is not UTF-8 text)", '-' was "no such
+    # file", and a 5,000-digit number let Python's own advice through
+    (tmp_path / "t.npz").write_bytes(b"PK\x03\x04" + b"\0" * 64)
+    out = str(tmp_path / "p.html")
+    one_line(run_cli("view", str(tmp_path / "t.npz"), "-o", out, exit_code=None), 2,
+             "a zip archive (a tree or angles .npz?), not a glTF")
+    one_line(run_cli("view", "-", "-o", out, exit_code=None), 2, "standard input ('-') is not read")
+    doc = json.loads((files / "s.gltf").read_text())
+    text = json.dumps(doc).replace('"asset": {', '"asset": {"big": 1' + "0" * 5000 + ", ", 1)
+    (tmp_path / "big.gltf").write_text(text)
+    line = one_line(run_cli("view", str(tmp_path / "big.gltf"), "-o", out, exit_code=None), 2,
+                    "more digits than Python reads")
+    assert "sys.set_int_max_str_digits" not in line
+    assert not os.path.exists(out)
