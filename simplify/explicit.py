@@ -245,16 +245,21 @@ def explicit_skeleton(original: Tree, grouping: Grouping, frames, ch: Chords,
             leaf_address[g].append(str(count[0]))
             emit("L")
             emit("]")
-        for c in children[g]:
-            emit("[")
-            place(c, frame[g], tip[g])
-            emit("]")
+        todo.extend(("branch", c, frame[g], tip[g]) for c in reversed(children[g]))
 
+    # depth first, children in order, each bracketed: a stack, not recursion (a chain of
+    # 5,000 groups passed Python's recursion limit)
     top = [g for g in range(g_count) if parent_group[g] < 0]
-    for g in top:
+    todo: list = [("branch", g, np.eye(3), np.zeros(3)) for g in reversed(top)]
+    while todo:
+        item = todo.pop()
+        if item == "]":
+            emit("]")
+            continue
+        _, g, parent_frame, parent_tip = item
         emit("[")
-        place(g, np.eye(3), np.zeros(3))
-        emit("]")
+        todo.append("]")
+        place(g, parent_frame, parent_tip)
     return Skeleton(tokens, branch_address, leaf_address, leaf_area, length)
 
 

@@ -152,3 +152,31 @@ def test_a_scene_runs_a_tree_without_levels_at_full_detail(tmp_path):
     assert flat_branches == 7
     assert report["branch_steps_spent"] >= flat_branches * 200
     assert report["max_error_px"] <= report["budget_px"]
+
+
+def test_a_chain_deeper_than_the_recursion_limit_is_simplified():
+    # the explicit skeleton placed groups by recursion: a 5,000-deep chain (which derive,
+    # simulate and export take) stopped with "input nested too deeply"; a stack now. Here
+    # the limit is lowered to 100 frames above this test's instead of deriving 5,000 levels.
+    import sys
+
+    import scipy.linalg, scipy.optimize, scipy.sparse  # noqa: E401,F401 (imports go deep)
+
+    import plantlod
+    from plantlod.simplify import explicit, pipeline  # noqa: F401
+
+    depth = 250                                    # level 1: 150 groups in one chain
+    text = ("derivation_length: 1\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+            "force_propagated: 0.7\nbranch F: length=1 radius=0.02 bend_strength=20 "
+            "rotation_strength=20\naxiom: F" + "[&F" * (depth - 1) + "]" * (depth - 1) + "\n")
+    frames, f = 0, sys._getframe()
+    while f is not None:
+        frames, f = frames + 1, f.f_back
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(frames + 100)
+    try:
+        level = plantlod.simplify(text, level=1, form="explicit", duration=1.0)
+    finally:
+        sys.setrecursionlimit(old)
+    tree = plantlod.derive(level)
+    assert tree.n_branches == 150 and tree.depth() == 150
