@@ -27,7 +27,7 @@ UNDEFINED = "-"
 
 GROUP_HEADERS = ["group", "members", "path", "component", "A orig (deg)", "A simp (deg)",
                  "A error", "P orig (s)", "P simp (s)", "P error", "counted", "tip error"]
-LEFT_ALIGNED = ("group", "component", "counted", "branch")
+LEFT_ALIGNED = ("group", "root", "component", "counted", "branch")
 DIFF_HEADERS = ["branch", "max |Δbend| (deg)", "at t (s)", "max |Δrot| (deg)", "at t (s)"]
 
 
@@ -67,8 +67,19 @@ def dumps(document: dict) -> str:
 
 # --- the comparison report --------------------------------------------------------------
 
+def group_headers(comparison: Comparison) -> list[str]:
+    """GROUP_HEADERS, with a column ``root`` after ``group`` for an explicit level: the
+    original branch rooting each group (its ``groups:`` section), where ``group`` is the
+    level's own address of its branch."""
+    if comparison.simplified.tree.group_root:
+        return GROUP_HEADERS[:1] + ["root"] + GROUP_HEADERS[1:]
+    return GROUP_HEADERS
+
+
 def group_rows(comparison: Comparison) -> list[list[str]]:
-    """Two table rows per group (bend, rotation), in simplified-branch order."""
+    """Two table rows per group (bend, rotation), in simplified-branch order (the columns of
+    `group_headers`)."""
+    roots = comparison.simplified.tree.group_root
     members = np.bincount(comparison.groups[comparison.groups >= 0],
                           minlength=len(comparison.paths))
     deg = 180.0 / math.pi
@@ -78,7 +89,8 @@ def group_rows(comparison: Comparison) -> list[list[str]]:
             f = g.component(name)
             first = c == 0
             rows.append([
-                g.address if first else "", str(int(members[j])) if first else "",
+                g.address if first else ""] + ([roots[j] if first else ""] if roots else []) + [
+                str(int(members[j])) if first else "",
                 str(len(comparison.paths[j])) if first else "", name,
                 fmt(f.amplitude_original, deg), fmt(f.amplitude_simplified, deg),
                 fmt(f.amplitude_error), fmt(f.period_original), fmt(f.period_simplified),
@@ -147,7 +159,7 @@ def comparison_text(comparisons: list[Comparison]) -> str:
     blocks = []
     for comp in comparisons:
         blocks.append("".join(line + "\n" for line in context_lines(comp)) + "\n"
-                      + plain_table(GROUP_HEADERS, group_rows(comp)) + "\n"
+                      + plain_table(group_headers(comp), group_rows(comp)) + "\n"
                       + "".join(line + "\n" for line in headline_lines(comp)))
     return "\n".join(blocks)
 
@@ -162,7 +174,7 @@ def print_rich(comparisons: list[Comparison], console) -> None:
         for line in context_lines(comp):
             console.print(line, markup=False, highlight=False)
         table = Table(show_edge=False, header_style="bold")
-        for h in GROUP_HEADERS:
+        for h in group_headers(comp):
             table.add_column(h, justify="left" if h in LEFT_ALIGNED else "right", no_wrap=True)
         for row in group_rows(comp):
             table.add_row(*row)

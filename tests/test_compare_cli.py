@@ -329,3 +329,30 @@ def test_an_angle_csv_kept_every_k_steps_is_compared_at_its_samples(tmp_path):
                     str(tmp_path / "o10.csv"), "--dt", "0.01", "--duration", "5",
                     "--wind-speed", "5", exit_code=2)
     assert "simulate --every" in short.stderr and "--obj" not in short.stderr
+
+
+def test_an_explicit_levels_table_names_each_groups_root(tmp_path):
+    # an explicit level's branches have addresses of their own ('1', '3', ...): the table
+    # says which original branch roots each group, as the file's groups: section does, and
+    # as the JSON's main path (found from the groups, not from that section) begins
+    level = tmp_path / "l1.lsys"
+    run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--form", "explicit",
+            "-o", str(level))
+    args = ["compare", "examples/stalk8.lsys", str(level), "--dt", "0.01", "--duration", "3",
+            "--wind-speed", "5"]
+    text = run_cli(*args).stdout
+    lines = text.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("group"))
+    assert lines[head].split()[:3] == ["group", "root", "members"]
+    rows = [line.split() for line in lines[head + 2:] if line[:1].strip()]
+    rows = [r for r in rows if r[0][0].isdigit()]
+    doc = json.loads(run_cli(*args, "--json").stdout)["comparisons"][0]["groups"]
+    assert [(r[0], r[1]) for r in rows] == [(g["address"], g["main_path"][0]) for g in doc]
+    section = level.read_text().split("groups:\n", 1)[1].split()
+    assert [r[1] for r in rows] == section[1::2]
+    # a grammar-form level keeps the table as it was
+    grammar = tmp_path / "g1.lsys"
+    run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--form", "grammar",
+            "-o", str(grammar))
+    text = run_cli("compare", "examples/stalk8.lsys", str(grammar), *args[3:]).stdout
+    assert "group  members  path" in text
