@@ -222,8 +222,12 @@ def equivalent_leaf_rules(system: LSystem) -> list[Production]:
     shown through interpretation whose successor attaches no leaf, the rule is
     empty, since in the original it is gone. A module whose interpretation draws
     branches keeps them (they are the level's branches, each standing for its group):
-    its rule draws its interpretation with the leaves left out, then the leaf part
-    of S (``X -> P X`` shown as ``X -> P L``: ``X -> P[L]``). Branch symbols whose
+    its rule draws its interpretation with the leaves left out, then, in brackets, the
+    turns of that interpretation undone and the leaf part of S (whose turns start from
+    X's own frame): ``X -> P X`` shown as ``X -> /(30) P L`` gives
+    ``X -> /(30)P[\\(30)/(30)L]``, the leaf at the tip of the level's P, turned as the
+    original's (a module whose interpretation rolls with ``$``, which no turn undoes,
+    gets no rule). Branch symbols whose
     successor attaches no leaf, plain modules that show nothing, branch symbols with
     interpretation rules of their own, and modules shown through several or
     conditional interpretation rules get no rule.
@@ -251,6 +255,11 @@ def equivalent_leaf_rules(system: LSystem) -> list[Production]:
         shows_now = name in leaf_names or name in interpreted
         if not leaves and (name in branches or not shows_now):
             continue
+        if leaves and name not in branches and head:
+            undo = _undone_turns(head)
+            if undo is None:
+                continue
+            leaves = list(undo) + list(leaves)
         tail = (Module("["),) + tuple(leaves) + (Module("]"),) if leaves else ()
         rules.append(Production(Pattern(name, prod.pred.params), tuple(head) + tail))
     return rules
@@ -267,6 +276,27 @@ def _drawn_without_leaves(system: LSystem, name: str, params: tuple) -> tuple[Mo
     leaf_names = {leaf.name for leaf in system.leaves}
     shown = _apply_rule(rule, Module(name, params))
     return tuple(m for m in shown if m.name not in leaf_names)
+
+
+_INVERSE_TURN = {"+": "-", "-": "+", "&": "^", "^": "&", "/": "\\", "\\": "/", "|": "|"}
+
+
+def _undone_turns(modules: tuple[Module, ...]) -> tuple[Module, ...] | None:
+    """The turns that bring the turtle back to the frame it had before ``modules`` (their
+    turns outside brackets, inverted, last first; branches and moves do not turn it); None
+    where one of them cannot be undone (``$``, a roll to the horizontal)."""
+    out: list[Module] = []
+    depth = 0
+    for m in reversed(modules):
+        if m.name == "]":
+            depth += 1
+        elif m.name == "[":
+            depth -= 1
+        elif depth == 0 and m.name == "$":
+            return None
+        elif depth == 0 and m.name in _INVERSE_TURN:
+            out.append(Module(_INVERSE_TURN[m.name], m.args))
+    return tuple(out)
 
 
 def _mode(values: list[float]) -> float:

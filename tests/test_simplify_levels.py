@@ -83,19 +83,40 @@ interpretation:
 """
 
 
-def test_a_module_drawing_a_branch_keeps_it_under_equivalent_leaves():
+@pytest.mark.parametrize("shown, turns", [("/(30) P L", 1), ("+(40) P L", 1),
+                                          ("&(20) P /(50) L", 2)])
+def test_a_module_drawing_a_branch_keeps_it_under_equivalent_leaves(shown, turns):
     # X -> P X, shown as /(30) P L: in the original X is replaced by P X, shown as
     # P /(30) P L, so the level's X keeps what it draws (its P stands for its group), the
-    # roll included, and its own leaf goes; the successor's leaf comes in brackets.
-    system = parse_lsys(INTERPRETED_BRANCH)
+    # roll included, and its own leaf goes; the successor's leaf comes in brackets, its
+    # turns taken from X's own frame: the leaves' rest normals are the original's
+    # (a first version turned them twice: 60° for a roll of 30°)
+    from plantlod.simplify.static import rest_frames
+
+    system = parse_lsys(INTERPRETED_BRANCH.replace("X -> /(30) P L", f"X -> {shown}"))
     rules = {r.pred.name: format_production(r) for r in equivalent_leaf_rules(system)}
-    assert rules["X"] == "X -> /(30)P[/(30)L]"
+    assert rules["X"].startswith("X -> " + shown.split(" L")[0].split(" /")[0].replace(" ", ""))
     plain, _ = level_system(system, 1, equivalent_leaves=False)
     skeleton, expanded = level_system(system, 1, equivalent_leaves=True)
     assert "X" in expanded
-    assert build(skeleton).tree.address == build(plain).tree.address
+    level = build(skeleton).tree
+    assert level.address == build(plain).tree.address
     original = build(system).tree
-    assert build(skeleton).tree.n_leaves == original.n_leaves   # one leaf per X, as before
+    assert level.n_leaves == original.n_leaves == 3              # one leaf per X, as before
+
+    def normals(tree):
+        frames = rest_frames(tree).frame[tree.leaf_branch]
+        n = np.einsum("fij,fj->fi", frames, tree.leaf_normal)
+        return np.array(sorted(map(tuple, np.round(n, 9))))
+
+    np.testing.assert_allclose(normals(level), normals(original), atol=1e-8)
+    assert len(np.unique(normals(original).round(6), axis=0)) >= 1 and turns
+
+
+def test_a_module_whose_interpretation_rolls_to_the_horizontal_gets_no_leaf_rule():
+    # $ cannot be undone: the leaf's turns from X's frame would be lost
+    system = parse_lsys(INTERPRETED_BRANCH.replace("X -> /(30) P L", "X -> $ P L"))
+    assert "X" not in {r.pred.name for r in equivalent_leaf_rules(system)}
 
 
 def test_simplify_a_module_drawing_a_branch_in_either_form(tmp_path):
