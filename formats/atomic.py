@@ -28,6 +28,11 @@ def uninterrupted() -> Iterator[None]:
     exited during that wait let the chunks in flight land in a folder already removed (a
     ``.plantlod-*.zarr`` left behind). A signal that arrives in the block is held
     (`defer_signal`) and handled as it ends, when no write is in flight."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield                                    # (signals are handled in the main thread)
+        return
     _uninterrupted[0] += 1
     try:
         yield
@@ -72,6 +77,23 @@ def release_child(proc) -> None:
     _children.discard(proc)
 
 
+def _reap(pid: int, seconds: float = 2.0) -> None:
+    """Wait up to ``seconds`` for the killed child ``pid`` to end and reap it: os.waitpid
+    itself, since the interrupted thread may hold the Popen's own wait lock (its wait()
+    would spin out the time and leave a zombie)."""
+    import time
+
+    end = time.monotonic() + seconds
+    while True:
+        try:
+            done, _status = os.waitpid(pid, os.WNOHANG)
+        except (ChildProcessError, OSError):     # reaped already (by its Popen)
+            return
+        if done or time.monotonic() > end:
+            return
+        time.sleep(0.005)
+
+
 def remove_pending() -> None:
     """End every registered worker process (killed and reaped, so none outlives the command,
     not even as a zombie its new parent has yet to reap), then remove every registered
@@ -80,8 +102,7 @@ def remove_pending() -> None:
         with contextlib.suppress(OSError):
             proc.kill()
     for proc in list(_children):
-        with contextlib.suppress(Exception):
-            proc.wait(timeout=2.0)
+        _reap(proc.pid)
     for path in list(_pending):
         if os.path.isdir(path) and not os.path.islink(path):
             shutil.rmtree(path, ignore_errors=True)

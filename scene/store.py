@@ -33,37 +33,36 @@ def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], 
     file name, its scene trees (row order), its level trees (for the branch counts and
     addresses) and its seed (None: the file's own); rows: R; dt: seconds between rows.
     """
-    with uninterrupted():                 # (chunks in flight land before a signal ends it)
-        return _new_store(path, levels, files, rows, dt)
-
-
-def _new_store(path: str, levels: np.ndarray, files: list, rows: int, dt: float):
-    """`open_store`'s writes (metadata, levels, tree rows), in one thread."""
     import zarr
 
-    group = zarr.open_group(path, mode="w-")
-    group.attrs["dt"] = float(dt)
-    arr = group.create_array("levels", shape=levels.shape, dtype="int16",
-                             chunks=(min(max(len(levels), 1), STORE_BATCH_TREES),
-                                     max(1, min(levels.shape[1], STORE_TIME_CHUNK))))
-    arr[:] = levels
+    # each write held against a signal until its chunks have landed (`uninterrupted`), one
+    # tree level at a time, so that a signal waits milliseconds, not the whole store
+    with uninterrupted():
+        group = zarr.open_group(path, mode="w-")
+        group.attrs["dt"] = float(dt)
+        arr = group.create_array("levels", shape=levels.shape, dtype="int16",
+                                 chunks=(min(max(len(levels), 1), STORE_BATCH_TREES),
+                                         max(1, min(levels.shape[1], STORE_TIME_CHUNK))))
+        arr[:] = levels
     for i, (name, members, trees, seed) in enumerate(files):
-        sub = group.create_group(f"file_{i}")
-        sub.attrs["file"] = name
-        if seed is not None:                  # the tree grown from another seed than the file's
-            sub.attrs["seed"] = int(seed)
-        t = sub.create_array("trees", shape=(len(members),), dtype="int32",
-                             chunks=(max(len(members), 1),))
-        t[:] = np.asarray(members, dtype=np.int32)
+        with uninterrupted():
+            sub = group.create_group(f"file_{i}")
+            sub.attrs["file"] = name
+            if seed is not None:              # the tree grown from another seed than the file's
+                sub.attrs["seed"] = int(seed)
+            t = sub.create_array("trees", shape=(len(members),), dtype="int32",
+                                 chunks=(max(len(members), 1),))
+            t[:] = np.asarray(members, dtype=np.int32)
         for level, tree in enumerate(trees):
-            lv = sub.create_group(f"level_{level}")
-            lv.attrs["addresses"] = list(tree.address)
             shape = (len(members), rows, tree.n_branches)
-            chunks = (min(max(len(members), 1), STORE_BATCH_TREES), max(1, min(rows, STORE_TIME_CHUNK)),
-                      max(tree.n_branches, 1))
-            for name_ in ("bend", "rotation"):
-                lv.create_array(name_, shape=shape, dtype="float32", chunks=chunks,
-                                fill_value=np.nan)
+            chunks = (min(max(len(members), 1), STORE_BATCH_TREES),
+                      max(1, min(rows, STORE_TIME_CHUNK)), max(tree.n_branches, 1))
+            with uninterrupted():
+                lv = sub.create_group(f"level_{level}")
+                lv.attrs["addresses"] = list(tree.address)
+                for name_ in ("bend", "rotation"):
+                    lv.create_array(name_, shape=shape, dtype="float32", chunks=chunks,
+                                    fill_value=np.nan)
     return group
 
 

@@ -41,6 +41,8 @@ from plantlod.formats.atomic import hold_child, release_child
 
 from .constants import CAUGHT_SIGNALS, WORKER_POLL
 
+PR_SET_PDEATHSIG = 1                              # linux/prctl.h
+
 
 class _Failed:
     """A job's error, carried back to be raised where its result would have been."""
@@ -107,7 +109,6 @@ def run_jobs(first: int, last: int, here: Callable[[int], Any], workers: int,
         for _ in range(min(workers, last - first)):
             link, proc = _start()
             procs.append(proc)
-            hold_child(proc)                      # (a signal's handler ends it at once)
             threading.Thread(target=_serve, args=(link, (target, payload), jobs, answers or {}),
                              daemon=True, name="plantlod-worker-link").start()
         next_out = first
@@ -146,12 +147,18 @@ def _start():
     from multiprocessing.connection import Connection
 
     here, there = socket.socketpair()
-    code = f"import plantlod.sim.workers as w; w.main({there.fileno()}, {os.getpid()})"
+    # the kernel's kill with the parent asked for first thing, before any import: a command
+    # ended while a worker was still starting left it running until it got that far
+    code = (f"import ctypes, os; ctypes.CDLL(None).prctl({PR_SET_PDEATHSIG}, {int(signal.SIGKILL)})"
+            f" if os.uname().sysname == 'Linux' else None; os.getppid() != {os.getpid()} and "
+            f"os._exit(0); import plantlod.sim.workers as w; w.main({there.fileno()}, "
+            f"{os.getpid()})")
     # nothing of a worker's reaches the command's output: results, errors and warnings come
     # over the link, and a worker that fails outside a job leaves its jobs to the command
     proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=[there.fileno()],
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, close_fds=True)
+    hold_child(proc)                              # (a signal's handler ends it at once)
     there.close()
     link = Connection(here.detach())
     link.send(list(sys.path))
@@ -261,7 +268,6 @@ def _die_with_parent(parent: int) -> None:
     if sys.platform.startswith("linux"):
         import ctypes
 
-        PR_SET_PDEATHSIG = 1
         try:
             ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
         except (OSError, AttributeError):
