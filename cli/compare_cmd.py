@@ -156,9 +156,12 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     sides += [(s, simplified_angles[i] if simplified_angles else None,
                simplified_n[i] if simplified_n else None) for i, s in enumerate(simplified)]
     settings = _settings_if_needed(ctx, sides, sim_kwargs)
-    runs = [_run_side(path, csv, n, degrees, settings) for path, csv, n in sides]
+    from plantlod.compare.runs import check_bounds, on_common_samples
 
-    from plantlod.compare.runs import check_bounds
+    # a side kept every K-th step (simulate --every K): every side at its samples, so that
+    # the comparisons and the pictures pose each tree at one time
+    runs = on_common_samples([_run_side(path, csv, n, degrees, settings)
+                              for path, csv, n in sides])
 
     comparisons = [_compare_one(runs[0], run, path, window)
                    for run, (path, _csv, _n) in zip(runs[1:], sides[1:])]

@@ -9,6 +9,8 @@ import os
 from plantlod.lsys.errors import InputError
 from plantlod.compare.constants import DEFAULT_PLOT_TIME
 
+from plantlod.lsys.words import counted
+
 from .io import open_output, output_folder, say
 
 
@@ -79,7 +81,7 @@ def write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
                     with open_output(os.path.join(folder, f"frame_{number:05d}.obj")) as out:
                         out.write(frame(k))
                     written += 1
-        say(f"compare: wrote {written} OBJ file(s) to {obj_dir}")
+        say(f"compare: wrote {counted(written, 'OBJ file')} to {obj_dir}")
     if png is not None:
         with open_output(plot_path, binary=True) as out:
             out.write(png)

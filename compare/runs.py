@@ -115,13 +115,18 @@ def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot
     return np.asarray(bend)[:, order], np.asarray(rot)[:, order]
 
 
-def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name_b: str) -> None:
-    """Raise InputError unless two runs are sampled at the same times (within TIME_MATCH_RTOL)."""
+def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name_b: str,
+                     thinned: bool = True) -> None:
+    """Raise InputError unless two runs are sampled at the same times (within TIME_MATCH_RTOL).
+    ``thinned``: the caller reads a run kept every K-th step at the other's samples
+    (`common_samples`), and the message says so."""
     a, b = np.asarray(times_a, np.float64), np.asarray(times_b, np.float64)
     if a.shape != b.shape:
+        how = ("over the same span with the same --dt (one may keep every K-th sample of the "
+               "other: simulate --every)" if thinned else
+               "at the same times (the same --dt, span and --every)")
         raise InputError(f"{name_a} has {len(a)} samples ({_span(a)}) but {name_b} has {len(b)} "
-                         f"({_span(b)}); expected both runs over the same span with the same "
-                         f"--dt (one may keep every K-th sample of the other: simulate --every)")
+                         f"({_span(b)}); expected both runs {how}")
     tol = TIME_MATCH_RTOL * np.maximum(1.0, np.abs(a))
     bad = np.flatnonzero(np.abs(a - b) > tol)
     if len(bad):
@@ -132,18 +137,43 @@ def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name
 
 def common_samples(a: Run, b: Run) -> tuple[Run, Run]:
     """The two runs at the samples they share, where one keeps every K-th sample of the other
-    (`simulate --every K`: its times are the other's times[::K], within TIME_MATCH_RTOL);
-    the runs as they are otherwise (`check_same_times` then says what differs)."""
+    (`simulate --every K`: its times are the other's times[::K], within TIME_MATCH_RTOL, the
+    other's last K - 1 steps past them); the runs as they are otherwise (`check_same_times`
+    then says what differs)."""
     for fine, coarse, swap in ((a, b, False), (b, a, True)):
-        n, m = len(fine.times), len(coarse.times)
-        if m < 2 or m >= n or (n - 1) % (m - 1):
-            continue
-        k = (n - 1) // (m - 1)
-        picked = fine.times[::k]
-        if np.all(np.abs(picked - coarse.times) <= TIME_MATCH_RTOL * np.maximum(1.0, np.abs(picked))):
-            thinned = replace(fine, times=picked, bend=fine.bend[::k], rot=fine.rot[::k])
+        thinned = _thinned_to(fine, coarse.times)
+        if thinned is not None:
             return (coarse, thinned) if swap else (thinned, coarse)
     return a, b
+
+
+def on_common_samples(runs: list[Run]) -> list[Run]:
+    """Every run at the samples of the one with fewest (`common_samples`), so that pictures
+    of them all pose each at one time; the runs as they are where one is not thinned so."""
+    coarse = min(runs, key=lambda r: len(r.times))
+    out = []
+    for run in runs:
+        thinned = _thinned_to(run, coarse.times)
+        out.append(run if thinned is None else thinned)
+    return out
+
+
+def _thinned_to(fine: Run, times: np.ndarray) -> Run | None:
+    """``fine`` at ``times`` where those are its samples 0, K, 2K, ... (K from their spacing,
+    K >= 2) and it ends less than K steps after them; None otherwise."""
+    n, m = len(fine.times), len(times)
+    if m < 2 or n <= m or n < 2:
+        return None
+    step = fine.times[1] - fine.times[0]
+    if not step > 0:
+        return None
+    k = int(round((times[1] - times[0]) / step))
+    if k < 2 or len(fine.times[::k]) != m:
+        return None
+    picked = fine.times[::k]
+    if not np.all(np.abs(picked - times) <= TIME_MATCH_RTOL * np.maximum(1.0, np.abs(picked))):
+        return None
+    return replace(fine, times=picked, bend=fine.bend[::k], rot=fine.rot[::k])
 
 
 # --- tips ------------------------------------------------------------------------
@@ -236,7 +266,7 @@ def angle_differences(times_a: np.ndarray, addresses_a: list[str], bend_a: np.nd
         raise InputError(f"the two CSVs have different branches (only in {name_a}: "
                          f"{_examples(only_a) or 'none'}; only in {name_b}: "
                          f"{_examples(only_b) or 'none'}); expected two runs of one tree")
-    check_same_times(times_a, times_b, name_a, name_b)
+    check_same_times(times_a, times_b, name_a, name_b, thinned=False)
     column = {a: j for j, a in enumerate(addresses_b)}
     order = np.asarray([column[a] for a in addresses_a], dtype=np.int64)
     times = np.asarray(times_a, dtype=np.float64)

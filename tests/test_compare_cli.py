@@ -356,3 +356,35 @@ def test_an_explicit_levels_table_names_each_groups_root(tmp_path):
             "-o", str(grammar))
     text = run_cli("compare", "examples/stalk8.lsys", str(grammar), *args[3:]).stdout
     assert "group  members  path" in text
+
+
+@pytest.mark.parametrize("every", [5, 3])          # 3 does not divide the 10 steps
+def test_pictures_and_figures_of_a_side_kept_every_k_steps(tmp_path, every):
+    # the original's CSV at every step, the level's kept every K-th: compared at the level's
+    # samples, and --at T poses both trees at T. The same OBJ and figures as with both CSVs
+    # kept every K-th step (no thinning on that route); compare's --at used to index the
+    # level's 3 samples with the original's sample number (an internal error, or a frame of
+    # another time)
+    level = tmp_path / "l1.lsys"
+    level.write_text(STALK8_LEVEL1)
+    wind = ["--dt", "0.01", "--steps", "10", "--wind-speed", "5"]
+    csv = {}
+    for name, tree, k in (("o1", "examples/stalk8.lsys", 1), ("ok", "examples/stalk8.lsys", every),
+                          ("sk", str(level), every)):
+        csv[name] = str(tmp_path / f"{name}.csv")
+        run_cli("simulate", tree, *wind, "--every", str(k), "-o", csv[name])
+    at = f"{2 * every * 0.01:g}"
+    results = {}
+    for name, original in (("mixed", csv["o1"]), ("both", csv["ok"])):
+        out = run_cli("compare", "examples/stalk8.lsys", str(level), "--original-angles", original,
+                      "--simplified-angles", csv["sk"], "--at", at, "--obj",
+                      str(tmp_path / name), "--json")
+        results[name] = (json.loads(out.stdout), (tmp_path / name / f"frame_t{at}.obj").read_text())
+    assert results["mixed"][1] == results["both"][1]
+    a = results["mixed"][0]["comparisons"][0]
+    b = results["both"][0]["comparisons"][0]
+    assert a["amplitude_error"] == pytest.approx(b["amplitude_error"], rel=1e-9, abs=1e-15)
+    assert a["tip_error"] == pytest.approx(b["tip_error"], rel=1e-9, abs=1e-15)
+    # two CSVs of one tree (`--angles`) are not thinned, and the message says so
+    diff = run_cli("compare", "--angles", csv["o1"], csv["ok"], exit_code=2)
+    assert "the same --dt, span and --every" in diff.stderr and "simulate --every" not in diff.stderr

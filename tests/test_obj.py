@@ -165,7 +165,7 @@ def test_compare_writes_the_thesis_figure_and_trimesh_reads_it(runner, stalks):
     again = runner.invoke(cli, ["compare", "stalk8.lsys", "l1.lsys", "l2.lsys", *RUN,
                                 "--obj", "frames", "--at", "4"])
     assert again.exit_code == 0
-    assert "wrote 1 OBJ file(s) to frames" in again.stderr
+    assert "wrote 1 OBJ file to frames" in again.stderr
 
 
 def test_compare_obj_positions_match_the_angles(runner, stalks):
