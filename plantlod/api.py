@@ -192,7 +192,6 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     Raises `InputError` for an unstable dt (model.md 4) and `RunFailure` when a run diverges.
     """
     from plantlod.sim.damping import as_damping
-    from plantlod.sim.stability import check_stability
 
     damping = as_damping(real("damping", damping),
                          None if damping_ratio is None else real("damping_ratio", damping_ratio))
@@ -203,10 +202,18 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     steps = _step_count(dt, steps, duration)
     if not isinstance(every, (int, np.integer)) or every < 1:
         raise InputError(f"every must be an integer >= 1, got {every!r}")
-    check_stability(tree, dt, damping)
     winds, many = _winds(wind)
     winds = _gusty(winds, gust_strength, gust_seed)
-    time, bend, rot = _run_winds(tree, winds, float(dt), steps, every, damping, threads)
+    return _simulated(tree, winds, many, float(dt), steps, every, damping, threads)
+
+
+def _simulated(tree: Tree, winds: list, many: bool, dt: float, steps: int, every: int, damping,
+               threads: int | None) -> Angles:
+    """`simulate`'s run, its options checked (winds: wind objects; many: a lane axis)."""
+    from plantlod.sim.stability import check_stability
+
+    check_stability(tree, dt, damping)
+    time, bend, rot = _run_winds(tree, winds, dt, steps, every, damping, threads)
     _warn_large_angles(tree, time, bend, rot, many)
     if not many:
         bend, rot = bend[0], rot[0]
@@ -369,9 +376,13 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
               for name, b in bounds.items()}
     items = (original,) + simplified
     runs = []
+    from plantlod.sim.damping import as_damping
+
+    damped = as_damping(real("damping", damping),
+                        None if damping_ratio is None else real("damping_ratio", damping_ratio))
     for item, label in zip(items, _labels(items)):
         tree = _as_tree(item)
-        a = simulate(tree, w, dt, n, damping=damping, damping_ratio=damping_ratio)
+        a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
     comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
     violations = [check_bounds(c.report, bounds) for c in comparisons]
@@ -476,7 +487,7 @@ def _gusty(winds: list, strength: Any, seed: Any) -> list:
     import warnings
 
     from plantlod.lsys.errors import PlantlodWarning
-    from plantlod.sim.wind import ConstantWind, GustyWind, wind_samples
+    from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, wind_samples
 
     strength = real("gust_strength", strength, low=0)
     if seed is not None and not strength:
@@ -485,8 +496,8 @@ def _gusty(winds: list, strength: Any, seed: Any) -> list:
         winds = [GustyWind(w, seed=0 if seed is None else whole("gust_seed", seed, low=0),
                            strength=strength) for w in winds]
     steady = [getattr(w, "base", w) for w in winds]     # (a gust scales its base wind)
-    if all(isinstance(w, ConstantWind) and not np.any(wind_samples(w, np.zeros(1)))
-           for w in steady):
+    if all((isinstance(w, ConstantWind) and not np.any(wind_samples(w, np.zeros(1))))
+           or (isinstance(w, KeyframeWind) and not np.any(w.vectors)) for w in steady):
         warnings.warn("the wind is zero, so the tree stays at rest; give wind=(vx, vy, vz) or "
                       "wind_speed=S", PlantlodWarning, stacklevel=3)
     return winds

@@ -8,6 +8,7 @@ message), not against a reprint of the output.
 from __future__ import annotations
 
 import dataclasses
+import json
 import inspect
 import io
 import os
@@ -258,9 +259,20 @@ def test_gusts_as_the_cli_gives_them(tmp_path):
         plantlod.simulate(STALK, dt=0.01, steps=10, wind_speed=6, gust_seed=3)
     with pytest.raises(InputError, match="gust_strength must be a finite number in"):
         plantlod.simulate(STALK, dt=0.01, steps=10, wind_speed=6, gust_strength=-1)
-    report = plantlod.compare(STALK, STALK, dt=0.01, steps=300, wind_speed=6,
-                              gust_strength=0.4, gust_seed=3)
-    assert report["comparisons"][0]["amplitude_error"] == 0.0
+    # compare's gusts are the CLI's too: a level compared in them gives the command's figures
+    level = plantlod.simplify(STALK, level=1, form="grammar", duration=2.0)
+    path = tmp_path / "l1.lsys"
+    plantlod.write_lsystem(level, str(path))
+    report = plantlod.compare(STALK, str(path), dt=0.01, steps=300, wind_speed=6,
+                              gust_strength=0.4, gust_seed=3)["comparisons"][0]
+    command = json.loads(run_cli("compare", STALK, str(path), "--dt", "0.01", "--steps", "300",
+                                 "--wind-speed", "6", "--gust-strength", "0.4", "--gust-seed",
+                                 "3", "--json").stdout)["comparisons"][0]
+    calm = plantlod.compare(STALK, str(path), dt=0.01, steps=300,
+                            wind_speed=6)["comparisons"][0]
+    for figure in ("amplitude_error", "tip_error", "motion_error"):
+        assert report[figure] == pytest.approx(command[figure], rel=1e-9), figure
+    assert report["tip_error"] != pytest.approx(calm["tip_error"], rel=1e-3)
 
 
 def test_a_zero_wind_is_warned_of_as_the_cli_does():
@@ -276,3 +288,11 @@ def test_a_zero_wind_is_warned_of_as_the_cli_does():
         plantlod.simulate(STALK, [(0, 0, 0), (1, 0, 0)], dt=0.01, steps=10)   # one blows
     cli = run_cli("simulate", STALK, "--dt", "0.01", "--steps", "10", "-o", "-")
     assert "the wind is zero" in cli.stderr
+    from plantlod.sim.wind import KeyframeWind
+
+    with pytest.warns(PlantlodWarning, match="the wind is zero"):
+        plantlod.simulate(STALK, KeyframeWind([0, 1], [[0, 0, 0], [0, 0, 0]]), dt=0.01, steps=10)
+    with warnings.catch_warnings(record=True) as caught:       # once, not once per tree
+        warnings.simplefilter("always")
+        plantlod.compare(STALK, STALK, STALK, wind=(0, 0, 0), dt=0.01, steps=3)
+    assert sum("the wind is zero" in str(w.message) for w in caught) == 1
