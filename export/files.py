@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 
+from plantlod.lsys.checks import shown_value
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
@@ -39,8 +40,8 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     if frames is not None:
         count = int(math.floor(span + 1e-9)) + 1
         if not 0 <= frames[0] < frames[1] <= count:
-            raise InputError(f"--frames {frames[0]}:{frames[1]} is outside the run's {count} frames "
-                             f"(0:{count} at {fps:g} fps)")
+            raise InputError(f"frames {shown_value(frames[0])}:{shown_value(frames[1])} are "
+                             f"outside the run's {count} frames (0:{count} at {fps:g} fps)")
     ext = os.path.splitext(path)[1].lower()
     if ext not in FORMATS:
         raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "

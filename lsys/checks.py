@@ -24,19 +24,28 @@ def finite(value: int | float) -> bool:
         return False
 
 
+def shown_value(value: Any) -> str:
+    """``value`` for a message: its repr, an integer past a few dozen digits by its power of
+    ten (Python refuses to print one of more than 4,300 digits, and it would fill the line)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**30:
+        return f"an integer of about 10^{int(abs(value).bit_length() * math.log10(2))}"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:79] + "…"
+
+
 def real(name: str, value: Any, *, low: float | None = None, low_open: bool = False,
          high: float | None = None) -> float:
     """``value`` as a finite float in [low, high] (``low_open``: above low)."""
     if isinstance(value, bool) or not isinstance(value, _REAL):
-        raise InputError(f"{name} must be a number, got {value!r}")
+        raise InputError(f"{name} must be a number, got {shown_value(value)}")
     x = float(value) if finite(value) else math.inf
     if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)) \
             or (high is not None and x > high):
         if low is None and high is None:         # (any finite number: "in [-inf, inf]" misled)
-            raise InputError(f"{name} must be a finite number, got {value!r}")
+            raise InputError(f"{name} must be a finite number, got {shown_value(value)}")
         bounds = f"{'(' if low_open else '['}{'-inf' if low is None else f'{low:g}'}, " \
-                 f"{'inf' if high is None else f'{high:g}'}]"
-        raise InputError(f"{name} must be a finite number in {bounds}, got {value!r}")
+                 f"{'inf)' if high is None else f'{high:g}]'}"
+        raise InputError(f"{name} must be a finite number in {bounds}, got {shown_value(value)}")
     return x
 
 
@@ -45,7 +54,7 @@ def whole(name: str, value: Any, *, low: int = 0, high: int | None = None) -> in
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
             or value < low or (high is not None and value > high):
         raise InputError(f"{name} must be a whole number in [{low}, "
-                         f"{'inf' if high is None else f'{high:,}'}], got {value!r}")
+                         f"{'inf)' if high is None else f'{high:,}]'}, got {shown_value(value)}")
     return int(value)
 
 

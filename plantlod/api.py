@@ -26,6 +26,8 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
+from plantlod.lsys.checks import shown_value
+
 from .arguments import binary_stream, one_run, output_target, path_of, real, whole
 
 PathOrText = Union[str, "os.PathLike[str]"]
@@ -200,8 +202,7 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     tree = _as_tree(tree)
     wind = _wind_option(wind, wind_speed, wind_direction)
     steps = _step_count(dt, steps, duration)
-    if not isinstance(every, (int, np.integer)) or every < 1:
-        raise InputError(f"every must be an integer >= 1, got {every!r}")
+    every = whole("every", every, low=1, high=max(steps, 1))
     winds, many = _winds(wind)
     winds = _gusty(winds, gust_strength, gust_seed)
     return _simulated(tree, winds, many, float(dt), steps, every, damping, threads)
@@ -455,7 +456,9 @@ def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
 
     duration = 0.0 if steps is not None else real("duration", duration, low=0)
     count = step_count(dt, duration)           # (dt checked against MIN_TIME_STEP either way)
-    return count if steps is None else whole("steps", steps)
+    from plantlod.sim.constants import MAX_TIME_STEPS
+
+    return count if steps is None else whole("steps", steps, high=MAX_TIME_STEPS)
 
 
 def _winds(wind: Any) -> tuple[list, bool]:
@@ -522,10 +525,10 @@ def _wind(wind: Any):
         if np.iscomplexobj(wind):                 # (float64 of it drops the imaginary part)
             raise TypeError("complex")
         vector = np.asarray(wind, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):   # (an int past a double's range)
         vector = np.zeros(0)
     if vector.shape != (3,) or not np.all(np.isfinite(vector)):
-        got = shown(" ".join(repr(wind).split()), 80)      # (one line: an array's repr has several)
+        got = shown(" ".join(shown_value(wind).split()), 80)   # (one line: an array's repr has several)
         raise InputError(f"a wind is (vx, vy, vz) in m/s (a tuple, a list of three numbers or an "
                          f"array of shape (3,)) or a wind object, and several winds a list of "
                          f"them or an array (W, 3); got {got}")
@@ -655,11 +658,11 @@ def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any
         raise InputError("give one of wind and wind_speed")
     from plantlod.sim.wind import wind_from_speed
 
-    for value, what in ((speed, "wind_speed"), (direction, "wind_direction")):
-        if value is not None and (isinstance(value, bool)
-                                  or not isinstance(value, (int, float, np.floating, np.integer))):
-            raise InputError(f"{what} must be a number, got {value!r}")
-    return wind_from_speed(speed, 0.0 if direction is None else direction)
+    from plantlod.sim.constants import MAX_WIND_SPEED
+
+    speed = real("wind_speed", speed, low=0, high=MAX_WIND_SPEED)
+    direction = 0.0 if direction is None else real("wind_direction", direction)
+    return wind_from_speed(speed, direction)
 
 
 def _text_stream(path_or_file: PathOrFile) -> tuple[IO[str], str]:

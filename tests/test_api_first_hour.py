@@ -296,3 +296,26 @@ def test_a_zero_wind_is_warned_of_as_the_cli_does():
         warnings.simplefilter("always")
         plantlod.compare(STALK, STALK, STALK, wind=(0, 0, 0), dt=0.01, steps=3)
     assert sum("the wind is zero" in str(w.message) for w in caught) == 1
+
+
+HUGE = 10**5000          # past what Python prints as digits (4,300) and what a float holds
+
+
+@pytest.mark.parametrize("call", [
+    lambda: plantlod.simulate(STALK, wind=(1, 0, 0), dt=HUGE, steps=5),
+    lambda: plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=HUGE),
+    lambda: plantlod.simulate(STALK, wind=(1, 0, 0), dt=0.01, steps=5, every=HUGE),
+    lambda: plantlod.simulate(STALK, wind_speed=HUGE, dt=0.01, steps=5),
+    lambda: plantlod.simulate(STALK, wind_speed=1, wind_direction=HUGE, dt=0.01, steps=5),
+    lambda: plantlod.simulate(STALK, wind=HUGE, dt=0.01, steps=5),
+    lambda: plantlod.derive(STALK, n=HUGE),
+    lambda: plantlod.simplify(STALK, level=HUGE),
+    lambda: plantlod.compare(STALK, STALK, wind=(1, 0, 0), dt=0.01, steps=HUGE),
+    lambda: plantlod.compare(STALK, STALK, wind=(1, 0, 0), dt=0.01, steps=3,
+                             bounds={"motion_error": HUGE}),
+])
+def test_an_integer_of_thousands_of_digits_is_bad_input(call):
+    # it escaped as ValueError ("Exceeds the limit (4300 digits) ...") or OverflowError
+    with pytest.raises(InputError) as info:
+        call()
+    assert "set_int_max_str_digits" not in str(info.value) and len(str(info.value)) < 400
