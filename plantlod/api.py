@@ -90,7 +90,8 @@ def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSyste
         return read_lsys(path_of(path_or_text))
     if hasattr(path_or_text, "read"):
         stream, stream_name = _text_stream(path_or_text)
-        return parse_lsys_text(stream.read().lstrip("\ufeff"), name or stream_name)
+        return parse_lsys_text(_read_text(stream, name or stream_name).lstrip("\ufeff"),
+                               name or stream_name)
     if not isinstance(path_or_text, str):
         raise InputError(f"expected a path, an open text stream or the text of an L-system, got "
                          f"{type(path_or_text).__name__}")
@@ -145,7 +146,7 @@ def read_tree(path_or_file: PathOrFile) -> Tree:
     if archive is not None:
         return read_tree_bytes(read_npz_file(archive), archive)
     stream, name = _text_stream(path_or_file)
-    return read_tree_text(stream.read(), name)
+    return read_tree_text(_read_text(stream, name), name)
 
 
 def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
@@ -272,7 +273,7 @@ def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
         time, addresses, bend, rot = read_angles_file(archive, degrees)
     else:
         stream, name = _text_stream(path_or_file)
-        time, addresses, bend, rot = read_angles_text(stream.read(), name, degrees)
+        time, addresses, bend, rot = read_angles_text(_read_text(stream, name), name, degrees)
     return Angles(time, bend, rot, tuple(addresses))
 
 
@@ -644,6 +645,25 @@ def _as_tree(item: Any) -> Tree:
 
         return read_tree_text(text, path).named(path)
     return derive(parse_lsys_text(text, path))
+
+
+def _read_text(stream: IO[str], name: str) -> str:
+    """The text of an open stream; one not open for reading, or not UTF-8 text, is bad input
+    naming it (the path of such a file says so as well: `formats.text_input`)."""
+    try:
+        text = stream.read()
+    except io.UnsupportedOperation:
+        raise InputError("the stream is not open for reading; expected a file opened with "
+                         "open(path) or open(path, 'r')", name) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text ({exc.reason}); expected a UTF-8 file", name
+                         ) from None
+    except ValueError as exc:                    # a closed file
+        raise InputError(f"cannot read the stream: {exc}", name) from None
+    if not isinstance(text, str):
+        raise InputError("the stream gives bytes; expected a text stream (open(path), not "
+                         "open(path, 'rb'))", name)
+    return text
 
 
 def _wind_option(wind: Any, speed: float | None, direction: float | None) -> Any:

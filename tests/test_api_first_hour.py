@@ -319,3 +319,15 @@ def test_an_integer_of_thousands_of_digits_is_bad_input(call):
     with pytest.raises(InputError) as info:
         call()
     assert "set_int_max_str_digits" not in str(info.value) and len(str(info.value)) < 400
+
+
+@pytest.mark.parametrize("read", [plantlod.read_lsystem, plantlod.read_tree, plantlod.read_angles])
+def test_a_stream_not_open_for_reading_or_not_utf8_is_bad_input(tmp_path, read):
+    # io.UnsupportedOperation and UnicodeDecodeError escaped from the readers' streams
+    (tmp_path / "bad.txt").write_bytes(b"name: \xff\n")
+    with open(tmp_path / "w.txt", "w") as out:
+        with pytest.raises(InputError, match="not open for reading"):
+            read(out)
+    with open(tmp_path / "bad.txt") as text:
+        with pytest.raises(InputError, match="not UTF-8 text"):
+            read(text)
