@@ -9,8 +9,9 @@ GLTF_CYLINDER_SIDES = 8        # sides of a branch tube in glTF
 MAX_USD_DEPTH = 2_000            # branches in a chain, root to tip, of an OpenUSD export: a prim
                                 # per branch nests in its parent's, so the file (and the prim
                                 # paths) grow with the square of the depth (4,000: 579 MB of .usda)
-MAX_EXPORT_SAMPLES = 500_000_000  # frames x branches of one export (a quaternion each: 8 GB of
-                                  # float32 rotations, 16 GB as computed)
+MAX_EXPORT_SAMPLES = 10_000_000  # frames x branches of one export: the poses, rotations and
+                                 # quaternions computed for it peak near 460 bytes each (4.6 GB
+                                 # here; 500,000,000 let a run exhaust the machine's memory)
 
 # --- the view page (export/view.py) ---------------------------------------------------------
 VIEW_TITLE = "plantlod: original and levels side by side"
