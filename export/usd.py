@@ -11,6 +11,8 @@ carries its address in the custom attribute `plantlod:address`. Time code k is f
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from plantlod.lsys.tree import Tree
@@ -29,7 +31,10 @@ def write_usd(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: n
         b, r = b[frames[0]:frames[1]], r[frames[0]:frames[1]]
     local, translation = local_transforms(tree, b, r)
     quats = quaternions(local)                               # (F, B, 4) x, y, z, w
-    stage = Usd.Stage.CreateNew(path)
+    text = path.lower().endswith(".usda")
+    # .usda: made in memory and written by plantlod (OpenUSD's text writer looped on a full
+    # disk, its memory growing without end); .usdc: OpenUSD's own file, which says so
+    stage = Usd.Stage.CreateInMemory(os.path.basename(path)) if text else Usd.Stage.CreateNew(path)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     stage.SetTimeCodesPerSecond(fps)
@@ -55,6 +60,11 @@ def write_usd(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: n
         geom.CreateHeightAttr(float(tree.length[i]))
         geom.CreateAxisAttr(UsdGeom.Tokens.z)
         geom.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, float(tree.length[i]) / 2))
+    if text:
+        from plantlod.formats.atomic import write_whole
+
+        write_whole(path, stage.GetRootLayer().ExportToString().encode("utf-8"))
+        return
     saved = False
     try:
         saved = stage.GetRootLayer().Save()

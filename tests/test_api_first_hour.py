@@ -188,7 +188,11 @@ def test_a_usd_file_too_large_to_write_is_one_line_and_leaves_nothing(tmp_path, 
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 1, done.stderr
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
-    assert f"cannot write {out}: OpenUSD could not save it" in done.stderr
+    # (a .usda is written by plantlod from OpenUSD's text: OpenUSD's own text writer looped
+    # on a full disk with abop_1_24a, its memory growing without end)
+    said = (f"{out}: File too large" if ext == "usda"
+            else f"cannot write {out}: OpenUSD could not save it")
+    assert said in done.stderr
     assert list(out.parent.iterdir()) == []
 
 
