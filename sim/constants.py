@@ -38,4 +38,5 @@ MAX_DAMPING_RATIO = 100.0     # ζ above this is refused (measured trees 0.02-0.
                              # stable step underflowed to 0 s)
 MAX_WIND_SPEED = 1000.0        # m/s: faster winds are refused (the strongest gusts measured are near 110 m/s;
                              # at 1e300 the scene's wind overflowed to inf)
+SPEED_ROUNDING = 1e-12       # relative: a speed of exactly MAX_WIND_SPEED toward 30° measures 1000.0000000000001
 REST_HEIGHT_ROUNDING = 1e-12   # a rest height within this x the tree's largest tip coordinate is 0 (flat)

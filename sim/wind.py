@@ -22,7 +22,8 @@ from typing import Protocol, TextIO
 
 import numpy as np
 
-from .constants import GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY, MAX_WIND_SPEED
+from .constants import (GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY, MAX_WIND_SPEED,
+                        SPEED_ROUNDING)
 from plantlod.lsys.errors import InputError, RunFailure
 
 
@@ -85,7 +86,7 @@ class ConstantWind:
 def check_speed(speed: float, what: str, *where) -> None:
     """InputError where ``what`` blows faster than MAX_WIND_SPEED m/s (every wind of a run:
     a vector, a keyframe, a gust's peak); ``where``: its file, line and column, if any."""
-    if speed > MAX_WIND_SPEED:
+    if speed > MAX_WIND_SPEED * (1.0 + SPEED_ROUNDING):   # (|(v cos a, v sin a)| may round up)
         raise InputError(f"{what} of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s",
                          *where)
 

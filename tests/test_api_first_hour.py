@@ -335,3 +335,15 @@ def test_a_stream_not_open_for_reading_or_not_utf8_is_bad_input(tmp_path, read):
     with open(tmp_path / "bad.txt") as text:
         with pytest.raises(InputError, match="not UTF-8 text"):
             read(text)
+
+
+@pytest.mark.parametrize("direction", [0, 30, 45, 137])
+def test_the_largest_wind_speed_is_taken_in_any_direction(direction):
+    # |(1000 cos 30°, 1000 sin 30°)| rounds to 1000.0000000000001, which was refused as
+    # "a wind of 1000 m/s; expected at most 1000 m/s" (so simplify's wind_range=(1, 1000)
+    # always failed: its measurement winds include 15°)
+    angles = plantlod.simulate(STALK, wind_speed=1000, wind_direction=direction, dt=0.001,
+                               steps=2)
+    assert angles.bend.shape == (3, 8)
+    with pytest.raises(InputError, match="1000.001"):
+        plantlod.simulate(STALK, wind_speed=1000.001, wind_direction=direction, dt=0.001, steps=2)
