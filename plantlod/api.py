@@ -576,13 +576,23 @@ def _checked(tree: Tree) -> Tree:
     before children, leaves on branches that exist, distinct addresses, finite numbers): a
     Tree built or edited by hand (`dataclasses.replace`) is checked before anything runs on
     it (a parent cycle made `write_tree` loop forever, a short array leaked numpy's errors)."""
-    from plantlod.formats.treefile import BRANCH_ADDRESS, LEAF_ADDRESS
+    from plantlod.formats.treefile import BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS
     from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS
 
     try:
         for name in ("parent", "leaf_branch"):
-            if not np.issubdtype(np.asarray(getattr(tree, name)).dtype, np.integer):
-                raise ValueError(f"{name} must hold whole numbers (indices)")
+            index = np.asarray(getattr(tree, name))
+            if not np.issubdtype(index.dtype, np.integer) or index.ndim != 1:
+                raise ValueError(f"{name} must be a flat array of whole numbers (indices)")
+        scale = tree.leaf_force_scale
+        if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)):
+            raise ValueError(f"leaf_force_scale must be one number, got {type(scale).__name__}")
+        given = [getattr(tree, name) for name in BRANCH_FLOAT_FIELDS] + [
+            tree.euler, tree.offset, tree.leaf_area, tree.leaf_normal, tree.force_gain,
+            tree.swing_roll]
+        if any(a is not None and np.iscomplexobj(a) for a in given):
+            raise ValueError("its numbers must be real (a complex array lost its imaginary "
+                             "part without a word)")
         tree.check()
         arrays = [np.asarray(getattr(tree, name), dtype=np.float64)
                   for name in BRANCH_FLOAT_FIELDS] + [
@@ -595,9 +605,16 @@ def _checked(tree: Tree) -> Tree:
         if not all(np.all(np.isfinite(a)) for a in arrays):
             raise ValueError("its numbers must be finite (a NaN or an infinity in lengths, "
                              "strengths, forces, rest angles, offsets, leaves, gains or rolls)")
-        if np.any(np.asarray(tree.leaf_area) < 0) or np.any(
-                np.linalg.norm(np.asarray(tree.leaf_normal, dtype=np.float64), axis=-1) == 0):
-            raise ValueError("its leaves need areas >= 0 and normals that are not zero")
+        with np.errstate(over="ignore"):
+            norms = np.linalg.norm(np.asarray(tree.leaf_normal, dtype=np.float64), axis=-1)
+        if np.any(np.asarray(tree.leaf_area) < 0) or np.any(norms == 0) \
+                or not np.all(np.isfinite(norms)):
+            raise ValueError("its leaves need areas >= 0 and normals that are not zero (nor "
+                             "past a float's range)")
+        for name in sorted(NON_NEGATIVE_FIELDS):  # (what its tree file could not hold either)
+            value = getattr(tree, name, None)
+            if value is not None and np.any(np.asarray(value, dtype=np.float64) < 0):
+                raise ValueError(f"{name} must not be negative")
         addresses = [(a, BRANCH_ADDRESS) for a in [*tree.address, *tree.group_root]] + [
             (a, LEAF_ADDRESS) for a in tree.leaf_address]          # (as the tree files' readers)
         if not all(isinstance(a, str) and pattern.match(a) for a, pattern in addresses):

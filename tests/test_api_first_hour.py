@@ -207,7 +207,7 @@ def test_a_comparison_of_no_step_says_so():
     (dict(address=list(range(8))), "addresses must be strings"),
     (dict(symbol=[1] * 8), "symbols must be single characters"),
     (dict(group_root=["q"] * 3), "addresses must be strings"),
-    (dict(parent=np.array([-1, 0.5, 1, 2, 3, 4, 5, 6])), "parent must hold whole numbers"),
+    (dict(parent=np.array([-1, 0.5, 1, 2, 3, 4, 5, 6])), "parent must be a flat array of whole numbers"),
     (dict(leaf_normal=np.zeros((1, 3))), "normals that are not zero"),
     (dict(leaf_area=np.array([-1.0])), "areas >= 0"),
 ])
@@ -347,3 +347,27 @@ def test_the_largest_wind_speed_is_taken_in_any_direction(direction):
     assert angles.bend.shape == (3, 8)
     with pytest.raises(InputError, match="1000.001"):
         plantlod.simulate(STALK, wind_speed=1000.001, wind_direction=direction, dt=0.001, steps=2)
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda t: {"leaf_branch": t.leaf_branch[:, None]}, "leaf_branch must be a flat array"),
+    (lambda t: {"leaf_force_scale": np.ones(3)}, "leaf_force_scale must be one number"),
+    (lambda t: {"leaf_normal": t.leaf_normal * 0 + 1e300}, "nor past a float's range"),
+    (lambda t: {"length": t.length.astype(complex)}, "its numbers must be real"),
+    (lambda t: {"length": -t.length}, "length must not be negative"),
+    (lambda t: {"drag_coefficient": -t.drag_coefficient}, "drag_coefficient must not be negative"),
+    (lambda t: {"leaf_force_scale": -1.0}, "leaf_force_scale must not be negative"),
+])
+def test_more_hand_edited_trees_are_caught(edit, said):
+    # each escaped as a numpy error or a TypeError, or (negative amounts) was written by
+    # write_tree into a file that read_tree refuses (the fuzzer of session 26)
+    import warnings
+
+    tree = plantlod.derive(STALK)
+    bad = dataclasses.replace(tree, **edit(tree))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                # (no ComplexWarning, no overflow)
+        for call in (lambda: plantlod.simulate(bad, wind=(1, 0, 0), dt=0.01, steps=3),
+                     lambda: plantlod.write_tree(bad)):
+            with pytest.raises(InputError, match=said):
+                call()
