@@ -94,8 +94,11 @@ class Options:
             raise InputError(f"calibrate must be True or False, got {self.calibrate!r}")
         if not isinstance(self.wind_range, (tuple, list)) or len(self.wind_range) != 2:
             raise InputError(f"wind_range must be (low, high) in m/s, got {self.wind_range!r}")
-        for name, value in (("wind_range", self.wind_range[0]), ("wind_range", self.wind_range[1]),
-                            ("dt", self.dt), ("duration", self.duration),
+        from plantlod.sim.constants import MAX_WIND_SPEED
+
+        for value in self.wind_range:           # (its own bounds, not a measurement wind's)
+            real("wind_range", value, low=0, low_open=True, high=MAX_WIND_SPEED)
+        for name, value in (("dt", self.dt), ("duration", self.duration),
                             ("damping_ratio", self.damping_ratio)):
             real(name, value)
         as_damping(0.0, self.damping_ratio or None)      # ζ checked as every run checks it

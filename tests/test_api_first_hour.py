@@ -371,3 +371,13 @@ def test_more_hand_edited_trees_are_caught(edit, said):
                      lambda: plantlod.write_tree(bad)):
             with pytest.raises(InputError, match=said):
                 call()
+
+
+@pytest.mark.parametrize("wind_range, bad", [((1, 2000), "2000"), ((0, 5), "0"),
+                                             ((1, 1e6), "1000000")])
+def test_a_wind_range_is_checked_at_its_own_ends(wind_range, bad):
+    # (1, 2000) said "got 1500" (its 0.75-high measurement wind) and (1, 1e6) "a wind of
+    # 1000 m/s", values nobody gave
+    with pytest.raises(InputError, match=rf"wind_range must be a finite number in \(0, 1000\], "
+                                         rf"got {bad}"):
+        plantlod.simplify(STALK, level=1, wind_range=wind_range, duration=1.0)
