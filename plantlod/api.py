@@ -105,6 +105,7 @@ def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> st
 
     if not isinstance(system, LSystem):
         raise InputError(f"write_lsystem takes an LSystem, got {type(system).__name__}")
+    _checked_system(system)
     output_target(path_or_file)
     text = write_lsys(system, system.comment or None)
     _write_text(text, path_or_file)
@@ -564,11 +565,58 @@ def _labels(items: tuple) -> list[str]:
 def _as_system(item: Any) -> LSystem:
     """An `LSystem`, or one read from a path or text (`read_lsystem`)."""
     if isinstance(item, LSystem):
-        return item
+        return _checked_system(item)
     if isinstance(item, (str, os.PathLike)):
         return read_lsystem(item)
     raise InputError(f"expected an LSystem, the path of an .lsys file or its text, got "
                      f"{type(item).__name__}")
+
+
+def _checked_system(system: LSystem) -> LSystem:
+    """``system`` as given, once its fields have the types an .lsys file gives them and it
+    reads back from its own text: an `LSystem` edited by hand (`dataclasses.replace`) with a
+    string, a float count or a bare string axiom leaked TypeError and AttributeError."""
+    from plantlod.formats.lsys_file import write_lsys
+    from plantlod.lsys.parse import parse_lsys
+    from plantlod.lsys.system import BranchSymbol, LeafSymbol, Module, Override, Production
+
+    def fail(message: str):
+        raise InputError(f"the LSystem is not one an .lsys file can say: {message}",
+                         system.source or None)
+
+    for name in ("derivation_length", "seed"):
+        value = getattr(system, name)
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            fail(f"{name} must be a whole number >= 0, got {shown_value(value)}")
+    for name in ("branching_angle", "rotation_angle", "force_absorbed", "force_propagated",
+                 "drag_coefficient", "leaf_force_scale"):
+        try:
+            real(name, getattr(system, name))
+        except InputError as exc:
+            fail(exc.message)
+    for name in ("name", "source", "comment"):
+        if not isinstance(getattr(system, name), str):
+            fail(f"{name} must be a string, got {shown_value(getattr(system, name))}")
+    kinds = {"axiom": Module, "productions": Production, "interpretation": Production,
+             "branches": BranchSymbol, "leaves": LeafSymbol, "overrides": Override, "ignore": str}
+    for name, kind in kinds.items():
+        value = getattr(system, name)
+        if not isinstance(value, (tuple, list)) or not all(isinstance(v, kind) for v in value):
+            fail(f"{name} must be a tuple of {kind.__name__}s, got {shown_value(value)}")
+    if not isinstance(system.defines, (tuple, list)) or not all(
+            isinstance(d, tuple) and len(d) == 2 and isinstance(d[0], str) for d in system.defines):
+        fail("defines must be a tuple of (name, value) pairs")
+    import warnings
+
+    try:
+        with warnings.catch_warnings():           # (its own reading warned already)
+            warnings.simplefilter("ignore")
+            parse_lsys(write_lsys(system), system.source or "<LSystem>")
+    except InputError as exc:
+        fail(exc.message)
+    except (TypeError, ValueError, AttributeError) as exc:
+        fail(f"{type(exc).__name__}: {exc}")
+    return system
 
 
 def _checked(tree: Tree) -> Tree:

@@ -381,3 +381,24 @@ def test_a_wind_range_is_checked_at_its_own_ends(wind_range, bad):
     with pytest.raises(InputError, match=rf"wind_range must be a finite number in \(0, 1000\], "
                                          rf"got {bad}"):
         plantlod.simplify(STALK, level=1, wind_range=wind_range, duration=1.0)
+
+
+@pytest.mark.parametrize("edit, said", [
+    ({"derivation_length": "3"}, "derivation_length must be a whole number"),
+    ({"derivation_length": 3.0}, "derivation_length must be a whole number"),
+    ({"force_absorbed": "x"}, "force_absorbed must be a number"),
+    ({"leaf_force_scale": None}, "leaf_force_scale must be a number"),
+    ({"axiom": "F L"}, "axiom must be a tuple of Modules"),
+    ({"productions": ["F -> F F"]}, "productions must be a tuple of Productions"),
+    ({"name": None}, "name must be a string"),
+    ({"leaves": None}, "leaves must be a tuple of LeafSymbols"),
+    ({"branching_angle": float("nan")}, "branching_angle must be a finite number"),
+])
+def test_a_hand_edited_lsystem_is_checked_before_use(edit, said):
+    # each leaked a TypeError, ValueError or AttributeError from inside (the API fuzzer of
+    # session 26), or, for a NaN, a derived tree full of NaN
+    bad = dataclasses.replace(plantlod.read_lsystem(STALK), **edit)
+    for call in (plantlod.derive, plantlod.write_lsystem,
+                 lambda s: plantlod.simulate(s, wind=(1, 0, 0), dt=0.01, steps=2)):
+        with pytest.raises(InputError, match=f"not one an .lsys file can say: {said}"):
+            call(bad)
