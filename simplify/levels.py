@@ -249,6 +249,8 @@ def equivalent_leaf_rules(system: LSystem) -> list[Production]:
             head = _drawn_without_leaves(system, name, params)
             if head is None:
                 continue
+            if not any(m.name in branches for m in head):
+                head = ()                         # (it shows leaves and turns only: they go)
         else:
             head = ()
         leaves = _leaf_part(prod.successor, system)
