@@ -22,6 +22,7 @@ from .runs import AngleDifference, Comparison, Violation
 from .measures import COMPONENTS
 
 from plantlod.formats.constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
+from plantlod.lsys.words import counted
 
 UNDEFINED = "-"
 
@@ -126,18 +127,13 @@ def context_lines(comparison: Comparison) -> list[str]:
     o, s, r = comparison.original, comparison.simplified, comparison.report
     k = comparison.window.stop - comparison.window.start
     return [
-        f"original:   {o.name} ({_count(o.tree.n_branches, 'branch')}, "
-        f"{_count(o.tree.n_leaves, 'leaf')}, rest height {fmt(r.rest_height)} m)",
-        f"simplified: {s.name} ({_count(s.tree.n_branches, 'branch')} = groups, "
-        f"{_count(s.tree.n_leaves, 'leaf')}; {_count(comparison.unassigned, 'original branch')} "
-        f"in no group)",
+        f"original:   {o.name} ({counted(o.tree.n_branches, 'branch', False)}, "
+        f"{counted(o.tree.n_leaves, 'leaf', False)}, rest height {fmt(r.rest_height)} m)",
+        f"simplified: {s.name} ({counted(s.tree.n_branches, 'branch', False)} = groups, "
+        f"{counted(s.tree.n_leaves, 'leaf', False)}; "
+        f"{counted(comparison.unassigned, 'original branch', False)} in no group)",
         f"window:     {fmt(r.t0)} to {fmt(r.t1)} s ({k} samples)",
     ]
-
-
-def _count(n: int, noun: str) -> str:
-    plural = {"branch": "branches", "leaf": "leaves", "original branch": "original branches"}
-    return f"{n} {noun if n == 1 else plural[noun]}"
 
 
 def plain_table(headers: list[str], rows: list[list[str]], left: tuple[str, ...] = LEFT_ALIGNED

@@ -119,7 +119,7 @@ def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name
                      thinned: bool = True) -> None:
     """Raise InputError unless two runs are sampled at the same times (within TIME_MATCH_RTOL).
     ``thinned``: the caller reads a run kept every K-th step at the other's samples
-    (`common_samples`), and the message says so."""
+    (`on_common_samples`), and the message says so."""
     a, b = np.asarray(times_a, np.float64), np.asarray(times_b, np.float64)
     if a.shape != b.shape:
         how = ("over the same span with the same --dt (one may keep every K-th sample of the "
@@ -135,21 +135,11 @@ def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name
                          f"in {name_b}; expected both runs sampled at the same times")
 
 
-def common_samples(a: Run, b: Run) -> tuple[Run, Run]:
-    """The two runs at the samples they share, where one keeps every K-th sample of the other
-    (`simulate --every K`: its times are the other's times[::K], within TIME_MATCH_RTOL, the
-    other's last K - 1 steps past them); the runs as they are otherwise (`check_same_times`
-    then says what differs)."""
-    for fine, coarse, swap in ((a, b, False), (b, a, True)):
-        thinned = _thinned_to(fine, coarse.times)
-        if thinned is not None:
-            return (coarse, thinned) if swap else (thinned, coarse)
-    return a, b
-
-
 def on_common_samples(runs: list[Run]) -> list[Run]:
-    """Every run at the samples of the one with fewest (`common_samples`), so that pictures
-    of them all pose each at one time; the runs as they are where one is not thinned so."""
+    """Every run at the samples of the one with fewest, where those are its samples 0, K, 2K,
+    ... (`simulate --every K`: the same Δt and span), so that comparisons and pictures pose
+    each tree at one time; a run not thinned so as it is (`check_same_times` then says what
+    differs)."""
     coarse = min(runs, key=lambda r: len(r.times))
     out = []
     for run in runs:
@@ -198,7 +188,7 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     combined angles are returned for the whole run (for plots); the report
     covers the window only.
     """
-    original, simplified = common_samples(original, simplified)
+    original, simplified = on_common_samples([original, simplified])
     check_same_times(original.times, simplified.times, original.samples_name,
                      simplified.samples_name)
     groups = assign_groups(original.tree, simplified.tree)

@@ -33,6 +33,7 @@ from .expr import (
     Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, expression_depth, format_number,
     free_names,
 )
+from .words import counted
 from .system import (
     BRACKETS, BRANCH_KEYS, GAIN_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, STRUCTURE_SYMBOLS,
     SWING_ROLL_KEY,
@@ -259,10 +260,6 @@ def _suggest(word: str, choices: Iterable[str]) -> str:
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def _plural(n: int, noun: str) -> str:
-    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
-
-
 # --- expressions ---------------------------------------------------------------------
 
 def _expression(cur: _Cursor) -> Expr:
@@ -355,7 +352,7 @@ def _primary(cur: _Cursor) -> Expr:
         args = _arguments(cur, opener.start)
         arity = FUNCTIONS[tok.text][1]
         if len(args) != arity:
-            raise _error(pos, f"{tok.text}() takes {_plural(arity, 'argument')}, got {len(args)}")
+            raise _error(pos, f"{tok.text}() takes {counted(arity, 'argument', grouped=False)}, got {len(args)}")
         return Call(tok.text, args, pos)
     if tok.kind == "(":
         return _parenthesised(cur, tok.start, "parenthesis")
@@ -1128,7 +1125,7 @@ def _count_error(module: Module, counts: dict[str, tuple[set[int], Production]],
     if entry is None or len(module.args) in entry[0]:
         return None
     accepted = " or ".join(str(n) for n in sorted(entry[0]))
-    return _error(module.pos, f"'{module.name}' has {_plural(len(module.args), 'parameter')} here, "
+    return _error(module.pos, f"'{module.name}' has {counted(len(module.args), 'parameter', grouped=False)} here, "
                               f"but the {what} for '{module.name}' (first at "
                               f"{_where(entry[1].pos)}) take {accepted}; expected {accepted}")
 

@@ -7,6 +7,7 @@ IRREGULAR = {"branch": "branches", "leaf": "leaves", "original branch": "origina
              "branch-step": "branch-steps"}
 
 
-def counted(n: int, noun: str) -> str:
-    """``n`` with thousands separators and ``noun``, plural unless n is 1."""
-    return f"{n:,} {noun if n == 1 else IRREGULAR.get(noun, noun + 's')}"
+def counted(n: int, noun: str, grouped: bool = True) -> str:
+    """``n`` and ``noun``, plural unless n is 1; ``grouped``: with thousands separators."""
+    number = f"{n:,}" if grouped else str(n)
+    return f"{number} {noun if n == 1 else IRREGULAR.get(noun, noun + 's')}"

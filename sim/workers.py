@@ -151,8 +151,7 @@ def _start():
     # ended while a worker was still starting left it running until it got that far
     code = (f"import ctypes, os; ctypes.CDLL(None).prctl({PR_SET_PDEATHSIG}, {int(signal.SIGKILL)})"
             f" if os.uname().sysname == 'Linux' else None; os.getppid() != {os.getpid()} and "
-            f"os._exit(0); import plantlod.sim.workers as w; w.main({there.fileno()}, "
-            f"{os.getpid()})")
+            f"os._exit(0); import plantlod.sim.workers as w; w.main({there.fileno()})")
     # nothing of a worker's reaches the command's output: results, errors and warnings come
     # over the link, and a worker that fails outside a job leaves its jobs to the command
     proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=[there.fileno()],
@@ -201,14 +200,13 @@ def _serve(link, payload, jobs: Jobs, answers: dict) -> None:
         link.close()
 
 
-def main(fd: int, parent: int) -> None:
+def main(fd: int) -> None:
     """A worker (module docstring; `_start`): the link on file descriptor ``fd``, the job
     function and its payload from it, then jobs until none is left. Anything that ends it
     outside a job (its parent gone, a link cut short) ends it quietly: the parent runs what
     it leaves, and says what goes wrong."""
     for signum in CAUGHT_SIGNALS:
         signal.signal(signum, signal.SIG_IGN)
-    _die_with_parent(parent)
     try:
         from multiprocessing.connection import Connection
 
@@ -259,18 +257,3 @@ def portable(exc: BaseException) -> BaseException:
     except Exception:                             # noqa: BLE001 - any unpicklable exception
         return RuntimeError(f"{type(exc).__name__}: {exc}")
     return exc
-
-
-def _die_with_parent(parent: int) -> None:
-    """Linux: the kernel kills this process when its parent (pid ``parent``) ends
-    (PR_SET_PDEATHSIG), so a command ended by a signal (`os._exit`) leaves no worker; where
-    the parent ended before the call, this process ends now."""
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        try:
-            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
-        except (OSError, AttributeError):
-            pass
-    if os.getppid() != parent:
-        os._exit(0)
