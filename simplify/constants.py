@@ -153,10 +153,13 @@ REGROUP_ATTEMPTS = 3          # level-1 fits at most: the first grouping, then g
                               # (family level 1: tuning range +41 cases, held out +69; 5 attempts on 45 tuning
                               # trees that still missed after 3: +9, stalks -3; within noise, for 2 more fits)
 REGROUP_MAX_BRANCHES = 1000   # ... for trees of at most this many branches (each attempt is a level-1 fit)
-REGROUP_MISFIT_WEIGHT = (150.0, 150.0)  # where every attempt above misses: level 1 grouped again with the
-                              # mode misfit priced at level 1 too (`MODE_MISFIT_WEIGHT`'s later levels' weight)
-REGROUP_MISFIT_ATTEMPTS = 3   # ... this many fits at most (the first, then groups kept apart as above; diagnosis range
-                              # 2000-2399, sympodial level 1: 633 cases without, 650 with 1, 659 with 3 of 815)
+REGROUP_MISFIT_PRICINGS = ((150.0, 3), (1000.0, 2))  # where every attempt above misses: level 1 grouped
+                              # again with the mode misfit priced at level 1 too, at each weight in turn (W_f for
+                              # level 1 and after it; `MODE_MISFIT_WEIGHT`), for at most that many fits each (the
+                              # first, then groups kept apart as above). 150 (session 22; diagnosis range 2000-2399,
+                              # sympodial level 1: 633 cases without, 650 with 1 fit, 659 with 3 of 815); 1000
+                              # (session 27; diagnosis range 200-399, sympodial: level 1 341 -> 366 of 431 cases,
+                              # level 2 331 -> 361 of 429; a third weight, 10000, gained none)
 KEPT_APART_COST = 1e12        # added to the cost of a merge kept apart: level 1 takes it after every other
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------

@@ -17,15 +17,18 @@ its worst ratio; the first attempt on a tie) is kept, with the levels above it g
 it (nested as before). Trees of more than `REGROUP_MAX_BRANCHES` branches are grouped as
 they are (each attempt costs a level-1 fit).
 
-Where every such attempt still misses in some wind, level 1 is grouped once more with a second
-pricing, the mode misfit weighed while level 1 is merged too (`REGROUP_MISFIT_WEIGHT`, for
-`REGROUP_MISFIT_ATTEMPTS` fits, kept apart as above): a group whose members' bend and rotation
+Where every such attempt still misses in some wind, level 1 is grouped again with a second
+pricing, the mode misfit weighed while level 1 is merged too, at each weight of
+`REGROUP_MISFIT_PRICINGS` in turn (150, then 1000; at most 3, then 2 fits, kept apart as
+above), as long as no attempt holds in every wind: a group whose members' bend and rotation
 parts cancel across their two periods answers with more than one branch can (`merge_costs.
-ModeMisfit`, family sympodial trees whose k_bs and k_rs differ). Weighed for every tree it
-cost other kinds as many cases as it gained (docs/simplify.md, "Limits"); tried as one more
-candidate, it is kept only where its level ranks better. A grouping already fitted is not
-fitted again (where no merge's misfit differs, as along a straight chain, the second pricing
-groups as the first).
+ModeMisfit`, family sympodial trees whose k_bs and k_rs differ). At 150 a sympodial fork
+whose main path runs to its rolled lateral can still be cheaper than two pairs along the
+laterals that line up (family sympodial-209: 0 of 20 cases at 150, 12 at 1000). Weighed for
+every tree it cost other kinds as many cases as it gained (docs/simplify.md, "Limits"); tried
+as one more candidate, it is kept only where its level ranks better. A grouping already
+fitted is not fitted again (where no merge's misfit differs, as along a straight chain, the
+later pricings group as the first).
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ from plantlod.lsys.tree import Tree
 
 from .bounds import form_rank
 from .constants import (MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES,
-                        REGROUP_MISFIT_ATTEMPTS, REGROUP_MISFIT_WEIGHT, SMALL_ANGLE_LIMIT)
+                        REGROUP_MISFIT_PRICINGS, SMALL_ANGLE_LIMIT)
 from .evaluate import Runs
 from .grouping import Grouping, merge_levels
 from .motion_fit import group_scores
@@ -84,7 +87,8 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
     up_to = len(groupings) - 1                    # (a single level's caller groups no coarser)
     best = None                                   # (rank, groupings, level)
     tried: set[bytes] = set()                     # level-1 groupings fitted
-    pricings = ((MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS), (REGROUP_MISFIT_WEIGHT, REGROUP_MISFIT_ATTEMPTS))
+    pricings = ((MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS),) + tuple(
+        ((w, w), attempts) for w, attempts in REGROUP_MISFIT_PRICINGS)
     for pricing, (weight, attempts) in enumerate(pricings):
         if best is not None and best[0][0] == 0:  # it holds in every wind: nothing to try
             break

@@ -143,8 +143,9 @@ def _level_one_misfit(tree, grouping) -> float:
 def test_the_second_pricing_weighs_level_ones_mode_misfit():
     # family sympodial-2378 (63 branches, k_rs / k_bs 1.31): priced with the mode misfit at
     # level 1 too, level 1's groups misfit less in sum, and every level keeps its count
-    from plantlod.simplify.constants import MODE_MISFIT_WEIGHT, REGROUP_MISFIT_WEIGHT
+    from plantlod.simplify.constants import MODE_MISFIT_WEIGHT, REGROUP_MISFIT_PRICINGS
 
+    REGROUP_MISFIT_WEIGHT = (REGROUP_MISFIT_PRICINGS[0][0],) * 2
     assert MODE_MISFIT_WEIGHT[0] < REGROUP_MISFIT_WEIGHT[0]
     _, tree = family_tree("sympodial", 2378)
     plain = merge_levels(tree)
@@ -157,17 +158,46 @@ def test_the_second_pricing_weighs_level_ones_mode_misfit():
 def test_a_level_that_misses_after_every_attempt_tries_the_second_pricing(monkeypatch):
     # sympodial-2378's level 1 misses some measurement wind after REGROUP_ATTEMPTS fits; the
     # grouping of the second pricing ranks better, and is kept
+    # (the second pricing alone: the weights after it are the next test's)
     import plantlod.simplify.regroup as regroup
-    from plantlod.simplify.constants import REGROUP_MISFIT_WEIGHT
+    from plantlod.simplify.constants import REGROUP_MISFIT_PRICINGS
 
+    REGROUP_MISFIT_WEIGHT = (REGROUP_MISFIT_PRICINGS[0][0],) * 2
     tree, fit, runs_for = _level_one("sympodial", 2378)
     plain = merge_levels(tree)
-    monkeypatch.setattr(regroup, "REGROUP_MISFIT_ATTEMPTS", 0)
+    monkeypatch.setattr(regroup, "REGROUP_MISFIT_PRICINGS", ())
     _, (_, first) = regrouped(tree, plain, fit, runs_for)
     assert _rank(tree, first, runs_for)[0] > 0
-    monkeypatch.undo()
+    monkeypatch.setattr(regroup, "REGROUP_MISFIT_PRICINGS", REGROUP_MISFIT_PRICINGS[:1])
     levels, (_, level) = regrouped(tree, plain, fit, runs_for)
     priced = merge_levels(tree, misfit_weight=REGROUP_MISFIT_WEIGHT)
     assert np.array_equal(levels[1].group, priced[1].group)
     assert _rank(tree, level, runs_for) < _rank(tree, first, runs_for)
     assert [lv.count for lv in levels] == [lv.count for lv in plain]
+
+
+def test_a_level_that_misses_at_every_earlier_weight_tries_the_next(monkeypatch):
+    # family sympodial-209 (63 branches, k_bs 50, k_rs 60, the laterals rolled 166 and 282
+    # deg): at the second pricing's first weight its forks still run their main paths to the
+    # lateral at 282 deg, whose bend lands across its parent's, and level 1 misses every
+    # measurement wind; the next weight pairs parents with the laterals that line up, its
+    # level ranks better, and it is kept (at the same counts, nested and connected)
+    import plantlod.simplify.regroup as regroup
+    from plantlod.simplify.constants import REGROUP_MISFIT_PRICINGS
+
+    assert len(REGROUP_MISFIT_PRICINGS) >= 2
+    first_weight, next_weight = ((w, w) for w, _ in REGROUP_MISFIT_PRICINGS[:2])
+    tree, fit, runs_for = _level_one("sympodial", 209)
+    plain = merge_levels(tree)
+    at_first = merge_levels(tree, misfit_weight=first_weight)
+    at_next = merge_levels(tree, misfit_weight=next_weight)
+    assert _level_one_misfit(tree, at_next[1]) < _level_one_misfit(tree, at_first[1])
+    monkeypatch.setattr(regroup, "REGROUP_MISFIT_PRICINGS", REGROUP_MISFIT_PRICINGS[:1])
+    _, (_, before) = regrouped(tree, plain, fit, runs_for)
+    assert _rank(tree, before, runs_for)[0] > 0
+    monkeypatch.setattr(regroup, "REGROUP_MISFIT_PRICINGS", REGROUP_MISFIT_PRICINGS[:2])
+    levels, (_, level) = regrouped(tree, plain, fit, runs_for)
+    assert np.array_equal(levels[1].group, at_next[1].group)
+    assert _rank(tree, level, runs_for) < _rank(tree, before, runs_for)
+    assert [lv.count for lv in levels] == [lv.count for lv in plain]
+    _nested_and_connected(tree, levels)
