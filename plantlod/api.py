@@ -49,12 +49,15 @@ class Angles:
     rotation: np.ndarray
     addresses: tuple[str, ...]
 
-    def __getitem__(self, lane: int) -> "Angles":
-        """One run of a result for a list of winds: ``angles[w]`` has bend (T, B)."""
+    def __getitem__(self, lane: int | slice) -> "Angles":
+        """One run of a result for a list of winds: ``angles[w]`` has bend (T, B); a slice,
+        ``angles[a:b]``, keeps those runs as a result for a list of winds, (W', T, B)."""
         if np.ndim(self.bend) != 3:
             raise InputError("these angles are one run; angles[w] selects a run of "
                              "simulate(tree, wind=[...]) (a list of winds)")
         lanes = np.shape(self.bend)[0]
+        if isinstance(lane, slice):
+            return Angles(self.time, self.bend[lane], self.rotation[lane], self.addresses)
         if not isinstance(lane, (int, np.integer)) or isinstance(lane, bool) \
                 or not -lanes <= lane < lanes:
             raise IndexError(f"run {lane!r} of {lanes}; expected 0..{lanes - 1}")

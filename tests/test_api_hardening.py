@@ -64,6 +64,21 @@ def test_one_run_of_a_lanes_result_by_index(tmp_path):
         single[0]
 
 
+def test_a_slice_of_a_lanes_result_keeps_those_runs():
+    # (it was IndexError "run slice(0, 1, None) of 3")
+    tree = plantlod.derive(STALK)
+    winds = [(2.0, 0.0, 0.0), (0.0, 5.0, 0.0), (-3.0, 1.0, 0.0)]
+    many = plantlod.simulate(tree, wind=winds, dt=0.01, steps=30)
+    singles = [plantlod.simulate(tree, wind=w, dt=0.01, steps=30) for w in winds]
+    for part, picked in ((many[0:1], [0]), (many[1:], [1, 2]), (many[::-2], [2, 0]), (many[5:], [])):
+        assert len(part) == len(picked)
+        assert part.bend.shape == (len(picked),) + singles[0].bend.shape
+        for run, k in zip(part, picked):
+            np.testing.assert_array_equal(run.bend, singles[k].bend)
+            np.testing.assert_array_equal(run.rotation, singles[k].rotation)
+        assert part.addresses == many.addresses
+
+
 def test_wind_speed_and_direction_as_the_cli_has(tmp_path):
     tree = plantlod.derive(STALK)
     a = plantlod.simulate(tree, wind_speed=5, wind_direction=90, dt=0.01, steps=50)
