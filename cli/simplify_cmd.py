@@ -123,7 +123,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
         raise click.UsageError("--jobs applies to --levels DIR (one level is fitted in one process)")
     options = Options(level=level, method=method, calibrate=calibrate, wind_range=wind_range,
                       dt=dt, duration=duration, max_evaluations=evaluations, form=form,
-                      damping_ratio=damping_ratio)
+                      damping_ratio=damping_ratio, flags=True)
     show = is_terminal(sys.stderr) if progress is None else progress
     if show:
         result = _with_progress(run_simplify, system, options)
@@ -185,7 +185,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
         distinct_paths({f"--levels ({name})": os.path.join(folder, name) for name in names},
                        {"FILE": input_path})     # (simplify DIR/level1.lsys --levels DIR)
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",
-                       damping_ratio=damping_ratio) for k in range(1, last + 1)]
+                       damping_ratio=damping_ratio, flags=True) for k in range(1, last + 1)]
     # every level into a temporary folder beside DIR, moved into DIR only when all are
     # written: a failure or a signal leaves neither a partial set nor a new empty DIR
     with output_folder(folder, merge=True) as tmp:

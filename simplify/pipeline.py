@@ -80,6 +80,16 @@ class Options:
     max_evaluations: int = CALIBRATION_EVALUATIONS
     form: str = "auto"
     damping_ratio: float = 0.0
+    flags: bool = field(default=False, repr=False, compare=False)   # messages name CLI flags
+
+    def spelled(self, name: str, value: object = None) -> str:
+        """Option ``name`` (with ``value``) as the caller wrote it: ``--dt``, ``--method derived``
+        and ``--calibrate`` for the CLI (``flags``), ``dt``, ``method='derived'`` and
+        ``calibrate=True`` for the API."""
+        if self.flags:
+            flag = "--" + name.replace("_", "-")
+            return flag if value is None or isinstance(value, bool) else f"{flag} {value}"
+        return name if value is None else f"{name}={value!r}"
 
     def __post_init__(self) -> None:
         from plantlod.sim.constants import MAX_TIME_STEPS
@@ -104,11 +114,12 @@ class Options:
         as_damping(0.0, self.damping_ratio or None)      # ζ checked as every run checks it
         whole("every", self.every, low=1, high=MAX_TIME_STEPS)
         whole("max_evaluations", self.max_evaluations, low=1, high=MAX_TIME_STEPS)
-        step_count(self.dt, self.duration, "--dt", "--duration")
+        dt, duration = self.spelled("dt"), self.spelled("duration")
+        step_count(self.dt, self.duration, dt, duration)
         if self.duration < 2 * self.every * self.dt:    # (a period needs two kept samples)
-            raise InputError(f"--duration {self.duration:g} s at --dt {self.dt:g} s gives fewer "
+            raise InputError(f"{duration} {self.duration:g} s at {dt} {self.dt:g} s gives fewer "
                              f"than {2 * self.every} steps to measure the motion in; expected a "
-                             "longer --duration or a smaller --dt")
+                             f"longer {duration} or a smaller {dt}")
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
@@ -422,8 +433,10 @@ def simplify_explicit(system: LSystem, options: Options,
     """
     source = system.source or None
     if options.method != "derived" or options.calibrate:
-        raise InputError("the explicit form has derived parameters only; expected --method "
-                         "derived without --calibrate (or --form grammar)", source)
+        raise InputError(f"the explicit form has derived parameters only; expected "
+                         f"{options.spelled('method', 'derived')} without "
+                         f"{options.spelled('calibrate', True)} "
+                         f"(or {options.spelled('form', 'grammar')})", source)
 
     def level_exists(last: int) -> None:
         if grouping is None and not 1 <= options.level <= last:
@@ -543,7 +556,8 @@ def simplify_grammar(system: LSystem, options: Options,
     if options.method not in METHODS:
         raise InputError(f"unknown method {options.method!r}; expected one of {', '.join(METHODS)}")
     if options.calibrate and options.method != "derived":
-        raise InputError("--calibrate refines the derived method; expected --method derived")
+        raise InputError(f"{options.spelled('calibrate', True)} refines the derived method; "
+                         f"expected {options.spelled('method', 'derived')}")
     check_level(system, options.level)
     winds = options.winds()
     original = build(system).tree
@@ -628,7 +642,7 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
 
     if not isinstance(system, LSystem):
         raise InputError(f"expected an LSystem, got {type(system).__name__}")
-    known = {f.name for f in dataclasses.fields(Options)} - {"level"}
+    known = {f.name for f in dataclasses.fields(Options)} - {"level", "flags"}
     unknown = sorted(set(options) - known)
     if unknown:
         raise InputError(f"unknown option {unknown[0]!r}; expected some of {', '.join(sorted(known))}")

@@ -145,14 +145,21 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     ({"max_evaluations": -1}, "max_evaluations must be a whole number"),   # accepted
     ({"calibrate": "yes"}, "calibrate must be True or False"),             # accepted
     ({"foo": 1}, "unknown option 'foo'"),                                  # TypeError
-    ({"dt": 10}, "gives fewer than 8 steps to measure the motion in"),     # signal shape error
-    ({"duration": -1}, "--duration -1 s: expected a duration of at least 0 s"),  # "more than 10^10 steps"
+    ({"dt": 10}, "duration 20 s at dt 10 s gives fewer than 8 steps to measure the motion in; "
+                 "expected a longer duration or a smaller dt"),           # signal shape error
+    ({"duration": -1}, "duration -1 s: expected a duration of at least 0 s"),  # "more than 10^10 steps"
+    # (the options as the API names them; they named the CLI's --duration, --method, ...)
+    ({"form": "explicit", "calibrate": True}, "expected method='derived' without calibrate=True "
+                                              "(or form='grammar')"),
+    ({"level": 2, "method": "thesis", "calibrate": True, "form": "grammar"},
+     "calibrate=True refines the derived method; expected method='derived'"),
 ])
 def test_simplify_options_are_checked_before_any_work(options, fragment):
     """Each of these raised another exception, hung or was accepted (session 21, found by
     fuzzing the API); `simplify.pipeline.Options` checks every field, for the command too."""
-    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+    with pytest.raises(InputError, match=__import__("re").escape(fragment)) as error:
         plantlod.simplify(STALK, **({"level": 1} | options))
+    assert "--" not in str(error.value)
     with pytest.raises(InputError, match="expected an LSystem, the path"):
         plantlod.simplify(None, level=1)
 
