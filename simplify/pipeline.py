@@ -68,6 +68,8 @@ class Options:
                    (groups merged from the tips, chords), or "auto": the grammar form
                    where it meets the level's bounds (`LEVEL_BOUNDS`), else the explicit form
     damping_ratio: ζ of model.md 4 under which the level is fitted and measured (0: undamped)
+    flags        : messages name the options as the CLI's flags (``--dt``), else as the API's
+                   keywords (``dt``); `spelled`
     """
 
     level: int
