@@ -145,11 +145,11 @@ def test_the_second_pricing_weighs_level_ones_mode_misfit():
     # level 1 too, level 1's groups misfit less in sum, and every level keeps its count
     from plantlod.simplify.constants import MODE_MISFIT_WEIGHT, REGROUP_MISFIT_PRICINGS
 
-    REGROUP_MISFIT_WEIGHT = (REGROUP_MISFIT_PRICINGS[0][0],) * 2
-    assert MODE_MISFIT_WEIGHT[0] < REGROUP_MISFIT_WEIGHT[0]
+    second = (REGROUP_MISFIT_PRICINGS[0][0],) * 2          # (W_f at level 1 and after it)
+    assert MODE_MISFIT_WEIGHT[0] < second[0]
     _, tree = family_tree("sympodial", 2378)
     plain = merge_levels(tree)
-    priced = merge_levels(tree, misfit_weight=REGROUP_MISFIT_WEIGHT)
+    priced = merge_levels(tree, misfit_weight=second)
     assert [lv.count for lv in priced] == [lv.count for lv in plain]
     assert _level_one_misfit(tree, priced[1]) < 0.5 * _level_one_misfit(tree, plain[1])
     _nested_and_connected(tree, priced)
@@ -162,7 +162,7 @@ def test_a_level_that_misses_after_every_attempt_tries_the_second_pricing(monkey
     import plantlod.simplify.regroup as regroup
     from plantlod.simplify.constants import REGROUP_MISFIT_PRICINGS
 
-    REGROUP_MISFIT_WEIGHT = (REGROUP_MISFIT_PRICINGS[0][0],) * 2
+    second = (REGROUP_MISFIT_PRICINGS[0][0],) * 2          # (W_f at level 1 and after it)
     tree, fit, runs_for = _level_one("sympodial", 2378)
     plain = merge_levels(tree)
     monkeypatch.setattr(regroup, "REGROUP_MISFIT_PRICINGS", ())
@@ -170,7 +170,7 @@ def test_a_level_that_misses_after_every_attempt_tries_the_second_pricing(monkey
     assert _rank(tree, first, runs_for)[0] > 0
     monkeypatch.setattr(regroup, "REGROUP_MISFIT_PRICINGS", REGROUP_MISFIT_PRICINGS[:1])
     levels, (_, level) = regrouped(tree, plain, fit, runs_for)
-    priced = merge_levels(tree, misfit_weight=REGROUP_MISFIT_WEIGHT)
+    priced = merge_levels(tree, misfit_weight=second)
     assert np.array_equal(levels[1].group, priced[1].group)
     assert _rank(tree, level, runs_for) < _rank(tree, first, runs_for)
     assert [lv.count for lv in levels] == [lv.count for lv in plain]
