@@ -12,6 +12,23 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 
 
+def _signals_as_a_terminal_has_them() -> None:
+    """SIGHUP, SIGINT and SIGTERM back to their defaults where the shell that started the tests
+    ignored them (``nohup make test &``: nohup ignores SIGHUP, and a non-interactive shell's
+    background job SIGINT). An ignored signal stays ignored in every child, and plantlod keeps
+    it ignored, as a command started with nohup should, so the tests that send a command a
+    signal and expect exit 128 + n saw exit 0 instead."""
+    import signal
+
+    for signum in (signal.SIGHUP, signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) == signal.SIG_IGN:
+            signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT
+                          else signal.SIG_DFL)
+
+
+_signals_as_a_terminal_has_them()
+
+
 @pytest.fixture
 def examples_dir() -> pathlib.Path:
     return EXAMPLES
