@@ -159,7 +159,8 @@ REGROUP_MISFIT_PRICINGS = ((150.0, 3), (1000.0, 2))  # where every attempt above
                               # first, then groups kept apart as above). 150 (session 22; diagnosis range 2000-2399,
                               # sympodial level 1: 633 cases without, 650 with 1 fit, 659 with 3 of 815); 1000
                               # (session 27; diagnosis range 200-399, sympodial: level 1 341 -> 366 of 431 cases,
-                              # level 2 331 -> 361 of 429; a third weight, 10000, gained none)
+                              # level 2 331 -> 361 of 429; a third weight, 10000, gained none; 500 in place of
+                              # 1000: 363; 3 fits at 1000: one tree more there, none on seeds 400-599)
 KEPT_APART_COST = 1e12        # added to the cost of a merge kept apart: level 1 takes it after every other
 
 # --- the motion fit of an explicit level (simplify/motion_fit.py, issue 21) ------------
