@@ -7,9 +7,8 @@ from __future__ import annotations
 import os
 
 from plantlod.lsys.errors import InputError
-from plantlod.compare.constants import DEFAULT_PLOT_TIME
-
 from plantlod.lsys.words import counted
+from plantlod.compare.constants import DEFAULT_PLOT_TIME
 
 from .io import open_output, output_folder, say
 

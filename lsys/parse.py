@@ -352,7 +352,8 @@ def _primary(cur: _Cursor) -> Expr:
         args = _arguments(cur, opener.start)
         arity = FUNCTIONS[tok.text][1]
         if len(args) != arity:
-            raise _error(pos, f"{tok.text}() takes {counted(arity, 'argument', grouped=False)}, got {len(args)}")
+            raise _error(pos, f"{tok.text}() takes {counted(arity, 'argument', grouped=False)}, "
+                              f"got {len(args)}")
         return Call(tok.text, args, pos)
     if tok.kind == "(":
         return _parenthesised(cur, tok.start, "parenthesis")
@@ -1125,7 +1126,8 @@ def _count_error(module: Module, counts: dict[str, tuple[set[int], Production]],
     if entry is None or len(module.args) in entry[0]:
         return None
     accepted = " or ".join(str(n) for n in sorted(entry[0]))
-    return _error(module.pos, f"'{module.name}' has {counted(len(module.args), 'parameter', grouped=False)} here, "
+    return _error(module.pos, f"'{module.name}' has "
+                              f"{counted(len(module.args), 'parameter', grouped=False)} here, "
                               f"but the {what} for '{module.name}' (first at "
                               f"{_where(entry[1].pos)}) take {accepted}; expected {accepted}")
 

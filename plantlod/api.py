@@ -22,11 +22,10 @@ from typing import IO, Any, Union
 
 import numpy as np
 
+from plantlod.lsys.checks import shown_value
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
-
-from plantlod.lsys.checks import shown_value
 
 from .arguments import binary_stream, one_run, output_target, path_of, real, whole
 
@@ -198,10 +197,7 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
                by its own period, model.md 4); not both
     Raises `InputError` for an unstable dt (model.md 4) and `RunFailure` when a run diverges.
     """
-    from plantlod.sim.damping import as_damping
-
-    damping = as_damping(real("damping", damping),
-                         None if damping_ratio is None else real("damping_ratio", damping_ratio))
+    damping = _damping(damping, damping_ratio)
     if threads is not None:
         threads = whole("threads", threads, low=1)
     tree = _as_tree(tree)
@@ -382,10 +378,7 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
               for name, b in bounds.items()}
     items = (original,) + simplified
     runs = []
-    from plantlod.sim.damping import as_damping
-
-    damped = as_damping(real("damping", damping),
-                        None if damping_ratio is None else real("damping_ratio", damping_ratio))
+    damped = _damping(damping, damping_ratio)
     for item, label in zip(items, _labels(items)):
         tree = _as_tree(item)
         a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
@@ -713,6 +706,15 @@ def _as_tree(item: Any) -> Tree:
 
         return read_tree_text(text, path).named(path)
     return derive(parse_lsys_text(text, path))
+
+
+def _damping(damping: Any, damping_ratio: Any):
+    """The runs' `plantlod.sim.damping.Damping` from the API's ``damping`` (c) and
+    ``damping_ratio`` (ζ, None: not given), each checked as a number."""
+    from plantlod.sim.damping import as_damping
+
+    return as_damping(real("damping", damping),
+                      None if damping_ratio is None else real("damping_ratio", damping_ratio))
 
 
 def _read_text(stream: IO[str], name: str) -> str:

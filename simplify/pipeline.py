@@ -94,7 +94,7 @@ class Options:
         return name if value is None else f"{name}={value!r}"
 
     def __post_init__(self) -> None:
-        from plantlod.sim.constants import MAX_TIME_STEPS
+        from plantlod.sim.constants import MAX_TIME_STEPS, MAX_WIND_SPEED
         from plantlod.sim.damping import as_damping
         from plantlod.sim.run import step_count
 
@@ -106,8 +106,6 @@ class Options:
             raise InputError(f"calibrate must be True or False, got {self.calibrate!r}")
         if not isinstance(self.wind_range, (tuple, list)) or len(self.wind_range) != 2:
             raise InputError(f"wind_range must be (low, high) in m/s, got {self.wind_range!r}")
-        from plantlod.sim.constants import MAX_WIND_SPEED
-
         for value in self.wind_range:           # (its own bounds, not a measurement wind's)
             real("wind_range", value, low=0, low_open=True, high=MAX_WIND_SPEED)
         for name, value in (("dt", self.dt), ("duration", self.duration),
