@@ -154,9 +154,10 @@ def _need(arrays: dict, name: str, source: str) -> np.ndarray:
 
 
 def _numbers(arrays: dict, name: str, source: str, shape: tuple, integer: bool = False,
-             non_negative: bool = False) -> np.ndarray:
+             non_negative: bool = False, positive: bool = False) -> np.ndarray:
     """Array ``name``: of ``shape`` (None: any length there), real numbers (whole numbers for
-    ``integer``), all finite (and >= 0 for ``non_negative``), as float64 or int64."""
+    ``integer``), all finite (and >= 0 for ``non_negative``, > 0 for ``positive``), as
+    float64 or int64."""
     a = _need(arrays, name, source)
     if a.ndim != len(shape) or any(want is not None and got != want
                                    for got, want in zip(a.shape, shape)):
@@ -174,6 +175,10 @@ def _numbers(arrays: dict, name: str, source: str, shape: tuple, integer: bool =
     if non_negative and np.any(out < 0):
         raise InputError(f"{name!r} in the archive holds negative values; expected amounts >= 0",
                          source)
+    if positive and not np.all(out > 0):
+        i = int(np.flatnonzero(~(out > 0))[0])
+        raise InputError(f"{name!r} in the archive is {out[i]:g} at index {i}; expected "
+                         "strengths > 0", source)
     return out
 
 
@@ -193,14 +198,15 @@ def _strings(arrays: dict, name: str, source: str, pattern=None) -> list[str]:
 def read_tree_bytes(data: bytes, source: str) -> Tree:
     """The tree of an archive written by `tree_bytes`; every field checked (types, shapes,
     finite amounts, addresses, parents before children) as the tree-file reader checks."""
-    from .treefile import BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS
+    from .treefile import BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS, POSITIVE_FIELDS
 
     arrays = _load(data, source, TREE_FORMAT)
     values: dict = {}
     values["parent"] = _numbers(arrays, "parent", source, (None,), integer=True)
     b = len(values["parent"])
     for name in BRANCH_FLOAT_FIELDS:
-        values[name] = _numbers(arrays, name, source, (b,), non_negative=name in NON_NEGATIVE_FIELDS)
+        values[name] = _numbers(arrays, name, source, (b,), non_negative=name in NON_NEGATIVE_FIELDS,
+                                positive=name in POSITIVE_FIELDS)
     values["euler"] = _numbers(arrays, "euler", source, (b, 3))
     values["offset"] = _numbers(arrays, "offset", source, (b, 3))
     values["leaf_branch"] = _numbers(arrays, "leaf_branch", source, (None,), integer=True)

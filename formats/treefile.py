@@ -55,9 +55,13 @@ LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
 _BRANCH_ADDRESSES = re.compile(rf"(?:{_ADDRESS}(?::[0-9]+)?\n)*\Z")
 _LEAF_ADDRESSES = re.compile(rf"(?:{_ADDRESS}\n)*\Z")
 _LINES_PER_WRITE = 4096
-# Amounts that cannot be negative (strengths must be > 0: checked before simulating).
+# Amounts that cannot be negative, and the strengths, which must be > 0 (model.md 4: a
+# strength of 0 or less has no period and no stable time step): both refused where the
+# file gives them, by line and column (a bend strength of 0 used to be refused only when
+# simulating, naming the .lsys the file was derived from).
 NON_NEGATIVE_FIELDS = frozenset({"length", "radius", "force_absorbed", "force_propagated",
                                  "drag_coefficient", "area", "leaf_force_scale"})
+POSITIVE_FIELDS = frozenset({"bend_strength", "rotation_strength"})
 
 
 # --- writing ------------------------------------------------------------------------
@@ -178,11 +182,14 @@ class _Line:
         return v
 
     def number(self, key: str) -> float:
-        """A finite number (JSON integer or float), as a float; >= 0 for an amount."""
+        """A finite number (JSON integer or float), as a float; >= 0 for an amount, > 0 for
+        a strength."""
         v = _finite(self, key, self.record[key])
         if key in NON_NEGATIVE_FIELDS and v < 0:
             raise self.error(f'"{key}" must not be negative, got {v!r}; expected a number >= 0',
                              key)
+        if key in POSITIVE_FIELDS and not v > 0:
+            raise self.error(f'"{key}" must be > 0, got {v!r}; expected a strength > 0', key)
         return v
 
     def vector(self, key: str) -> tuple[float, float, float]:
@@ -503,10 +510,11 @@ def _array(values: list, dtype) -> np.ndarray:
     return arr
 
 
-def _floats(values: list, non_negative: bool = False) -> np.ndarray:
-    """(n,) float64 from JSON numbers, all finite (and >= 0 if ``non_negative``)."""
+def _floats(values: list, non_negative: bool = False, positive: bool = False) -> np.ndarray:
+    """(n,) float64 from JSON numbers, all finite (and >= 0 if ``non_negative``, > 0 if
+    ``positive``)."""
     arr = _array(_typed(values, {float, int}), np.float64)
-    if non_negative and np.any(arr < 0):
+    if (non_negative and np.any(arr < 0)) or (positive and not np.all(arr > 0)):
         raise _Reject
     return arr
 
@@ -570,7 +578,7 @@ class _Branches:
         parent = _integers(cols["parent"])
         if np.any((parent < -1) | (parent >= np.arange(start, start + len(parent)))):
             raise _Reject
-        out = {name: _floats(cols[name], name in NON_NEGATIVE_FIELDS)
+        out = {name: _floats(cols[name], name in NON_NEGATIVE_FIELDS, name in POSITIVE_FIELDS)
                for name in BRANCH_FLOAT_FIELDS}
         angles = [_floats(cols[name]) for name in ("phi", "alpha", "psi")]
         out.update(address=address, symbol=symbol, parent=parent,

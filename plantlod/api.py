@@ -620,7 +620,8 @@ def _checked(tree: Tree) -> Tree:
     before children, leaves on branches that exist, distinct addresses, finite numbers): a
     Tree built or edited by hand (`dataclasses.replace`) is checked before anything runs on
     it (a parent cycle made `write_tree` loop forever, a short array leaked numpy's errors)."""
-    from plantlod.formats.treefile import BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS
+    from plantlod.formats.treefile import (BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS,
+                                           POSITIVE_FIELDS)
     from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS
 
     try:
@@ -659,6 +660,9 @@ def _checked(tree: Tree) -> Tree:
             value = getattr(tree, name, None)
             if value is not None and np.any(np.asarray(value, dtype=np.float64) < 0):
                 raise ValueError(f"{name} must not be negative")
+        for name in sorted(POSITIVE_FIELDS):
+            if not np.all(np.asarray(getattr(tree, name), dtype=np.float64) > 0):
+                raise ValueError(f"{name} must be > 0")
         addresses = [(a, BRANCH_ADDRESS) for a in [*tree.address, *tree.group_root]] + [
             (a, LEAF_ADDRESS) for a in tree.leaf_address]          # (as the tree files' readers)
         if not all(isinstance(a, str) and pattern.match(a) for a, pattern in addresses):

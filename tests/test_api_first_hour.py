@@ -357,10 +357,13 @@ def test_the_largest_wind_speed_is_taken_in_any_direction(direction):
     (lambda t: {"length": -t.length}, "length must not be negative"),
     (lambda t: {"drag_coefficient": -t.drag_coefficient}, "drag_coefficient must not be negative"),
     (lambda t: {"leaf_force_scale": -1.0}, "leaf_force_scale must not be negative"),
+    (lambda t: {"bend_strength": t.bend_strength * 0}, "bend_strength must be > 0"),
+    (lambda t: {"rotation_strength": -t.rotation_strength}, "rotation_strength must be > 0"),
 ])
 def test_more_hand_edited_trees_are_caught(edit, said):
-    # each escaped as a numpy error or a TypeError, or (negative amounts) was written by
-    # write_tree into a file that read_tree refuses (the fuzzer of session 26)
+    # each escaped as a numpy error or a TypeError, or (negative amounts; session 28: strengths
+    # of 0 or less) was written by write_tree into a file that read_tree refuses (the fuzzer
+    # of session 26)
     import warnings
 
     tree = plantlod.derive(STALK)

@@ -19,7 +19,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from plantlod.formats import treefile
-from plantlod.formats.treefile import NON_NEGATIVE_FIELDS, iter_tree_lines, read_tree, write_tree
+from plantlod.formats.treefile import (NON_NEGATIVE_FIELDS, POSITIVE_FIELDS, iter_tree_lines, read_tree,
+                                      write_tree)
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
 
@@ -103,18 +104,39 @@ def test_surrounding_white_space_and_crlf_are_accepted():
     assert write(read(text)) == VALID
 
 
-def test_a_tree_file_that_names_no_source_names_itself_in_messages(tmp_path):
-    """The header's source names the file a tree was derived from, for messages; where it is
-    empty the tree file names itself (a bend strength of 0 was refused naming no file)."""
+@pytest.mark.parametrize("source", ["", "examples/demo.lsys"])
+@pytest.mark.parametrize("field", ["bend_strength", "rotation_strength"])
+def test_a_strength_of_zero_is_refused_at_its_line_and_column_of_the_tree_file(tmp_path, source,
+                                                                               field):
+    """A strength of 0 in a tree file is refused where the file gives it, naming the tree file
+    whatever .lsys its header names as its source (it used to be refused only when simulating,
+    naming that .lsys, or no file where the header named none)."""
     from golden_util import run_cli
 
+    value = {"bend_strength": "20.0", "rotation_strength": "30.0"}[field]
     path = tmp_path / "k0.jsonl"
-    path.write_text(edit(2, '"bend_strength": 20.0', '"bend_strength": 0')
-                    .replace('"source": "examples/demo.lsys"', '"source": ""'))
+    path.write_text(edit(2, f'"{field}": {value}', f'"{field}": 0')
+                    .replace('"source": "examples/demo.lsys"', f'"source": "{source}"'))
     result = run_cli("simulate", str(path), "--dt", "0.01", "--steps", "5", "--wind-speed", "5",
                      exit_code=2)
-    assert result.stderr.startswith(f"{path}: error: the branch at address 0 (symbol 'F'")
-    assert result.stderr.count("\n") == 1
+    column = VALID.splitlines()[1].index(f'"{field}"') + 1
+    assert result.stderr == (f'{path}:2:{column}: error: "{field}" must be > 0, got 0.0; '
+                             "expected a strength > 0\n")
+
+
+def test_a_strength_of_zero_in_an_archive_names_the_archive(tmp_path):
+    """The same in a .npz tree archive (no lines): the archive, the array and the index."""
+    from golden_util import run_cli
+
+    from plantlod.formats.npz import tree_bytes
+
+    tree = read(VALID)
+    tree.rotation_strength[1] = -3.0
+    path = tmp_path / "k0.npz"
+    path.write_bytes(tree_bytes(tree))
+    result = run_cli("simulate", str(path), "--dt", "0.01", "--steps", "5", exit_code=2)
+    assert result.stderr == (f"{path}: error: 'rotation_strength' in the archive is -3 at index 1; "
+                             "expected strengths > 0\n")
 
 
 def test_empty_tree_round_trip():
@@ -311,6 +333,7 @@ def unit_vectors(n, draw):
 
 FLOATS = st.floats(allow_nan=False, allow_infinity=False)   # with -0.0, subnormals, 1e308
 AMOUNTS = st.floats(min_value=0, allow_nan=False, allow_infinity=False)   # lengths, areas
+STRENGTHS = st.floats(min_value=0, exclude_min=True, allow_nan=False, allow_infinity=False)
 SYMBOLS = st.characters(blacklist_categories=("Cs",))       # any character, quotes included
 ADDRESSES = st.builds(lambda parts, rep: ".".join(map(str, parts)) + (f":{rep}" if rep else ""),
                       st.lists(st.integers(0, 10**6), min_size=1, max_size=6),
@@ -332,7 +355,8 @@ def trees(draw):
         address=draw(st.lists(ADDRESSES, min_size=b, max_size=b, unique=True)),
         symbol=draw(st.lists(SYMBOLS, min_size=b, max_size=b)),
         parent=parent,
-        **{name: floats(b, values=AMOUNTS if name in NON_NEGATIVE_FIELDS else FLOATS)
+        **{name: floats(b, values=AMOUNTS if name in NON_NEGATIVE_FIELDS
+                        else STRENGTHS if name in POSITIVE_FIELDS else FLOATS)
            for name in BRANCH_FLOAT_FIELDS},
         euler=floats(b, 3), offset=floats(b, 3),
         leaf_branch=np.array([draw(st.integers(0, b - 1)) for _ in range(f)], dtype=np.int64),
