@@ -108,7 +108,7 @@ def angles_in_tree_order(tree: Tree, addresses: list[str], bend: np.ndarray, rot
             parts.append(f"columns for branch(es) {_examples(extra)} that the tree does not have")
         kind = ("set (an Angles)" if source is None else
                 "archive" if str(source).lower().endswith(".npz") else "CSV")
-        raise InputError(f"the angle {kind} does not belong to the tree {tree.source or '?'}: "
+        raise InputError(f"the angle {kind} does not belong to the tree {tree.where or '?'}: "
                          f"{'; '.join(parts)}; expected the {kind} that `plantlod simulate` "
                          f"wrote for this tree ({counted(tree.n_branches, 'branch')})", source)
     order = np.asarray([column[a] for a in tree.address], dtype=np.int64)

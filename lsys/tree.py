@@ -99,7 +99,9 @@ class Tree:
                      geometry is unchanged; None when no branch sets one (β = 0)
     Tree-level:
       leaf_force_scale : s_L
-      source           : the file it came from (for headers and messages)
+      source           : the .lsys it was derived from (for headers)
+      read_from        : the tree file (.jsonl, .npz) it was read from, "" for a derived tree
+      where            : the file messages about its values name: read_from, else source
     """
 
     address: list[str]
@@ -125,6 +127,13 @@ class Tree:
     group_root: list[str] = field(default_factory=list)
     force_gain: np.ndarray | None = None
     swing_roll: np.ndarray | None = None
+    read_from: str = field(default="")
+
+    @property
+    def where(self) -> str:
+        """The file a message about this tree's values names: the tree file the user gave
+        where it was read from one, else the .lsys it was derived from ("" for neither)."""
+        return self.read_from or self.source
 
     @property
     def n_branches(self) -> int:
@@ -147,10 +156,10 @@ class Tree:
         return out
 
     def named(self, name: str) -> "Tree":
-        """This tree, its ``source`` set to ``name`` where its file named none: messages about
-        a tree read from a tree file name the file it was derived from, else that file
-        (a bend strength of 0 in such a file was refused naming no file)."""
-        return self if self.source else replace(self, source=name)
+        """This tree as read from the tree file ``name``: messages about its values name that
+        file (`where`; they named the .lsys its header gives, which the user may not have,
+        or no file), and so does its ``source`` where its header named none."""
+        return replace(self, read_from=name, source=self.source or name)
 
     def check(self) -> None:
         """Raise ValueError when the arrays break the invariants stated above."""

@@ -232,7 +232,7 @@ def _warn_large_angles(tree: Tree, time, bend, rot, many: bool) -> None:
     for lane in range(len(bend)):
         large = first_large_angle(time, bend[lane], rot[lane], tree.address)
         if large is not None:
-            what = (tree.source or "tree") + (f", wind {lane}" if many else "")
+            what = (tree.where or "tree") + (f", wind {lane}" if many else "")
             warnings.warn(large.message(what), PlantlodWarning, stacklevel=3)
             return
 
@@ -676,7 +676,7 @@ def _checked(tree: Tree) -> Tree:
         if len(set(tree.address)) != len(tree.address):
             raise ValueError("its branch addresses must be distinct")
     except (ValueError, TypeError, AttributeError, IndexError) as exc:
-        raise InputError(f"the Tree breaks its invariants: {exc}", tree.source or None) from None
+        raise InputError(f"the Tree breaks its invariants: {exc}", tree.where or None) from None
     return tree
 
 

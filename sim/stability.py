@@ -57,7 +57,7 @@ def largest_stable_s(damping: Damping) -> float:
 
 def _check_strengths(tree: Tree) -> None:
     """Every k_bs and k_rs must be finite and > 0."""
-    source = tree.source or None
+    source = tree.where or None
     for field, label in _STRENGTHS:
         k = np.asarray(getattr(tree, field), dtype=np.float64)
         bad = np.flatnonzero(~(np.isfinite(k) & (k > 0)))
@@ -121,4 +121,4 @@ def check_stability(tree: Tree, dt: float, damping: "float | Damping" = 0.0) -> 
             f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit at {d.describe()} "
             f"(dt = {dt:g} s); "
             f"the run would blow up: use dt < {bound:.6g} s (the largest stable dt for this tree)",
-            tree.source or None)
+            tree.where or None)

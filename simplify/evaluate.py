@@ -177,7 +177,7 @@ class Runs:
                 if not finite_parameters(simplified):   # the fit's numbers, not the input's winds
                     raise RunFailure(NOT_FINITE_FIT) from None
                 raise InputError(f"the simplified tree is unstable in simplify's winds: {exc}",
-                                 self.original.source or simplified.source or None) from None
+                                 self.original.where or simplified.where or None) from None
         return [known[id(run)] for run in self.runs]
 
     def downward(self, simplified: Tree) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -18,6 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import plantlod
 from plantlod.formats import treefile
 from plantlod.formats.treefile import (NON_NEGATIVE_FIELDS, POSITIVE_FIELDS, iter_tree_lines, read_tree,
                                       write_tree)
@@ -122,6 +123,29 @@ def test_a_strength_of_zero_is_refused_at_its_line_and_column_of_the_tree_file(t
     column = VALID.splitlines()[1].index(f'"{field}"') + 1
     assert result.stderr == (f'{path}:2:{column}: error: "{field}" must be > 0, got 0.0; '
                              "expected a strength > 0\n")
+
+
+@pytest.mark.parametrize("suffix", [".jsonl", ".npz"])
+def test_messages_about_a_tree_files_values_name_the_tree_file(tmp_path, suffix):
+    """A time step too large for a tree read from a tree file names that file, not the .lsys
+    its header says it was derived from (which the user may not have); the header's source
+    stays what the file says."""
+    from golden_util import run_cli
+
+    from plantlod.formats.npz import tree_bytes
+
+    tree = read(VALID)                                  # header source: examples/demo.lsys
+    path = tmp_path / f"t{suffix}"
+    if suffix == ".npz":
+        path.write_bytes(tree_bytes(tree))
+    else:
+        path.write_text(VALID)
+    # the largest strength is 50 (branch 1), so s = 50 * 100 / 1000 = 5 >= 4
+    result = run_cli("simulate", str(path), "--dt", "100", "--steps", "2", "--wind-speed", "1",
+                     exit_code=2)
+    assert result.stderr.startswith(f"{path}: error: time step too large: ")
+    assert "demo.lsys" not in result.stderr and result.stderr.count("\n") == 1
+    assert plantlod.read_tree(str(path)).source == "examples/demo.lsys"
 
 
 def test_a_strength_of_zero_in_an_archive_names_the_archive(tmp_path):
