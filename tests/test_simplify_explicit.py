@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from golden_util import ROOT, family_tree, run_cli
+import plantlod
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.explicit import (equivalent_leaves, explicit_system_text, level_header,
@@ -407,11 +408,15 @@ def test_work_in_the_background_hands_back_its_value_or_its_exception():
         InBackground(fails).result()
 
 
-def test_a_small_level_tries_both_leaf_sets():
+def test_a_small_level_tries_both_leaf_sets(monkeypatch):
     """Family bent_leafy-87 at level 1 (148 branches, within BASIS_LEAF_ALWAYS): its
     eigen-leaves miss the statics by less than BASIS_LEAF_TRY, so until session 15 the basis
     leaves were not tried, and the level missed level 1's motion bound at 20 m/s (10.4 % at
-    90°, 11.8 % at 200°). Both leaf sets fitted, the basis leaves fit better and hold it."""
+    90°, 11.8 % at 200°). Both leaf sets fitted, the basis leaves fit better and hold it.
+
+    The basis leaves are written as their principal leaves (session 28), so the same level
+    with its nine basis leaves a branch (`principal_leaves` left out) must sway the same."""
+    from plantlod.simplify import explicit
     from plantlod.simplify.constants import BASIS_LEAF_ALWAYS
     from plantlod.simplify.evaluate import Runs, WindCase
     from plantlod.simplify.grouping import merge_levels
@@ -420,11 +425,53 @@ def test_a_small_level_tries_both_leaf_sets():
     system, original = family_tree("bent_leafy", 87)
     grouping = merge_levels(original)[1]
     assert grouping.count <= BASIS_LEAF_ALWAYS
+    principal = []
+    real = explicit.principal_leaves
+    monkeypatch.setattr(explicit, "principal_leaves",
+                        lambda a, n: principal.append(len(a)) or real(a, n))
     _, level = explicit_system_text(original, grouping, name="t", header=level_header(system),
                                     level=1, dt=0.01)
-    # the basis set: nine leaves on a leafy group's branch (the eigen-leaves are at most three)
-    assert np.bincount(level.leaf_branch).max() == 9
+    # the basis set, nine leaves on each leafy group's branch, written as at most three
+    assert principal and max(principal) == 9
+    assert np.bincount(level.leaf_branch).max() == 3
     winds = [WindCase(20.0, d) for d in (90.0, 200.0)]
     reports = Runs(original, group_map(original, level), winds, 0.01, 2000, 4).compare(level)
     assert max(r.motion_error for r in reports) <= 0.05
     assert max(r.period_error_major for r in reports) <= 0.02
+
+    monkeypatch.setattr(explicit, "principal_leaves", lambda a, n: (a, n))
+    _, nine = explicit_system_text(original, grouping, name="t", header=level_header(system),
+                                   level=1, dt=0.01)
+    assert np.bincount(nine.leaf_branch).max() == 9
+    assert nine.leaf_area.sum() == pytest.approx(level.leaf_area.sum(), rel=1e-9)
+    ours = plantlod.simulate(level, wind_speed=20, wind_direction=90, dt=0.01, steps=2000)
+    theirs = plantlod.simulate(nine, wind_speed=20, wind_direction=90, dt=0.01, steps=2000)
+    scale = np.abs(theirs.bend).max() + np.abs(theirs.rotation).max()
+    assert np.abs(ours.bend - theirs.bend).max() <= 1e-7 * scale
+    assert np.abs(ours.rotation - theirs.rotation).max() <= 1e-7 * scale
+
+
+def test_principal_leaves_pull_as_the_leaves_they_replace():
+    """Σ A (V · R n) R n of the principal leaves equals the given leaves' for random winds V
+    and poses R (model.md 4's leaf force, summed literally), with the same summed area, and
+    at most three leaves of unit, orthogonal normals."""
+    from scipy.spatial.transform import Rotation
+
+    from plantlod.simplify.explicit import principal_leaves
+
+    rng = np.random.default_rng(7)
+    for k in (1, 2, 5, 9):
+        areas = rng.uniform(0, 1, k)
+        normals = rng.normal(size=(k, 3))
+        normals /= np.linalg.norm(normals, axis=1)[:, None]
+        a, n = principal_leaves(areas, normals)
+        assert len(a) <= min(k, 3) and np.all(a > 0)
+        assert n @ n.T == pytest.approx(np.eye(len(a)), abs=1e-12)
+        assert a.sum() == pytest.approx(areas.sum(), rel=1e-12)
+        for r in Rotation.random(5, random_state=k).as_matrix():
+            v = rng.normal(size=3) * 10
+            pull = sum(ak * np.dot(v, r @ nk) * (r @ nk) for ak, nk in zip(areas, normals))
+            ours = sum(ak * np.dot(v, r @ nk) * (r @ nk) for ak, nk in zip(a, n))
+            assert ours == pytest.approx(pull, abs=1e-12 * np.linalg.norm(v) * areas.sum())
+    a, n = principal_leaves(np.zeros(0), np.zeros((0, 3)))
+    assert a.shape == (0,) and n.shape == (0, 3)
