@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import lzma
 import math
 import tokenize
 import zipfile
+import zlib
 
 import numpy as np
 
@@ -31,6 +33,11 @@ ANGLES_FORMAT = "plantlod-angles-npz"
 ARCHIVE_VERSION = 1          # `version` of both archives (read: exactly this)
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
 ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
+# What a damaged member raises while it is decompressed or laid out (zlib's and lzma's own
+# errors escaped as internal errors; bz2 raises OSError), besides zipfile's and numpy's
+DAMAGED_ARCHIVE_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError,
+                          OSError, ValueError, RuntimeError, KeyError, zlib.error, lzma.LZMAError,
+                          OverflowError)
 
 
 def is_npz(path: str | None) -> bool:
@@ -111,13 +118,15 @@ def _checked_members(data: bytes, source: str) -> None:
                 if dtype.hasobject or dtype.kind not in ALLOWED_KINDS:
                     raise InputError(f"{name!r} in the archive is an array of {dtype}; expected "
                                      "numbers or text", source)
+                if any(n > np.iinfo(np.intp).max for n in shape):   # (0, 10**30) holds 0 bytes
+                    raise InputError(f"{name!r} in the archive declares shape {shape}, past "
+                                     "what an array can hold", source)
                 size = math.prod(shape) * dtype.itemsize
                 if size > info.file_size:
                     raise InputError(f"{name!r} in the archive declares shape {shape} of {dtype} "
                                      f"({size:,} bytes) but holds {info.file_size:,} bytes",
                                      source)
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError,
-            OSError, ValueError, RuntimeError) as exc:
+    except DAMAGED_ARCHIVE_ERRORS as exc:
         raise InputError(f"not a readable archive: {_reason(exc)}", source) from None
 
 
@@ -131,8 +140,7 @@ def _load(data: bytes, source: str, kind: str) -> dict[str, np.ndarray]:
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
-    except (zipfile.BadZipFile, ValueError, KeyError, OSError, EOFError, RuntimeError,
-            NotImplementedError) as exc:
+    except DAMAGED_ARCHIVE_ERRORS as exc:
         raise InputError(f"not a readable {kind} archive: {_reason(exc)}", source) from None
     label = arrays.get("format")
     if label is None or label.shape != () or label.dtype.kind != "U" or str(label) != kind:

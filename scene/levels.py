@@ -291,7 +291,7 @@ def _read_built(path: pathlib.Path, texts: list[str]) -> list[Tree] | None:
     unreadable, built from other texts or holds anything else."""
     import zipfile
 
-    from plantlod.formats.npz import read_tree_bytes
+    from plantlod.formats.npz import DAMAGED_ARCHIVE_ERRORS, read_tree_bytes
 
     if not path.is_file():
         return None
@@ -303,7 +303,7 @@ def _read_built(path: pathlib.Path, texts: list[str]) -> list[Tree] | None:
                 return None
             return [read_tree_bytes(archive.read(f"level{k}.npz"), str(path))
                     for k in range(1, count + 1)]
-    except (OSError, zipfile.BadZipFile, InputError, ValueError, KeyError, EOFError):
+    except (InputError, *DAMAGED_ARCHIVE_ERRORS):
         return None
 
 

@@ -71,6 +71,39 @@ def test_a_huge_declared_shape_is_refused_before_allocating():
     refused(archive(angles_members(address=forged_npy("<U1000000000", (1,)))), "'address'")
 
 
+def test_a_shape_past_what_an_array_holds_is_refused_though_it_holds_nothing():
+    """(0, 10**30) declares 0 bytes, so the size check passed, and numpy's reader raised
+    OverflowError: an internal error (session 28's fuzzing)."""
+    refused(archive(angles_members(bend=forged_npy("<f8", (0, 10**30), b""))),
+            "'bend' in the archive declares shape (0, 1000000000000000000000000000000), past "
+            "what an array can hold")
+
+
+@pytest.mark.parametrize("compression", [zipfile.ZIP_DEFLATED, zipfile.ZIP_BZIP2,
+                                         zipfile.ZIP_LZMA])
+def test_damaged_compressed_data_is_bad_input(compression):
+    """Bytes flipped inside a compressed member: zlib's error (and lzma's) escaped as internal
+    errors (session 28's fuzzing: `np.savez_compressed`, 6 bytes flipped near the end). Every
+    flip of the members' data is now InputError or, where the flip happens not to matter, a
+    good read; and some flips are caught."""
+    members = angles_members(bend=npy(np.arange(4000.0).reshape(2, 2000)),
+                             rotation=npy(np.ones((2, 2000))))
+    good = archive(members, compression)
+    with zipfile.ZipFile(io.BytesIO(good)) as z:
+        info = z.getinfo("bend.npy")
+        start = info.header_offset + 30 + len(info.filename) + len(info.extra)
+    caught = 0
+    for at in range(start + 2, start + info.compress_size - 1, max(1, info.compress_size // 60)):
+        raw = bytearray(good)
+        raw[at:at + 3] = bytes(b ^ 0x5A for b in raw[at:at + 3])
+        try:
+            read_angles_bytes(bytes(raw), "x.npz")
+        except InputError as exc:
+            assert exc.file == "x.npz" and "\n" not in exc.message
+            caught += 1
+    assert caught > 0
+
+
 def test_an_npy_header_cut_short_is_bad_input(tmp_path):
     """A header dict cut short ("{'descr': '<f8',") made numpy's tokenizer raise TokenError,
     an internal error (session 23, found by fuzzing)."""
