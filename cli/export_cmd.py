@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .io import check_output_path, display_name, distinct_paths, say
+from .io import check_output_path, display_name, distinct_paths, say, write_errors
 from .loading import load_tree
 from plantlod.lsys.words import counted
 
@@ -47,7 +47,9 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     tree, _ = load_tree(tree_path)
     times, addresses, bend, rot = read_angles_file(angles_path, degrees)
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
-    export_animation(output, tree, times, bend, rot, fps, frames, display_name(angles_path))
+    with write_errors(output):                    # (a name the system refuses: bad input, as
+        export_animation(output, tree, times, bend, rot, fps, frames,   # every command's -o)
+                         display_name(angles_path))
     span = (f"{times[-1]:g} s at {fps:g} fps" if frames is None else      # (time restarts at 0)
             f"frames {frames[0]}:{frames[1]} ({frames[1] - frames[0]:,} frames, "
             f"{(frames[1] - frames[0] - 1) / fps:g} s) at {fps:g} fps")

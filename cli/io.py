@@ -226,7 +226,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
     if path is None or path == "-":
         if sys.stdout is None:
             raise RunFailure("standard output is closed; give -o FILE or redirect it")
-        with _write_errors("standard output"):
+        with write_errors("standard output"):
             sys.stdout.flush()                  # what click or print left there goes first
             buffer = getattr(sys.stdout, "buffer", None)
             if buffer is None:                  # a text-only stdout (a StringIO in a test)
@@ -238,7 +238,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             out.flush()
         return
     check_output_path(path)
-    with _write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
+    with write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
         with _open_stream(tmp, binary) as out:
             yield out
 
@@ -298,12 +298,12 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
         base = os.path.dirname(base)
     if not os.path.isdir(base):
         raise InputError(f"{base} is not a folder", path)
-    with _write_errors(path), _signals_held():
+    with write_errors(path), _signals_held():
         tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=base)
         hold(tmp)
     try:
         yield tmp
-        with _write_errors(path):
+        with write_errors(path):
             if merge and os.path.isdir(path):
                 names = sorted(os.listdir(tmp))
                 check_merge_targets(path, names)     # before the first move: all or none
@@ -346,7 +346,7 @@ def _signals_held() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _write_errors(name: str) -> Iterator[None]:
+def write_errors(name: str) -> Iterator[None]:
     """OSError while writing ``name`` -> RunFailure naming it (a broken pipe passes: quiet)."""
     try:
         yield

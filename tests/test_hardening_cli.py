@@ -374,6 +374,21 @@ def test_output_name_too_long_is_bad_input(tmp_path):
     no_temporary_files(tmp_path)
 
 
+@pytest.mark.parametrize("suffix", [".glb", ".usda"])
+def test_export_to_a_name_the_system_refuses_is_bad_input_as_every_command(tmp_path, suffix):
+    """export's -o in a folder that takes no new file (/proc) was exit 1, "plantlod export:
+    error: /proc/x.glb: No such file or directory", where derive, simulate and the others
+    say "cannot write" with exit 2 (session 28's fuzzing)."""
+    angles = tmp_path / "a.csv"
+    run_cli("simulate", STALK8, "--dt", "0.01", "--steps", "5", "--wind-speed", "1",
+            "-o", str(angles))
+    target = f"/proc/plantlod-test{suffix}"
+    one_line(run_cli("export", STALK8, str(angles), "-o", target, exit_code=None), 2,
+             f"{target}: error: cannot write: No such file or directory")
+    one_line(run_cli("derive", STALK8, "-o", "/proc/plantlod-test.jsonl", exit_code=None), 2,
+             "/proc/plantlod-test.jsonl: error: cannot write: No such file or directory")
+
+
 def test_compare_refuses_a_run_too_big_for_memory():
     one_line(run_cli("compare", STALK8, STALK8, "--dt", "1e-6", "--steps", "9999999999",
                      "--wind-speed", "1", exit_code=None), 2, "GB of angles in memory")
