@@ -392,14 +392,28 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
     return result.spent, result.switches
 
 
-SCHEDULER_ADDRESS = re.compile(r"(tcp|tls|ws|wss|ucx|inproc)://[^\s/]+:[0-9]{1,5}/?\Z")
+SCHEDULER_ADDRESS = re.compile(r"(tcp|tls|ws|wss|ucx|inproc)://([^\s/]+):([0-9]{1,5})/?\Z")
+DOTTED_QUAD = re.compile(r"[0-9]+(?:\.[0-9]+){3}\Z")
 
 
 def check_scheduler_address(address: str) -> None:
-    """A Dask scheduler's address, PROTOCOL://HOST:PORT; anything else is bad input (exit 2)."""
-    if not SCHEDULER_ADDRESS.match(address):
-        raise InputError(f"--scheduler {address!r} is not a scheduler address; expected "
-                         "tcp://HOST:PORT (what `dask scheduler` prints)")
+    """A Dask scheduler's address, PROTOCOL://HOST:PORT, its port in 1-65535 and a host
+    written as four numbers an IPv4 address; anything else is bad input (exit 2), refused
+    before any work (tcp://256.1.1.1:99999 waited 30 s for the connection to fail)."""
+    import ipaddress
+
+    match = SCHEDULER_ADDRESS.match(address)
+    problem = None if match else "is not a scheduler address"
+    if match and not 1 <= int(match.group(3)) <= 65535:
+        problem = f"has port {int(match.group(3))}, outside 1-65535"
+    elif match and DOTTED_QUAD.match(match.group(2)):
+        try:
+            ipaddress.IPv4Address(match.group(2))
+        except ValueError:
+            problem = f"has host {match.group(2)}, not an IPv4 address"
+    if problem:
+        raise InputError(f"--scheduler {address!r} {problem}; expected tcp://HOST:PORT (what "
+                         "`dask scheduler` prints)")
 
 
 def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batch],
