@@ -101,12 +101,21 @@ def frame_steps(scene: Scene, frame_rate: float) -> int:
     return max(1, int(round(min(1.0 / (frame_rate * scene.dt), scene.steps))))
 
 
-def check_frame_rate(scene: Scene, frame_rate: float) -> None:
-    """A frame must fit in the scene: one frame at least (bad input, exit 2)."""
-    if not frame_rate * scene.duration >= 1.0:
-        raise InputError(f"--frame-rate {frame_rate:g} gives frames of {1.0 / frame_rate:.3g} s, "
-                         f"longer than the scene's {scene.duration:g} s; expected at least "
-                         f"{1.0 / scene.duration:.3g} frames per second")
+def check_frame_rate(scene: Scene, frame_rate: float, given: bool = True) -> None:
+    """A frame must fit in the scene: one frame at least (bad input, exit 2). ``given``: the
+    user gave the rate; where it is the default, the scene's duration is what is short, and
+    the message names the scene file (it blamed an option nobody gave)."""
+    if frame_rate * scene.duration >= 1.0:
+        return
+    if not given:
+        raise InputError(f"the scene's duration {scene.duration:g} s is shorter than one frame "
+                         f"({1.0 / frame_rate:.3g} s at the default --frame-rate "
+                         f"{frame_rate:g}); expected a duration of at least "
+                         f"{1.0 / frame_rate:.3g} s, or a --frame-rate of at least "
+                         f"{1.0 / scene.duration:.3g}", scene.source)
+    raise InputError(f"--frame-rate {frame_rate:g} gives frames of {1.0 / frame_rate:.3g} s, "
+                     f"longer than the scene's {scene.duration:g} s; expected at least "
+                     f"{1.0 / scene.duration:.3g} frames per second")
 
 
 def run_batch(chain: Chain, transfer: Transfer, batch: Batch, winds: np.ndarray, dt: float,

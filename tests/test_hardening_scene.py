@@ -37,7 +37,7 @@ def test_a_billion_scattered_trees_are_refused_at_once(tmp_path):
     path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 1000000000\n'
                                 'area = [0, 0, 10, 10]\n')
     start = time.perf_counter()
-    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     "more trees than the limit of 100,000")
     assert time.perf_counter() - start < 5
     assert line.startswith(f"{path}:10:1: error:")
@@ -56,7 +56,7 @@ def test_scatter_after_tree_entries_counts_them_too(tmp_path, monkeypatch):
 @pytest.mark.parametrize("duration", ["1e12", "1e308"])
 def test_a_scene_too_long_is_a_usage_error(tmp_path, duration):
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration=duration)
-    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     "more than the limit of 1,000,000")
     assert line.startswith(f"{path}:2:1: error: duration")
 
@@ -330,6 +330,19 @@ def test_a_bad_scheduler_address_is_bad_input_before_any_work(tmp_path, address,
              said, "; expected tcp://HOST:PORT")
 
 
+def test_a_scene_shorter_than_a_default_frame_names_its_duration(tmp_path):
+    """Without --frame-rate, the message blamed "--frame-rate 30", an option nobody gave
+    (session 28's fuzzing); it names the scene file and its duration."""
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.format(duration=0.02).replace("dt = 0.01", "dt = 0.001")
+                    + f'[[tree]]\nfile = "{STALK}"\n')
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+                    f"{path}: error: the scene's duration 0.02 s is shorter than one frame "
+                    "(0.0333 s at the default --frame-rate 30); expected a duration of at least "
+                    "0.0333 s, or a --frame-rate of at least 50")
+    assert line
+
+
 @pytest.mark.parametrize("rate", ["1e-300", "0.5"])
 def test_a_frame_longer_than_the_scene_is_bad_input(tmp_path, rate):
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
@@ -468,7 +481,7 @@ def test_a_scene_too_short_to_fit_levels_in_is_located_bad_input(tmp_path):
     """3 steps: the levels' motion fit raised compare's 'expected times (K,) matching a
     signal', exit 2 without a place (session 22, found by fuzzing)."""
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n', duration="0.034")
-    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2,
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     "is fewer than 8 steps, too short to fit levels in")
     assert line.startswith(f"{path}:2:")
 
