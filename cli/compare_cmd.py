@@ -137,6 +137,9 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     window = _numbers(window_text, "--window", allow_empty=True)
     if window_text is not None and len(window) != 2:
         raise click.BadParameter("expected T0,T1 (either may be empty)", param_hint="--window")
+    if window_text is not None and None not in window and window[0] > window[1]:
+        raise click.BadParameter(f"the start {window[0]:g} s is after the end {window[1]:g} s; "
+                                 "expected T0 <= T1", param_hint="--window")
     at_times = _numbers(at_text, "--at")
     if (at_times or every) and obj_dir is None:
         raise click.UsageError("--at and --every choose OBJ frames; give --obj DIR too")
@@ -187,17 +190,13 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
 # --- inputs ----------------------------------------------------------------------------
 
 def _compare_one(original_run, run, path: str, window):
-    """`compare_runs` of one SIMPLIFIED; an error of its groups against the original (an
-    address of no original branch, two groups at one root) names its file."""
+    """`compare_runs` of one SIMPLIFIED (an error of its groups against the original, an
+    address of no original branch or two groups at one root, names its file: the run's name;
+    one of the samples or the window names the files or option at fault, not it)."""
     from plantlod.compare.runs import compare_runs
 
-    try:
-        return compare_runs(original_run, run, window[0] if window else None,
-                            window[1] if window else None)
-    except InputError as exc:
-        if exc.file is not None:
-            raise
-        raise InputError(exc.message, display_name(path)) from None
+    return compare_runs(original_run, run, window[0] if window else None,
+                        window[1] if window else None)
 
 
 def _check_pairs(simplified, values, option: str) -> None:

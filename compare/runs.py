@@ -125,8 +125,8 @@ def check_same_times(times_a: np.ndarray, times_b: np.ndarray, name_a: str, name
         how = ("over the same span with the same --dt (one may keep every K-th sample of the "
                "other: simulate --every)" if thinned else
                "at the same times (the same --dt, span and --every)")
-        raise InputError(f"{name_a} has {len(a)} samples ({_span(a)}) but {name_b} has {len(b)} "
-                         f"({_span(b)}); expected both runs {how}")
+        raise InputError(f"{name_a} has {counted(len(a), 'sample', grouped=False)} ({_span(a)}) "
+                         f"but {name_b} has {len(b)} ({_span(b)}); expected both runs {how}")
     tol = TIME_MATCH_RTOL * np.maximum(1.0, np.abs(a))
     bad = np.flatnonzero(np.abs(a - b) > tol)
     if len(bad):
@@ -191,7 +191,12 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     original, simplified = on_common_samples([original, simplified])
     check_same_times(original.times, simplified.times, original.samples_name,
                      simplified.samples_name)
-    groups = assign_groups(original.tree, simplified.tree)
+    try:
+        groups = assign_groups(original.tree, simplified.tree)
+    except InputError as exc:         # (the simplified tree's groups: its file is at fault)
+        if exc.file is not None or not simplified.name:
+            raise
+        raise InputError(exc.message, simplified.name) from None
     g = simplified.tree.n_branches
     paths = main_paths(original.tree, groups, g)
     combined_b, combined_r = combined_angles(original.tree, paths, original.bend, original.rot)
@@ -199,6 +204,8 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     last = np.asarray([int(p[-1]) for p in paths], dtype=np.int64)
     tips_o = tip_series(original.tree, original.bend[cut], original.rot[cut], last)
     tips_s = tip_series(simplified.tree, simplified.bend[cut], simplified.rot[cut], np.arange(g))
+    for run, tips in ((original, tips_o), (simplified, tips_s)):
+        _check_finite(run, original.times[cut], tips)
     simp_b, simp_r = simplified.bend[cut], simplified.rot[cut]
     # every simplified branch is read in its group root's rest swing frame W_0 (model.md 6),
     # either form: a chord's frame turns against its root's, and a grammar-form branch's may
@@ -210,6 +217,18 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
                             rest_height(original.tree), list(simplified.tree.address))
     return Comparison(original, simplified, groups, paths, int((groups < 0).sum()),
                       combined_b, combined_r, cut, report)
+
+
+def _check_finite(run: Run, times: np.ndarray, tips: np.ndarray) -> None:
+    """InputError naming ``run``'s angle file (or its tree, where it was simulated) when its
+    angles or the tips they pose (K, G, 3) are not finite: angles of 1e308 read from a CSV
+    posed tips of inf, reported under the simplified file's name (session 28's fuzzing)."""
+    bad = ~np.isfinite(tips).all(axis=(1, 2))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InputError(f"its angles pose tips that are not finite at t = {times[k]:g} s; "
+                         "expected angles of a run that did not diverge (radians, unless "
+                         "--degrees)", run.angles or run.name or None)
 
 
 # --- two runs of one tree ----------------------------------------------------------

@@ -286,6 +286,39 @@ def test_window_and_several_simplified_files(runner, stalks):
     assert len(table.stderr.splitlines()) == 2                           # one summary per file
 
 
+def test_errors_of_the_samples_name_the_files_at_fault_not_the_simplified_one(tmp_path):
+    """Every error while comparing one SIMPLIFIED was prefixed with its name: angles of 1e308
+    in the original's CSV, a CSV of one row, and --window 0.3,0.1 all read "s1.lsys: error:"
+    (session 28's fuzzing)."""
+    from golden_util import run_cli
+
+    stalk = str(ROOT / "examples" / "stalk8.lsys")
+    level = tmp_path / "s1.lsys"
+    run_cli("simplify", stalk, "--level", "1", "-o", str(level))
+    csv = {}
+    for name, tree in (("o", stalk), ("s", str(level))):
+        csv[name] = tmp_path / f"{name}.csv"
+        run_cli("simulate", tree, "--dt", "0.01", "--steps", "20", "--wind-speed", "5",
+                "-o", str(csv[name]))
+    lines = csv["o"].read_text().splitlines()
+    huge = tmp_path / "huge.csv"
+    huge.write_text("\n".join(lines[:4] + [lines[4].split(",")[0] + ",1e308" * 16] + lines[5:])
+                    + "\n")
+    one_row = tmp_path / "one.csv"
+    one_row.write_text("\n".join(lines[:2]) + "\n")
+    base = ("compare", stalk, str(level), "--simplified-angles", str(csv["s"]))
+    result = run_cli(*base, "--original-angles", str(huge), exit_code=2)
+    assert result.stderr.startswith(f"{huge}: error: its angles pose tips that are not finite "
+                                    "at t = 0.03 s")
+    result = run_cli(*base, "--original-angles", str(one_row), exit_code=2)
+    assert result.stderr.startswith(f"plantlod compare: error: {one_row} (the angles of {stalk}) has "
+                                    "1 sample (0 to 0 s) but")
+    result = run_cli(*base, "--original-angles", str(csv["o"]), "--window", "0.3,0.1",
+                     exit_code=2)
+    assert "Invalid value for --window: the start 0.3 s is after the end 0.1 s" in result.stderr
+    assert str(level) not in result.stderr
+
+
 def test_a_simplified_file_whose_groups_miss_the_original_is_named(tmp_path):
     """With several SIMPLIFIED files, an error of one's groups against the original names
     that file (it named none before session 21)."""
