@@ -67,18 +67,26 @@ def sequential_solution(skeleton: Tree, gains: np.ndarray, per_leaf: np.ndarray,
                             natural_area[own])
         y = lam * in_leaf[:, g] + np.einsum("k,dkj->dj", u, per_leaf[:, own])
         kappa = absorbed_force(y, targets.root_leaf[:, g], chain_kfa[g], kappa_range)
-        p_new = lam / kappa if has_in else chain_kfp[g]    # no children: the chain's k_fp^m
-        if p_new == 0 and np.any(u > 0):                   # leaves need p' > 0
-            p_new = chain_kfp[g]
-        if kappa_range is not None:            # likewise the force passed on, and the leaf gains
-            p_new = min(max(p_new, chain_kfp[g] / kappa_range), chain_kfp[g] * kappa_range)
-        lam = kappa * p_new
-        if own:
-            areas[own] = u / lam if lam > 0 else 0.0
-            if kappa_range is not None:
-                areas[own] = np.minimum(areas[own], kappa_range * natural_area[own])
-        mu = drag_gain(gain, drag_shape[:, g], targets.drag[:, g], lam, in_drag[:, g])
-        c_new = mu / kappa
+        if not kappa > 0:
+            # a group whose members absorb no force (k_FA = 0: they never move) says nothing
+            # of what it passes on: the chain's k_fp^m, its leaves at their areas, no drag of
+            # its own (its parent's fit takes that up); p' / κ divided by 0 before
+            kappa, p_new, c_new = 0.0, chain_kfp[g], 0.0
+            if own:
+                areas[own] = natural_area[own]
+        else:
+            p_new = lam / kappa if has_in else chain_kfp[g]    # no children: the chain's k_fp^m
+            if p_new == 0 and np.any(u > 0):                   # leaves need p' > 0
+                p_new = chain_kfp[g]
+            if kappa_range is not None:        # likewise the force passed on, and the leaf gains
+                p_new = min(max(p_new, chain_kfp[g] / kappa_range), chain_kfp[g] * kappa_range)
+            lam = kappa * p_new
+            if own:
+                areas[own] = u / lam if lam > 0 else 0.0
+                if kappa_range is not None:
+                    areas[own] = np.minimum(areas[own], kappa_range * natural_area[own])
+            mu = drag_gain(gain, drag_shape[:, g], targets.drag[:, g], lam, in_drag[:, g])
+            c_new = mu / kappa
         kfa[g], kfp[g] = kappa, p_new
         drag_c[g] = drag_per_area(c_new, surface[g])
         out_leaf = p_new * (in_leaf[:, g] + np.einsum("k,dkj->dj", areas[own], per_leaf[:, own]))

@@ -86,6 +86,30 @@ def test_a_branch_symbol_of_radius_zero_is_simplified_with_finite_numbers(tmp_pa
         assert groups
 
 
+@pytest.mark.parametrize("where", ["symbol", "override"])
+def test_branches_that_absorb_no_force_are_simplified_and_held_to_the_bounds(tmp_path, where):
+    """A stiff trunk T of force_absorbed = 0 (legal: it never moves) under swaying laterals:
+    `simplify` stopped with "numbers that are not finite" (exit 1), its tips-down fit dividing
+    by the trunk groups' κ of 0 (session 28, a tree of a helper's novel kinds). Its level 1 is
+    now within level 1's bounds as compare measures them."""
+    trunk = "branch T: length=0.4 radius=0.03 bend_strength=40 rotation_strength=40"
+    text = (HEAD.replace("derivation_length: 3", "derivation_length: 5")
+            .replace("branching_angle: 30", "branching_angle: 40\nrotation_angle: 137.5")
+            + trunk + (" force_absorbed=0\n" if where == "symbol" else "\n")
+            + "axiom: A\nproductions:\n  A -> T [& C] / [^ C] / T A\n  C -> F L [+ F L] C\n"
+            + ("overrides:\n  0: force_absorbed=0\n" if where == "override" else ""))
+    path = _write(tmp_path, text)
+    out = tmp_path / "l1.lsys"
+    run_cli("simplify", path, "--level", "1", "--form", "explicit", "-o", str(out))
+    for speed, direction in ((0.5, 37), (5, 200)):
+        result = run_cli("compare", path, str(out), "--dt", "0.01", "--duration", "20",
+                         "--wind-speed", str(speed), "--wind-direction", str(direction),
+                         "--json")
+        figures = json.loads(result.stdout)["comparisons"][0]
+        assert figures["motion_error"] <= 0.05 and figures["period_error_major"] <= 0.02
+        assert figures["tip_error"] <= 0.01
+
+
 @pytest.mark.parametrize("text, fragment", [
     (HEAD.replace("derivation_length: 3", "derivation_length: 0") + "axiom: F L\n",
      "it is already a single branch"),
