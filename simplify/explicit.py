@@ -63,12 +63,10 @@ def equivalent_leaves(tree: Tree, frames, members: np.ndarray) -> tuple[np.ndarr
     normals = np.einsum("kij,kj->ki", frames.frame[np.asarray(tree.leaf_branch)[on]],
                         np.asarray(tree.leaf_normal, dtype=np.float64)[on])
     area = np.asarray(tree.leaf_area, dtype=np.float64)[on]
-    response = np.einsum("k,ki,kj->ij", area, normals, normals)
-    values, vectors = np.linalg.eigh(response)
-    keep = values > 1e-12 * max(float(values.max()), 1e-300)
-    # sum of the eigenvalues kept = trace = summed area (up to the dropped ~0 ones)
-    values = values[keep] * (area.sum() / values[keep].sum())
-    return values[::-1], vectors[:, keep].T[::-1]
+    values, vectors = principal_leaves(area, normals)
+    # sum of the eigenvalues kept = trace = summed area (up to the dropped ~0 ones; summed in
+    # eigh's ascending order, as before principal_leaves was split off: the same bits)
+    return values * (area.sum() / values[::-1].sum()), vectors
 
 
 def basis_leaves(frame: np.ndarray, areas: np.ndarray, normals: np.ndarray
