@@ -167,17 +167,24 @@ def test_a_chain_whose_fit_meets_numbers_that_are_not_finite_is_a_run_failure(tm
     """--levels reached level 1's regrouping without the guard of --level: a branch symbol that
     absorbs no force (force_absorbed=0, a legal value) left scipy's nnls "infs or NaNs", an
     internal error (session 22, found by fuzzing). Every explicit fit is guarded now
-    (`simplify.finite`)."""
+    (`simplify.finite`). Since session 28 that tree's chain is fitted (a group that absorbs
+    no force passes on its chain's k_fp^m); strengths of 1e-300 still meet the guard."""
+    text = ("name: a\nderivation_length: 3\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+            "force_propagated: 0.7\n"
+            "branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20 "
+            "force_absorbed=0\n"
+            "branch G: length=1 radius=0.02 bend_strength=20 rotation_strength=20\n"
+            "leaf L: area=0.01\naxiom: G F L\nproductions:\n  F -> F [+G L] F\n")
     lsys = tmp_path / "t.lsys"
-    lsys.write_text("name: a\nderivation_length: 3\nbranching_angle: 30\nforce_absorbed: 0.005\n"
-                    "force_propagated: 0.7\n"
-                    "branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20 "
-                    "force_absorbed=0\n"
-                    "branch G: length=1 radius=0.02 bend_strength=20 rotation_strength=20\n"
-                    "leaf L: area=0.01\naxiom: G F L\nproductions:\n  F -> F [+G L] F\n")
-    result = run_cli("simplify", str(lsys), "--levels", str(tmp_path / "lv"), exit_code=1)
+    lsys.write_text(text)
+    run_cli("simplify", str(lsys), "--levels", str(tmp_path / "lv"))
+    assert sorted(p.name for p in (tmp_path / "lv").iterdir()) == [
+        f"level{n}.lsys" for n in range(1, 5)]
+    lsys.write_text(text.replace("bend_strength=20 rotation_strength=20 force_absorbed=0",
+                                 "bend_strength=1e-300 rotation_strength=1e-300"))
+    result = run_cli("simplify", str(lsys), "--levels", str(tmp_path / "lv2"), exit_code=1)
     assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lv", "t.lsys"]
 
 
 def _edited_stalk8(tmp_path, old: str, new: str):
