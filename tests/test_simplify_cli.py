@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -263,3 +264,30 @@ def test_runs_too_short_for_a_period_are_warned_of(tmp_path):
     quiet = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "14", "-o",
                     str(tmp_path / "b.lsys"))
     assert "no period was measured" not in quiet.stderr
+
+
+def test_a_chains_period_in_the_opposite_winds_is_noted(tmp_path):
+    """simplify's measurement winds blow toward 0-90° only; a chain whose groups sum members of
+    several periods crosses its mean at another pace downward, which is the period of the
+    reversed wind (180-270°). eval/stalk_unequal's level 1 holds its period at 0-90° and
+    misses it there, so simplify says so; compare in a reversed wind gives the same figure
+    (its runs keep every step, simplify's every fourth: within 0.05 points). stalk8, of
+    equal members, gets no such note."""
+    import re
+
+    level = tmp_path / "l1.lsys"
+    result = run_cli("simplify", str(ROOT / "examples" / "eval" / "stalk_unequal.lsys"),
+                     "--level", "1", "-o", str(level))
+    notes = [line for line in result.stderr.splitlines() if "in the opposite winds" in line]
+    assert len(notes) == 1, result.stderr
+    noted = float(re.search(r"period error reaches ([0-9.]+) %", notes[0]).group(1)) / 100
+    worst = 0.0
+    for direction in (180, 195, 225, 270):
+        compared = run_cli("compare", str(ROOT / "examples" / "eval" / "stalk_unequal.lsys"),
+                           str(level), "--dt", "0.01", "--duration", "20", "--wind-speed", "0.5",
+                           "--wind-direction", str(direction), "--json")
+        worst = max(worst, json.loads(compared.stdout)["comparisons"][0]["period_error"])
+    assert worst > 0.01 and abs(noted - worst) < 5e-4, (noted, worst)
+    plain = run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--level", "1",
+                    "-o", str(tmp_path / "s.lsys"))
+    assert "opposite winds" not in plain.stderr
