@@ -17,7 +17,7 @@ import contextlib
 import io
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import IO, Any, Union
 
 import numpy as np
@@ -146,10 +146,11 @@ def read_tree(path_or_file: PathOrFile) -> Tree:
     from plantlod.formats.treefile import read_tree_text
 
     archive = _npz_path(path_or_file)
-    if archive is not None:
-        return read_tree_bytes(read_npz_file(archive), archive)
+    if archive is not None:             # (messages about its values name the file read:
+        return replace(read_tree_bytes(read_npz_file(archive), archive),    # `Tree.where`)
+                       read_from=archive)
     stream, name = _text_stream(path_or_file)
-    return read_tree_text(_read_text(stream, name), name)
+    return replace(read_tree_text(_read_text(stream, name), name), read_from=name)
 
 
 def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:

@@ -146,6 +146,9 @@ def test_messages_about_a_tree_files_values_name_the_tree_file(tmp_path, suffix)
     assert result.stderr.startswith(f"{path}: error: time step too large: ")
     assert "demo.lsys" not in result.stderr and result.stderr.count("\n") == 1
     assert plantlod.read_tree(str(path)).source == "examples/demo.lsys"
+    with pytest.raises(InputError) as info:            # the API's read_tree, the same
+        plantlod.simulate(plantlod.read_tree(str(path)), dt=100, steps=2, wind_speed=1)
+    assert info.value.file == str(path) and "time step too large" in info.value.message
 
 
 def test_a_strength_of_zero_in_an_archive_names_the_archive(tmp_path):
