@@ -125,16 +125,22 @@ def unturned(original: Tree, runs: Runs, largest: list[float]) -> tuple[Runs, li
     20 m/s); a level's strengths corrected toward those periods miss every slow wind. Family
     tuning range, levels 1 / 2: the stalks 209 / 159 -> 226 / 206 of 434 / 413 cases (a cut at
     4 m/s instead, 236 / 206); the branching kinds 3088 / 3208 -> 3087 / 3206."""
-    from .static import turned_most
-
-    turned = turned_most(original, wind_directions(runs.winds), [w.speed for w in runs.winds])
-    keep = [k for k, t in enumerate(turned) if t <= MOTION_FIT_TURN]
+    keep = list(np.flatnonzero(within_turn(original, runs.winds)))
     if not keep:
         slowest = min(w.speed for w in runs.winds)
         keep = [k for k, w in enumerate(runs.winds) if w.speed == slowest]
     if len(keep) == len(runs.winds):
         return runs, largest
     return runs.subset(keep), [largest[k] for k in keep]
+
+
+def within_turn(original: Tree, winds: list[WindCase]) -> np.ndarray:
+    """(W,) bool: the winds in which the original's linear statics turn no branch's axis by
+    more than MOTION_FIT_TURN (`static.turned_most`), where a chain stays linear (`unturned`)."""
+    from .static import turned_most
+
+    turned = turned_most(original, wind_directions(winds), [w.speed for w in winds])
+    return np.asarray(turned) <= MOTION_FIT_TURN
 
 
 def wind_directions(winds: list[WindCase]) -> np.ndarray:

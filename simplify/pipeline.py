@@ -42,7 +42,6 @@ from .evaluate import Runs, Summary, WindCase, summarize, wind_cases
 from .levels import check_level, check_moves, level_system, round_sig, write_parameters
 from plantlod.compare.measures import Report
 from .thesis import thesis_parameters
-from .explicit import is_stalk
 from .finite import finite_fit
 from plantlod.lsys.words import counted
 
@@ -467,11 +466,14 @@ def simplify_explicit(system: LSystem, options: Options,
     if progress:
         progress("measuring", 0.5)
     runs = shared.runs_for(options)(tree)   # the motion fit's, when the level's branches are the same
-    reports = list(zip(options.winds(), runs.compare(tree, downward=is_stalk(original))))
+    from .explicit import is_stalk
+
+    stalk = is_stalk(original)              # (a chain: its downward periods too, for a note)
+    reports = list(zip(options.winds(), runs.compare(tree, downward=stalk)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
     notes = _angle_notes(runs.winds, largest) + _period_notes(original, reports, options) \
-        + _opposite_wind_notes(original, runs, tree, reports, options)
+        + (_opposite_wind_notes(original, runs, tree, reports, options) if stalk else [])
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
     # the level's text is canonical (what write_lsys writes of it; tests/test_simplify_explicit.py)
@@ -552,7 +554,8 @@ def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],
 
 def _opposite_wind_notes(original: Tree, runs: Runs, tree: Tree,
                          reports: list[tuple[WindCase, Report]], options: Options) -> list[str]:
-    """A note where a chain's level misses its period bound in the opposite winds though the
+    """For a chain (the caller checks `explicit.is_stalk`, its runs compared with
+    ``downward``): a note where its level misses its period bound in the opposite winds though the
     measurement winds (0-90°) do not show it. Below SMALL_ANGLE_LIMIT a chain's response to
     the reversed wind is the negative, whose upward crossings are this run's downward ones
     (`evaluate.downward_periods`); a group that sums members of several periods crosses its
@@ -560,21 +563,17 @@ def _opposite_wind_notes(original: Tree, runs: Runs, tree: Tree,
     pace (docs/simplify.md, Limits: family stalk-63's level 1 misses by 5.8 % at 200° and holds
     at 20°). The worst relative error of the downward periods over counted components, in the
     winds where the chain is linear (the original's combined angles under SMALL_ANGLE_LIMIT,
-    and its linear statics turning no branch's axis further than MOTION_FIT_TURN, as the
-    motion fit counts them: `motion_fit.unturned`), against the level's stalk period bound
-    (STALK_BOUNDS)."""
-    from .constants import MOTION_FIT_TURN, STALK_BOUNDS
-    from .motion_fit import wind_directions
-    from .static import turned_most
+    and `motion_fit.within_turn`, as the motion fit counts them), against the level's stalk
+    period bound (STALK_BOUNDS)."""
+    from .constants import STALK_BOUNDS
+    from .motion_fit import within_turn
 
-    if not is_stalk(original):
-        return []
     bound = STALK_BOUNDS[min(options.level, max(STALK_BOUNDS))][1]
-    turned = turned_most(original, wind_directions(runs.winds), [w.speed for w in runs.winds])
     worst = -math.inf
-    for (_wind, report), (p_x, p_y), largest, turn in zip(
-            reports, runs.downward(tree), runs.largest_combined_angle(), turned):
-        if largest > SMALL_ANGLE_LIMIT or turn > MOTION_FIT_TURN:
+    for (_wind, report), (p_x, p_y), largest, linear in zip(
+            reports, runs.downward(tree), runs.largest_combined_angle(),
+            within_turn(original, runs.winds)):
+        if largest > SMALL_ANGLE_LIMIT or not linear:
             continue
         with np.errstate(divide="ignore", invalid="ignore"):
             error = np.abs(np.asarray(p_y) / np.asarray(p_x) - 1.0)
@@ -664,11 +663,14 @@ def simplify_grammar(system: LSystem, options: Options,
     if runs is None:
         runs = Runs(original, gmap, winds, options.dt, options.steps, options.every,
                     options.damping)
-    reports = list(zip(winds, runs.compare(tree, downward=is_stalk(original))))
+    from .explicit import is_stalk
+
+    stalk = is_stalk(original)              # (a chain: its downward periods too, for a note)
+    reports = list(zip(winds, runs.compare(tree, downward=stalk)))
     summary = summarize([r for _, r in reports])
     largest = runs.largest_combined_angle()
     notes += _angle_notes(runs.winds, largest) + _period_notes(original, reports, options) \
-        + _opposite_wind_notes(original, runs, tree, reports, options)
+        + (_opposite_wind_notes(original, runs, tree, reports, options) if stalk else [])
     header = header_comment(system, options, reports, summary, form="grammar",
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)
