@@ -12,7 +12,6 @@ import contextlib
 import errno
 import io
 import os
-import shutil
 import signal
 import sys
 import tempfile
@@ -25,7 +24,8 @@ import click
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
 from plantlod.formats.atomic import (atomic_path, hold, landing, lands_on, release,
-                                     remove_pending, special_target, usual_file_mode, write_all)
+                                     remove_folder, remove_pending, special_target,
+                                     usual_file_mode, write_all)
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
@@ -315,7 +315,8 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                 os.chmod(tmp, usual_file_mode(folder=True))
                 os.replace(tmp, path)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if os.path.isdir(tmp):
+            remove_folder(tmp)
         release(tmp)
 
 

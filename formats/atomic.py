@@ -105,10 +105,24 @@ def remove_pending() -> None:
         _reap(proc.pid)
     for path in list(_pending):
         if os.path.isdir(path) and not os.path.islink(path):
-            shutil.rmtree(path, ignore_errors=True)
+            remove_folder(path)
         else:
             with contextlib.suppress(OSError):
                 os.unlink(path)
+
+
+def remove_folder(path: str) -> None:
+    """Remove the folder ``path`` and everything in it, where other processes may still be
+    writing into it (a Dask worker's chunks of a scene's store, `scene.rooted_store`): it is
+    renamed first, atomically, so that a write by its old name finds no folder (and a
+    `RootedStore` makes none), and then removed under the new name, where nothing writes.
+    A removal in place could meet a file made in a subfolder it had emptied and leave it."""
+    gone = f"{path}.removed-{os.getpid()}"
+    try:
+        os.rename(path, gone)
+    except OSError:                            # (gone already, or the name is taken)
+        gone = path
+    shutil.rmtree(gone, ignore_errors=True)
 
 
 def special_target(path: str) -> bool:

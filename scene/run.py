@@ -394,7 +394,10 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
     if store is not None:
         import zarr
 
-        group = zarr.open_group(store, mode="r+")
+        from .rooted_store import RootedStore
+
+        # (a store removed by a signal while this task runs stays removed: `rooted_store`)
+        group = zarr.open_group(RootedStore(store), mode="r+")
     result = run_batch(chain, Transfer(chain.trees, chain.groups, damping_ratio), batch, winds,
                        dt, steps,
                        every, threads=1, store=group)

@@ -395,6 +395,36 @@ def test_a_moving_camera_gives_the_same_store_for_any_thread_count(tmp_path, cha
     assert np.any(levels[:, 1:] != levels[:, :-1])           # it did switch
 
 
+def test_a_workers_store_stays_removed_once_a_signal_removed_it(tmp_path):
+    """A Dask worker's task runs on after `scene --scheduler` ends on a signal, whose handler
+    removes the temporary store (`remove_folder`: renamed away, then removed). The worker's
+    later chunks (`RootedStore`) then fail and make no folder; zarr's own LocalStore makes
+    the whole path again (the store came back, partly filled, beside the output)."""
+    import zarr
+    from zarr.storage import LocalStore
+
+    from plantlod.formats.atomic import remove_folder
+    from plantlod.scene.rooted_store import RootedStore
+
+    for kind, comes_back in ((LocalStore, True), (RootedStore, False)):
+        root = tmp_path / f"{kind.__name__}.zarr"
+        made = zarr.open_group(str(root), mode="w-")
+        made.create_array("x", shape=(4, 4), chunks=(2, 2), dtype="float32", fill_value=np.nan)
+        worker = zarr.open_group(kind(str(root)), mode="r+")["x"]
+        worker[0:2, 0:2] = 1.0                  # a chunk written while the store is there
+        assert (root / "x" / "c" / "0" / "0").is_file()
+        remove_folder(str(root))
+        assert not root.exists() and not list(tmp_path.glob(f"{root.name}*"))
+        if comes_back:
+            worker[2:4, 2:4] = 2.0
+        else:
+            with pytest.raises(FileNotFoundError):
+                worker[2:4, 2:4] = 2.0
+            with pytest.raises(FileNotFoundError):       # nor does opening it again
+                zarr.open_group(RootedStore(str(root)), mode="r+")
+        assert root.exists() == comes_back
+
+
 def test_a_local_dask_cluster_gives_the_same_store(tmp_path, chains):
     """Two worker processes write their own batches; the store equals the in-process one."""
     distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
