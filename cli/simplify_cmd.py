@@ -106,10 +106,17 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
         level = level_n
     distinct_paths({"-o": output, "--levels": levels_dir}, {"FILE": input_path})
     check_output_kind(output, "-o", "an L-system", (".lsys", ".txt"))
-    if (level is None) == (levels_dir is None):
+    if level is not None and levels_dir is not None:
+        raise click.UsageError("give --level N or --levels DIR, not both")
+    if level is None and levels_dir is None:
         raise click.UsageError("give --level N, or --levels DIR for every level of the explicit form")
     if levels_dir is not None and form == "grammar":
         raise click.UsageError("--levels writes the explicit form; --form grammar does not apply")
+    if levels_dir is not None and (calibrate or method != "derived"):
+        # (the explicit form's parameters are derived: an option it would ignore is refused)
+        raise click.UsageError(f"--levels writes the explicit form, whose parameters are derived; "
+                               f"{'--calibrate' if calibrate else '--method ' + method} "
+                               "does not apply")
     system = read_lsys(input_path)
     if levels_dir is not None:
         if output is not None:
@@ -134,7 +141,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     s = result.summary
     form_used = "explicit" if result.tree.group_root else "grammar"
     say(f"simplify: {display_name(input_path)} level {level}, {form_used} form ({method}"
-        f"{', calibrated' if calibrate else ''}): {result.original.n_branches:,} -> "
+        f"{', calibrated' if calibrate and form_used == 'grammar' else ''}): {result.original.n_branches:,} -> "
         f"{counted(result.tree.n_branches, 'branch')}; worst over every measurement wind: "
         f"amplitude error {_pct(s.amplitude)}, period {_pct(s.period)}, tip {_pct(s.tip)} of height")
     for note in result.notes:
