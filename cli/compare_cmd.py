@@ -108,10 +108,12 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     broken, 2 for bad input.
 
     \b
-    Examples:
-      plantlod compare examples/stalk8.lsys stalk8_l1.lsys --dt 0.01 --duration 20 --wind-speed 10
-      plantlod compare stalk8.lsys l1.lsys l2.lsys --dt 0.01 --duration 6 --wind-speed 10 \\
-          --obj frames --at 4 --plot cmp.png
+    Examples (l1.lsys, l2.lsys from `plantlod simplify examples/stalk8.lsys --level 1 -o
+    l1.lsys`; tree files from `plantlod derive`, angle CSVs from `plantlod simulate`; the
+    whole set in docs/compare.md):
+      plantlod compare examples/stalk8.lsys l1.lsys --dt 0.01 --duration 20 --wind-speed 10
+      plantlod compare examples/stalk8.lsys l1.lsys l2.lsys --dt 0.01 --duration 6 \\
+          --wind-speed 10 --obj frames --at 4 --plot cmp.png
       plantlod compare tree.jsonl l1.tree.jsonl --original-angles a.csv --simplified-angles b.csv --json
       plantlod compare --angles golden.csv new.csv --atol 1e-9
     """

@@ -36,7 +36,7 @@ def derive(file, output, fmt, steps, max_modules):
     Example:
       plantlod derive examples/stalk8.lsys -o stalk8.tree.jsonl
       plantlod derive examples/abop_1_24a.lsys --format string -n 2
-      plantlod derive examples/stalk8.lsys | plantlod simulate - --dt 0.01 --steps 400
+      plantlod derive examples/stalk8.lsys | plantlod simulate - --dt 0.01 --steps 400 --wind-speed 5
     """
     from plantlod.formats.npz import is_npz, tree_bytes
     from plantlod.lsys.build import build

@@ -37,6 +37,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
       plantlod simulate examples/stalk8.lsys --dt 0.01 --duration 10 --wind-speed 5 -o stalk8.csv
       plantlod derive examples/stalk8.lsys | plantlod simulate - --dt 0.01 --steps 1000 --wind 2,0,0
       plantlod simulate examples/stalk8.lsys --dt 0.01 --steps 500 --wind-file gusts.csv --every 10
+    (gusts.csv: rows t,vx,vy,vz in m/s, linearly interpolated; docs/model.md, "Winds")
     """
     if input_path == "-" and kwargs.get("wind_file") == "-":
         raise click.UsageError("INPUT and --wind-file cannot both be - (stdin)")
