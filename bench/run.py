@@ -28,6 +28,11 @@ def _load(path: pathlib.Path):
 
 def main(argv: list[str]) -> int:
     wanted = set(argv)
+    known = {path.stem.removeprefix("bench_") for path in HERE.glob("bench_*.py")}
+    if wanted - known:                  # (a typo ran nothing and exited 0)
+        print(f"bench/run.py: error: no benchmark {', '.join(sorted(wanted - known))}; "
+              f"expected some of {', '.join(sorted(known))}", file=sys.stderr)
+        return 2
     rows: list[tuple[str, str, str, str, str]] = []
 
     def report(name, value, unit, target="", command=""):

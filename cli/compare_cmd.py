@@ -124,7 +124,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     for k, path in enumerate(simplified_angles or ()):
         inputs[f"--simplified-angles {k + 1}"] = path
     # (-o unset is standard output too: `--plot -` there mixed the PNG into the table)
-    distinct_paths({"-o": "-" if output is None else output, "--obj": obj_dir,
+    distinct_paths({"-o" if output is not None else "the table (no -o)":
+                    "-" if output is None else output, "--obj": obj_dir,
                     "--plot": plot_path}, inputs)
     check_output_kind(output, "-o", "the report (a table, or JSON with --json)", (".txt", ".json"))
     check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))

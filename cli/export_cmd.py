@@ -33,6 +33,10 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     from plantlod.formats.angles_csv import read_angles_file
     from plantlod.compare.runs import angles_in_tree_order
 
+    if output == "-":                             # (README: - is stdout elsewhere)
+        raise click.UsageError("-o -: export takes the format from the file name's extension, "
+                               "and standard output has none; expected -o OUT.glb (or .gltf, "
+                               ".usda, .usdc, .usd)")
     check_output_path(output)                     # a missing folder is refused before any work
     distinct_paths({"-o": output}, {"TREE": tree_path, "ANGLES": angles_path})
     frames = None

@@ -269,6 +269,23 @@ def test_an_output_over_an_input_or_another_output_is_refused_before_any_work(tm
     assert sorted(tmp_path.rglob("*")) == sorted([*before, *([tmp_path / "lv"] if make else [])])
 
 
+@pytest.mark.parametrize("args, message", [
+    # the table goes to standard output without -o: the message named an -o nobody gave
+    (["compare", "{s}", "{s}", "--dt", "0.01", "--steps", "5", "--wind-speed", "5", "--plot", "-"],
+     "the table (no -o) and --plot both write to standard output"),
+    # - is stdout elsewhere; export's format is its name's extension ('no extension' before)
+    (["export", "{s}", "{csv}", "-o", "-"], "-o -: export takes the format from the file name"),
+])
+def test_standard_output_where_it_cannot_serve_says_why(tmp_path, args, message):
+    s = tmp_path / "s.lsys"
+    s.write_text((ROOT / STALK8).read_text())
+    csv = tmp_path / "a.csv"
+    run_cli("simulate", str(s), "--dt", "0.01", "--steps", "5", "--wind-speed", "5", "-o", str(csv))
+    result = run_cli(*[a.format(s=s, csv=csv) for a in args], exit_code=None)
+    one_line(result, 2, message)
+    assert result.stdout == ""
+
+
 # --- signals: 128 + n, and the temporary file removed -------------------------------------
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
