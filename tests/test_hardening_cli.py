@@ -270,10 +270,8 @@ def test_an_output_over_an_input_or_another_output_is_refused_before_any_work(tm
 
 
 @pytest.mark.parametrize("args, message", [
-    # the table goes to standard output without -o: the message named an -o nobody gave
-    (["compare", "{s}", "{s}", "--dt", "0.01", "--steps", "5", "--wind-speed", "5", "--plot", "-"],
-     "the table (no -o) and --plot both write to standard output"),
-    # - is stdout elsewhere; export's format is its name's extension ('no extension' before)
+    # - is stdout elsewhere; export's format is its name's extension ('no extension' before;
+    # compare's --plot - beside the table: tests/test_wrong_kind_of_file.py)
     (["export", "{s}", "{csv}", "-o", "-"], "-o -: export takes the format from the file name"),
 ])
 def test_standard_output_where_it_cannot_serve_says_why(tmp_path, args, message):

@@ -84,7 +84,8 @@ def test_doc_error_examples_are_real():
     for text in (edit(3, '"parent": 0', '"parent": 5'), drop_line(6)):
         with pytest.raises(InputError) as info:
             read(text, "demo.tree.jsonl")
-        assert str(info.value) in doc
+        where, said = str(info.value).split(": ", 1)       # as the CLI prints it
+        assert f"{where}: error: {said}" in doc
 
 
 def test_keys_in_another_order_and_integers_for_floats_are_accepted():

@@ -209,6 +209,7 @@ def test_a_tree_file_with_a_stray_key_keeps_its_own_error(files, tmp_path, stray
 
 
 def test_compare_plot_to_standard_output_beside_the_table_is_refused(tmp_path):
-    """`compare --plot -` without -o put the PNG after the table on standard output."""
+    """`compare --plot -` without -o put the PNG after the table on standard output; the
+    refusal names the table, not an -o nobody gave (session 29)."""
     one_line(run_cli("compare", STALK, STALK, "--dt", "0.01", "--duration", "1", "--plot", "-",
-                     exit_code=None), 2, "-o and --plot both write to standard output")
+                     exit_code=None), 2, "the table (no -o) and --plot both write to standard output")
