@@ -82,6 +82,26 @@ def test_the_page_carries_each_tree_and_needs_no_network(glbs, tmp_path):
     assert "MIT License" in licence.read_text(encoding="utf-8")
 
 
+def test_each_gltf_list_is_checked_once_whatever_refers_to_it(glbs, monkeypatch):
+    """`index` asks for the list it indexes at every reference; each list was checked again
+    at each, so `view` took time quadratic in the nodes (abop_1_25: 28 s). Counted, not
+    timed: every list is read from the document once."""
+    from plantlod.export import gltf_check
+
+    reads: dict[str, int] = {}
+    original = gltf_check._Checker._items
+
+    def counted(self, name):
+        reads[name] = reads.get(name, 0) + 1
+        return original(self, name)
+
+    monkeypatch.setattr(gltf_check._Checker, "_items", counted)
+    path, branches = glbs[1][0]
+    plantlod.write_view([path], glbs[0] / "once.html")
+    assert branches == 8 and reads["nodes"] == 1 and reads["accessors"] == 1
+    assert max(reads.values()) == 1
+
+
 def test_a_gltf_with_its_buffer_inline_is_shown_as_glb(glbs, tmp_path):
     folder, trees = glbs
     tree = plantlod.derive(plantlod.read_lsystem(ROOT / "examples" / "stalk8.lsys"), 1)
