@@ -42,6 +42,11 @@ MAX_ERROR_CHARS = 1000       # an error message longer than this is cut
 DEBUG_VARIABLE = "PLANTLOD_DEBUG"
 
 
+class ReaderGone(BaseException):
+    """The reader of stdout went away (``| head``): a BrokenPipeError from a write to it, past
+    click's own handling (which turns it into exit 1); ends the command quietly with 141."""
+
+
 class Terminated(BaseException):
     """A signal asked the process to end; a BaseException, so `except Exception` lets it pass."""
 
@@ -81,14 +86,47 @@ def _named(exc: BaseException, command: str | None) -> BaseException:
 
 
 def install_signal_handlers() -> None:
-    """SIGINT, SIGTERM and SIGHUP end the command cleanly (unless ignored by the parent);
-    a broken pipe ends the process quietly."""
+    """The signals of CAUGHT_SIGNALS end the command cleanly (unless ignored by the parent).
+    SIGPIPE stays ignored (Python's start-up does so): a reader of stdout that goes away
+    (``| head``) raises BrokenPipeError at the next write, which ends the command quietly
+    with 141 once its temporary files are removed (`describe_failure`), and stderr is
+    `QuietStream` (a reader of stderr that goes away loses the messages, nothing else).
+    With SIGPIPE's default action, a closed stderr killed the command at its next message:
+    exit 141 where it would have exited 0, and a `--progress` run's temporary file left."""
     end_deferred[0] = _end_now
     for signum in CAUGHT_SIGNALS:
         if signal.getsignal(signum) != signal.SIG_IGN:
             signal.signal(signum, _end_on_signal)
-    if hasattr(signal, "SIGPIPE"):
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    if sys.stderr is not None and not isinstance(sys.stderr, QuietStream):
+        sys.stderr = QuietStream(sys.stderr)
+
+
+class QuietStream:
+    """A text stream whose writes and flushes cannot fail: the first OSError (a closed pipe,
+    a full disk) or ValueError (a closed file) ends its output, and the caller goes on
+    (docs/errors.md: a stderr that is closed or full loses the messages but never changes
+    the exit code). Everything else is the wrapped stream's."""
+
+    def __init__(self, stream):
+        self._stream, self._lost = stream, False
+
+    def write(self, text: str) -> int:
+        if not self._lost:
+            try:
+                self._stream.write(text)
+            except (OSError, ValueError):
+                self._lost = True
+        return len(text)
+
+    def flush(self) -> None:
+        if not self._lost:
+            try:
+                self._stream.flush()
+            except (OSError, ValueError):
+                self._lost = True
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 # --- numeric options ---------------------------------------------------------------
@@ -181,7 +219,7 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
         if exc.signum == signal.SIGINT:
             return 128 + exc.signum, f"{where}: interrupted"
         return 128 + exc.signum, f"{where}: ended by {signal.Signals(exc.signum).name}"
-    if isinstance(exc, BrokenPipeError):
+    if isinstance(exc, (BrokenPipeError, ReaderGone)):
         return 128 + getattr(signal, "SIGPIPE", 13), None
     if isinstance(exc, OSError):
         target = f"{exc.filename}: " if exc.filename else ""

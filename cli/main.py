@@ -14,7 +14,7 @@ from collections.abc import MutableMapping
 import click
 
 from .discipline import (
-    Terminated, harden_params, install_signal_handlers, run_guarded, set_current_command,
+    ReaderGone, Terminated, harden_params, install_signal_handlers, run_guarded, set_current_command,
 )
 
 # command -> the module of cli/ that defines it; a command's module (and what it
@@ -73,6 +73,10 @@ class PlantlodGroup(click.Group):
         except KeyboardInterrupt:
             # as a signal, past click's Abort (which would print a blank line first)
             raise _named(Terminated(signal.SIGINT), ctx) from None
+        except BrokenPipeError:
+            # stdout's reader went away (stderr cannot raise: `discipline.QuietStream`); past
+            # click, which would make it exit 1
+            raise _named(ReaderGone(), ctx) from None
         except BaseException as exc:
             raise _named(exc, ctx)
 

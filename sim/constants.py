@@ -31,8 +31,12 @@ KERNEL_ENV = "PLANTLOD_KERNEL"
 # --- workers (sim/workers.py) ----------------------------------------------------------
 # Signals that end a command (cli.discipline: temporaries removed, exit 128 + n); workers
 # ignore them and die with the command instead
-CAUGHT_SIGNALS = tuple(getattr(_signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
-                       if hasattr(_signal, name))
+CAUGHT_SIGNALS = tuple(getattr(_signal, name) for name in (
+    "SIGINT", "SIGTERM", "SIGHUP",
+    # ... and every other signal whose default ends the process and that a user or a
+    # limit sends (`ulimit -t`: SIGXCPU; `kill -QUIT`, -USR1, -USR2, -ALRM): their default
+    # action left temporary files and --levels' worker processes behind (session 29)
+    "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGXCPU", "SIGALRM") if hasattr(_signal, name))
 WORKER_POLL = 1.0            # s: waits on the workers wake this often (and a finished worker is joined)
 MAX_DAMPING_RATIO = 100.0     # ζ above this is refused (measured trees 0.02-0.10, critical 1; at 1e10 the
                              # stable step underflowed to 0 s)

@@ -168,6 +168,31 @@ def test_closed_stdin_is_bad_input():
         "<stdin>: error: standard input is closed; expected a file name or data on stdin"]
 
 
+@pytest.mark.parametrize("progress", ["--no-progress", "--progress"])
+def test_a_reader_of_stderr_that_goes_away_changes_nothing(tmp_path, progress):
+    """docs/errors.md: a stderr that is closed loses the messages, never the exit code. With
+    SIGPIPE's default action the first message after the reader left killed the command:
+    141 in place of 0, and with --progress no output and its temporary file left."""
+    out = tmp_path / "a.csv"
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} simulate {STALK8} --dt 0.01 --steps 20000 "
+                           f"--wind-speed 5 -o {out} {progress} 2>&1 | (exec true); "
+                           "exit ${PIPESTATUS[0]}"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0
+    assert sorted(os.listdir(tmp_path)) == ["a.csv"]
+    assert len(out.read_text().splitlines()) == 20002             # header, t = 0, 20,000 steps
+
+
+def test_a_reader_of_stdout_that_goes_away_ends_the_command_quietly():
+    """`| head`: 141 (128 + SIGPIPE) and nothing on stderr; click's own handling of a broken
+    pipe would make it exit 1."""
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} simulate {STALK8} --dt 0.01 --steps 200000 "
+                           "--wind-speed 5 | head -1; exit ${PIPESTATUS[0]}"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 141 and done.stderr == ""
+    assert done.stdout.startswith("t,b:")
+
+
 def test_closed_and_full_stdout_exit_1():
     for redirect, reason in ((">&-", "standard output is closed"),
                              ("> /dev/full", "cannot write standard output: No space left")):
@@ -286,7 +311,9 @@ def test_standard_output_where_it_cannot_serve_says_why(tmp_path, args, message)
 
 # --- signals: 128 + n, and the temporary file removed -------------------------------------
 
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT,
+                                    # (their default action left the temporary file: session 29)
+                                    signal.SIGQUIT, signal.SIGUSR1, signal.SIGXCPU])
 def test_signal_mid_run_removes_the_temporary_file(tmp_path, signum):
     out = tmp_path / "big.csv"
     proc = subprocess.Popen([PLANTLOD, "simulate", str(ROOT / STALK8), "--dt", "0.01",
