@@ -8,6 +8,7 @@ and writes the report; `compare_exports` writes the OBJ frames and the picture.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
@@ -180,9 +181,18 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     # before the first output is written.
     pictures = (prepare_pictures(runs, at_times, plot_path, plot_at, comparisons)
                 if obj_dir is not None or plot_path is not None else None)
-    _write_report(comparisons, bounds, violations, as_json, output)
-    if pictures is not None:
-        write_pictures(runs, obj_dir, every, plot_path, pictures)
+    # the report file, the OBJ frames and the picture land together, when all are written: a
+    # picture that cannot be written (or a signal) left the report replaced before (session 29)
+    to_file = output not in (None, "-")
+    with contextlib.ExitStack() as landing:
+        if to_file:
+            _write_report(comparisons, bounds, violations, as_json, output, landing)
+        lines = ([] if pictures is None
+                 else write_pictures(runs, obj_dir, every, plot_path, pictures, landing))
+    if not to_file:                 # (standard output cannot wait: last, once the rest landed)
+        _write_report(comparisons, bounds, violations, as_json, output)
+    for line in lines:
+        say(line)
     broken = [v.describe(c.simplified.name) for c, vs in zip(comparisons, violations) for v in vs]
     if broken:                      # one line: the bounds missed (the summary's figures in it)
         raise RunFailure("bound exceeded: " + "; ".join(broken))
@@ -268,7 +278,10 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
 
 # --- outputs ---------------------------------------------------------------------------
 
-def _write_report(comparisons, bounds, violations, as_json: bool, output: str | None) -> None:
+def _write_report(comparisons, bounds, violations, as_json: bool, output: str | None,
+                  landing=None) -> None:
+    """The table or JSON on ``output`` (stdout for None or ``-``); a file is held as a
+    temporary in ``landing`` (an ExitStack) where given, landing when it closes."""
     from plantlod.compare import report as fmt
 
     if as_json:
@@ -280,6 +293,9 @@ def _write_report(comparisons, bounds, violations, as_json: bool, output: str | 
         return
     else:
         text = fmt.comparison_text(comparisons)
+    if landing is not None:
+        landing.enter_context(open_output(output)).write(text)
+        return
     with open_output(output) as out:
         out.write(text)
 

@@ -53,7 +53,11 @@ def prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
     return offsets, at_frames, png
 
 
-def write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
+def write_pictures(runs, obj_dir, every, plot_path, pictures, landing) -> list[str]:
+    """The OBJ frames and the picture, each held as a temporary in ``landing`` (a
+    contextlib.ExitStack): they land, with the command's report, when it closes, and a
+    failure or a signal before then leaves none of them. Returns the lines to say once
+    they have landed."""
     from plantlod.export.obj import obj_text, posed_meshes
 
     offsets, at_frames, png = pictures
@@ -66,22 +70,22 @@ def write_pictures(runs, obj_dir, every, plot_path, pictures) -> None:
                               offsets)
         return obj_text(meshes)
 
-    written = 0
+    written, lines = 0, []
     if obj_dir is not None:
-        # every frame into a temporary folder beside DIR, moved into DIR when all are
-        # written: a failure or a signal leaves neither part of them nor a new empty DIR
-        with output_folder(obj_dir, merge=True) as folder:
-            for t, k in at_frames:
-                with open_output(os.path.join(folder, f"frame_t{t:g}.obj")) as out:
+        # every frame into a temporary folder beside DIR, moved into DIR when the command's
+        # outputs land: a failure or a signal leaves neither part of them nor a new empty DIR
+        folder = landing.enter_context(output_folder(obj_dir, merge=True))
+        for t, k in at_frames:
+            with open_output(os.path.join(folder, f"frame_t{t:g}.obj")) as out:
+                out.write(frame(k))
+            written += 1
+        if every is not None:
+            for number, k in enumerate(range(0, len(times), every)):
+                with open_output(os.path.join(folder, f"frame_{number:05d}.obj")) as out:
                     out.write(frame(k))
                 written += 1
-            if every is not None:
-                for number, k in enumerate(range(0, len(times), every)):
-                    with open_output(os.path.join(folder, f"frame_{number:05d}.obj")) as out:
-                        out.write(frame(k))
-                    written += 1
-        say(f"compare: wrote {counted(written, 'OBJ file')} to {obj_dir}")
+        lines.append(f"compare: wrote {counted(written, 'OBJ file')} to {obj_dir}")
     if png is not None:
-        with open_output(plot_path, binary=True) as out:
-            out.write(png)
-        say(f"compare: wrote {plot_path}")
+        landing.enter_context(open_output(plot_path, binary=True)).write(png)
+        lines.append(f"compare: wrote {plot_path}")
+    return lines

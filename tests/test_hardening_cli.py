@@ -398,6 +398,21 @@ def test_compare_validates_everything_before_writing(tmp_path, extra, fragment):
     assert os.listdir(tmp_path) == []
 
 
+@pytest.mark.parametrize("plot", ["{tmp}/p/", "/dev/full"])
+def test_compare_outputs_land_together_or_not_at_all(tmp_path, plot):
+    """A picture that cannot be written once the report was: the report file was replaced
+    and the OBJ frames left, with two lines on stderr (a helper's fuzzing, session 29). Now
+    the report, the frames and the picture land together, when every one is written."""
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "report.txt"
+    out.write_text("OLD\n")
+    args = ["compare", STALK8, STALK8, *SIM, "-o", str(out), "--obj", str(tmp_path / "frames"),
+            "--at", "0.01", "--plot", plot.format(tmp=tmp_path)]
+    result = run_cli(*args, exit_code=None)
+    assert result.exit_code in (1, 2) and len(result.stderr.strip().splitlines()) == 1
+    assert out.read_text() == "OLD\n" and sorted(os.listdir(tmp_path)) == ["report.txt"]
+
+
 def test_many_warnings_are_capped(tmp_path):
     head = open(ROOT / STALK8, encoding="utf-8").read()
     lines = "\n".join(f"  {i}.0.0.0: length=2" for i in range(1, 200))   # 1.0.0.0 is the leaf
