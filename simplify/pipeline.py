@@ -421,7 +421,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
 
     original = build(system).tree if built is None else built[0]
     check_moves(original, system.source or None)
-    check_stability(original, options.dt)
+    check_stability(original, options.dt, options.damping)
     last = len(level_counts(original)) - 1
     if last_checked is not None:
         last_checked(last)
@@ -480,7 +480,7 @@ def simplify_explicit(system: LSystem, options: Options,
         text, tree = shared.level_one
     else:
         text, tree = _level_fitter(system, options, shared)(shared.groupings[index], options.level)
-    check_stability(tree, options.dt)
+    check_stability(tree, options.dt, options.damping)
     if progress:
         progress("measuring", 0.5)
     runs = shared.runs_for(options)(tree)   # the motion fit's, when the level's branches are the same
@@ -621,7 +621,7 @@ def simplify_grammar(system: LSystem, options: Options,
     winds = options.winds()
     original = build(system).tree
     check_moves(original, source)
-    check_stability(original, options.dt)
+    check_stability(original, options.dt, options.damping)
 
     plain, _ = level_system(system, options.level, equivalent_leaves=False)
     plain_tree = build(plain).tree
@@ -659,7 +659,7 @@ def simplify_grammar(system: LSystem, options: Options,
     below = largest_stable_s(Damping()) * 1000.0 / options.dt
     out = write_parameters(skeleton, params.branch, params.leaf_areas, below)
     tree = _read_back(out)
-    check_stability(tree, options.dt)
+    check_stability(tree, options.dt, options.damping)
 
     runs = None
     if options.calibrate:
@@ -672,7 +672,7 @@ def simplify_grammar(system: LSystem, options: Options,
         values = {**params.branch, **cal.values}
         out = write_parameters(skeleton, values, params.leaf_areas, below)
         tree = _read_back(out)
-        check_stability(tree, options.dt)
+        check_stability(tree, options.dt, options.damping)
         notes.append(f"calibration: worst weighted error (period errors x5) {cal.worst_before:.4f} -> "
                      f"{cal.worst_after:.4f} in {cal.evaluations - 1} candidate evaluations "
                      "after the closed form's")

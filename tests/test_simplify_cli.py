@@ -43,6 +43,8 @@ def test_same_input_same_bytes(tmp_path):
     (["--level", "1", "--form", "explicit", "--method", "thesis"], "derived parameters only"),
     (["--level", "2", "--method", "thesis", "--calibrate"], "--calibrate refines the derived"),
     (["--level", "1", "--dt", "250", "--duration", "10000"], "time step too large"),
+    # the damping ratio's own limit, before any run (it ran, diverged and exited 1)
+    (["--level", "1", "--damping-ratio", "100"], "the limit at damping ratio 100"),
     (["--level", "1", "--wind-range", "5,1"], "expected 0 < LOW <= HIGH"),
 ])
 def test_bad_input_exits_2_without_output(tmp_path, args, message):
