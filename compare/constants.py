@@ -9,4 +9,7 @@ MAJOR_AMPLITUDE_FRACTION = 0.10   # period error (major): components >= 10 % of 
 # Two runs' times agree when they differ by at most this much, relative to
 # max(1 s, |t|): the CSV keeps 10 significant digits, a fresh run exact k * dt.
 TIME_MATCH_RTOL = 1e-9
+MAX_EXTENT_M = 1e9           # m: a tree reaching farther from the origin at rest is refused where
+                              # positions are measured (compare, simplify, scene): 1e300 m posed
+                              # tips whose squares overflow ("original tips is not finite", no file)
 DEFAULT_PLOT_TIME = 4.0       # s: the posed trees of compare --plot (the thesis' figure 4)

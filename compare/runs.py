@@ -21,11 +21,11 @@ import numpy as np
 
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
-from plantlod.sim.kinematics import rest_height
+from plantlod.sim.kinematics import rest_height, rest_pose
 from .groups import assign_groups, carry_angles, combined_angles, main_paths, swing_turns
 from plantlod.compare.measures import Report, Worst, compare_groups, window
 
-from .constants import TIME_MATCH_RTOL
+from .constants import MAX_EXTENT_M, TIME_MATCH_RTOL
 from plantlod.lsys.words import counted
 
 
@@ -189,6 +189,12 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     covers the window only.
     """
     original, simplified = on_common_samples([original, simplified])
+    for run in (original, simplified):
+        check_extent(run.tree, run.name or None)
+    if not rest_height(original.tree) > 0:         # (compare_groups says so too, naming no file)
+        raise InputError("the tree's rest height is 0 m: tip errors are fractions of it "
+                         "(model.md 6); expected a tree whose highest tip is above z = 0",
+                         original.name or None)
     check_same_times(original.times, simplified.times, original.samples_name,
                      simplified.samples_name)
     try:
@@ -217,6 +223,22 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
                             rest_height(original.tree), list(simplified.tree.address))
     return Comparison(original, simplified, groups, paths, int((groups < 0).sum()),
                       combined_b, combined_r, cut, report)
+
+
+def check_extent(tree: Tree, source: str | None) -> None:
+    """InputError (naming ``source``) where the tree's rest bases or tips lie farther than
+    MAX_EXTENT_M from the origin, or are not finite: tip errors square position differences,
+    and a tree of 1e300 m offsets (`f(1e300)`) posed tips that overflowed, reported as a run
+    that diverged and under no file. Angles alone (simulate) never need positions."""
+    if tree.n_branches == 0:
+        return
+    rest = rest_pose(tree)
+    with np.errstate(invalid="ignore", over="ignore"):
+        reach = float(max(np.abs(rest.base).max(), np.abs(rest.tip).max()))
+    if not reach <= MAX_EXTENT_M:                      # (NaN too)
+        raise InputError(f"the tree reaches {reach:.3g} m from the origin at rest, beyond the "
+                         f"{MAX_EXTENT_M:.0e} m its positions are measured to; expected lengths "
+                         "and moves (f) of a tree", source)
 
 
 def _check_finite(run: Run, times: np.ndarray, tips: np.ndarray) -> None:

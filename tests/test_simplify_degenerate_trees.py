@@ -42,6 +42,10 @@ REFUSED = {
         HEAD.replace("force_propagated: 0.7\n", "force_propagated: 0.7\nleaf_force_scale: 0\n"
                      "drag_coefficient: 0\n") + BUSH.format(turn=""),
         "the wind exerts no force on the tree"),
+    # positions of 1e300 m: posed tips overflowed, "original tips is not finite", no file
+    "reaching 1e300 m (a move f(1e300))": (HEAD + "axiom: f(1e300) A\nproductions:\n"
+                                          "  A -> F [+A L] [-A L]\n",
+                                          "the tree reaches 1e+300 m from the origin at rest"),
 }
 
 
@@ -57,10 +61,14 @@ def test_a_tree_without_levels_to_measure_is_refused_by_every_form(tmp_path, cas
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.lsys"]
 
 
-def test_a_flat_tree_has_no_height_in_compare_either(tmp_path):
-    path = _write(tmp_path, HEAD + BUSH.format(turn="&(90) "))
-    one_line(run_cli("compare", path, path, "--dt", "0.01", "--duration", "1", "--wind-speed",
-                     "5", exit_code=None), 2, "rest height is 0 m")
+@pytest.mark.parametrize("turn, fragment", [("&(90) ", "rest height is 0 m"),
+                                             ("f(1e300) ", "reaches 1e+300 m from the origin")])
+def test_a_flat_or_distant_tree_has_no_height_in_compare_either(tmp_path, turn, fragment):
+    """... and the line names the tree's file (it named none before session 29)."""
+    path = _write(tmp_path, HEAD + BUSH.format(turn=turn))
+    line = one_line(run_cli("compare", path, path, "--dt", "0.01", "--duration", "1",
+                            "--wind-speed", "5", exit_code=None), 2, fragment)
+    assert line.startswith(f"{path}: error:")
 
 
 @pytest.mark.parametrize("form", ["explicit", "grammar"])
