@@ -8,7 +8,7 @@ import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-from .io import (check_output_kind, count, display_name, distinct_paths, open_output, say,
+from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths, open_output, say,
                  warn_once_running)
 from .loading import load_system
 
@@ -50,6 +50,7 @@ def derive(file, output, fmt, steps, max_modules):
     else:
         check_output_kind(output, "-o", "a tree file (JSON Lines, or an .npz archive)",
                           (".jsonl", ".json", ".npz", ".txt"))
+    check_output_path(output)                   # (a missing folder: before the derivation)
     start = time.perf_counter()
     system = load_system(file)
     built = build(system, steps, max_modules=max_modules)

@@ -129,14 +129,17 @@ def count(n: int, noun: str) -> str:
     return f"{n:,} {noun if n == 1 else _PLURALS.get(noun, noun + 's')}"
 
 
-def check_output_path(path: str | None) -> None:
+def check_output_path(path: str | None, folder: bool = False) -> None:
     """Refuse now what `open_output` would refuse later (a missing directory, a directory
-    as the target), so that a command can check every output before writing the first."""
+    as the target, a file name ending in / unless ``folder``), so that a command can check
+    every output before writing the first."""
     if path is None or path == "-":
         return
     if not path:
         raise InputError("the output file name is empty; expected a file name, or - for standard "
                          "output")
+    if not folder and path.endswith(("/", os.sep)):   # (abspath drops it: found after the work)
+        raise InputError("names a folder (it ends in /); expected a file name", path)
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
     special_target(path)

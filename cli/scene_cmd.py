@@ -83,7 +83,7 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
                                    "cannot hold one; expected the name of a new folder")
         if os.path.lexists(angles_path):
             raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
-        check_output_path(angles_path)
+        check_output_path(angles_path, folder=True)
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)

@@ -7,7 +7,7 @@ import time
 
 import click
 
-from .io import (check_output_kind, count, display_name, distinct_paths, is_terminal,
+from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths, is_terminal,
                  open_output, say, warn)
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
@@ -43,6 +43,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
         raise click.UsageError("INPUT and --wind-file cannot both be - (stdin)")
     distinct_paths({"-o": output}, {"INPUT": input_path, "--wind-file": kwargs.get("wind_file")})
     check_output_kind(output, "-o", "angles (a CSV, or an .npz archive)", (".csv", ".npz", ".txt"))
+    check_output_path(output)                   # (a missing folder: before the run, not after)
     settings = settings_from_kwargs(kwargs)
     tree, _system = load_tree(input_path, steps_n)
     from plantlod.formats.angles_csv import AnglesCsvWriter

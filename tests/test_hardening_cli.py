@@ -413,6 +413,20 @@ def test_compare_outputs_land_together_or_not_at_all(tmp_path, plot):
     assert out.read_text() == "OLD\n" and sorted(os.listdir(tmp_path)) == ["report.txt"]
 
 
+@pytest.mark.parametrize("args", [
+    ["derive", STALK8, "-o", "{tmp}/x/"],
+    ["simulate", STALK8, *SIM, "-o", "{tmp}/x/"],
+    ["simplify", STALK8, "--level", "1", "-o", "{tmp}/x/"],
+    ["compare", STALK8, STALK8, *SIM, "--plot", "{tmp}/x/"],
+])
+def test_an_output_file_named_as_a_folder_is_refused_before_any_work(tmp_path, args):
+    """abspath drops a trailing /, so 'x/' passed the early check and failed only when the
+    work was done ('cannot write: Not a directory'; compare had printed its table)."""
+    result = run_cli(*[a.format(tmp=tmp_path) for a in args], exit_code=None)
+    one_line(result, 2, "names a folder (it ends in /); expected a file name")
+    assert result.stdout == "" and os.listdir(tmp_path) == []
+
+
 def test_many_warnings_are_capped(tmp_path):
     head = open(ROOT / STALK8, encoding="utf-8").read()
     lines = "\n".join(f"  {i}.0.0.0: length=2" for i in range(1, 200))   # 1.0.0.0 is the leaf
