@@ -9,6 +9,7 @@ import click
 
 from plantlod.lsys.words import counted
 
+from .discipline import given
 from .io import (check_output_kind, check_output_path, distinct_paths, is_terminal, open_output,
                  output_folder, say, warn, warn_once_running)
 
@@ -61,13 +62,17 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
 
     if no_cache and cache_dir is not None:
         raise click.UsageError("--cache and --no-cache do not go together")
+    if cache_dir == "":                     # (it fell back to the default cache, unsaid)
+        raise click.UsageError("--cache needs a folder name; got an empty one")
     if scheduler is not None:
         from plantlod.scene.run import check_scheduler_address
 
         check_scheduler_address(scheduler)
     for path in (report_path, plot_path):
         check_output_path(path)                 # refuse an unwritable output before running
-    distinct_paths({"--report": report_path, "--plot": plot_path, "--angles": angles_path},
+    report_name = "--report" if given(click.get_current_context(), "report_path") \
+        else "the report (no --report)"
+    distinct_paths({report_name: report_path, "--plot": plot_path, "--angles": angles_path},
                    {"SCENE.toml": scene_path})
     check_output_kind(report_path, "--report", "the report (JSON)", (".json", ".txt"))
     check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))

@@ -650,7 +650,8 @@ class _FileParser:
         self.preprocessor_warned = False
 
     def run(self) -> LSystem:
-        for number, raw in enumerate(self.text.split("\n"), start=1):
+        # lines end in \n, \r\n or a lone \r (old Mac files: one comment line before)
+        for number, raw in enumerate(re.split(r"\r\n?|\n", self.text), start=1):
             if len(raw) > MAX_LINE_CHARS:
                 raise _error(Pos(self.source, number, MAX_LINE_CHARS + 1),
                              f"line longer than {MAX_LINE_CHARS:,} characters; expected "

@@ -330,6 +330,15 @@ def test_a_bad_scheduler_address_is_bad_input_before_any_work(tmp_path, address,
              said, "; expected tcp://HOST:PORT")
 
 
+@pytest.mark.parametrize("args, said", [
+    (["--cache", ""], "--cache needs a folder name; got an empty one"),   # (default cache, unsaid)
+    (["--plot", "-"], "the report (no --report) and --plot both write to standard output"),
+])
+def test_scene_options_a_newcomer_gets_wrong_say_what_is_wrong(tmp_path, args, said):
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    one_line(run_cli("scene", path, *args, exit_code=None), 2, said)
+
+
 def test_a_scene_shorter_than_a_default_frame_names_its_duration(tmp_path):
     """Without --frame-rate, the message blamed "--frame-rate 30", an option nobody gave
     (session 28's fuzzing); it names the scene file and its duration."""

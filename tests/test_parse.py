@@ -303,6 +303,16 @@ def test_crlf_tabs_and_integer_expressions():
     assert s.productions[0].successor == (Module("F"), Module("F"))
 
 
+def test_lone_carriage_returns_end_lines_as_newlines_do():
+    """An old Mac file (lines ended by \\r alone) was one line: a comment at its top hid the
+    rest, and the error was a missing header key at 1:1."""
+    text = "# a comment\n" + HEAD + "axiom: F\nproductions:\n  F -> FF\n"
+    assert parse_lsys(text.replace("\n", "\r")) == parse_lsys(text)
+    with pytest.raises(InputError) as info:
+        parse_lsys(text.replace("axiom: F", "axiom: F(").replace("\n", "\r"))
+    assert info.value.line == text.split("\n").index("axiom: F") + 1
+
+
 def test_turtle_parameter_counts_that_are_allowed():
     s = parse("branch F: length=1 radius=1 bend_strength=1 rotation_strength=1\nleaf L: area=1\n"
               "axiom: F(2)L(3)+(1)-&^/\\f(2)!(1)|$[F]\nproductions:\n  +(a) -> -(a)\n")
