@@ -523,6 +523,10 @@ def _wind(wind: Any):
     try:
         if np.iscomplexobj(wind):                 # (float64 of it drops the imaginary part)
             raise TypeError("complex")
+        if isinstance(wind, np.ndarray) and not np.issubdtype(wind.dtype, np.number):
+            raise TypeError("not numbers")        # (an array of strings was read as numbers)
+        if isinstance(wind, (list, tuple)) and not all(_is_number(v) for v in wind):
+            raise TypeError("not numbers")        # ("1" in a list: the same)
         vector = np.asarray(wind, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):   # (an int past a double's range)
         vector = np.zeros(0)
@@ -636,6 +640,13 @@ def _checked(tree: Tree) -> Tree:
         given = [getattr(tree, name) for name in BRANCH_FLOAT_FIELDS] + [
             tree.euler, tree.offset, tree.leaf_area, tree.leaf_normal, tree.force_gain,
             tree.swing_roll]
+        for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal"):
+            value = getattr(tree, name)          # (a list said "'list' object has no attribute
+            if not isinstance(value, np.ndarray) or not (      # 'shape'"; strings were read)
+                    np.issubdtype(value.dtype, np.number)):
+                kind = (f"an array of {value.dtype}" if isinstance(value, np.ndarray)
+                        else type(value).__name__)
+                raise ValueError(f"{name} must be a numpy array of numbers, got {kind}")
         if any(a is not None and np.iscomplexobj(a) for a in given):
             raise ValueError("its numbers must be real (a complex array lost its imaginary "
                              "part without a word)")

@@ -218,6 +218,18 @@ def _closed():
      "unknown bound 1"),
     (lambda t, a, d: plantlod.write_angles(a, _closed()), "closed stream"),
     (lambda t, a, d: plantlod.read_angles(_closed()), "closed stream"),
+    # session 29's fuzzing: a list said "'list' object has no attribute 'shape'", strings
+    # were read as numbers
+    (lambda t, a, d: plantlod.simulate(__import__("dataclasses").replace(t, length=[1.0] * 8),
+                                       wind=(1, 0, 0), dt=0.01, steps=3),
+     "length must be a numpy array of numbers, got list"),
+    (lambda t, a, d: plantlod.simulate(__import__("dataclasses").replace(
+        t, length=np.array(["1"] * 8)), wind=(1, 0, 0), dt=0.01, steps=3),
+     "length must be a numpy array of numbers, got an array of <U1"),
+    (lambda t, a, d: plantlod.simulate(t, wind=np.array(["1", "0", "0"]), dt=0.01, steps=3),
+     "a wind is (vx, vy, vz)"),
+    (lambda t, a, d: plantlod.simulate(t, wind=["1", 0, 0], dt=0.01, steps=3),
+     "a wind is (vx, vy, vz)"),
 ])
 def test_api_arguments_of_the_wrong_kind_are_input_errors(tmp_path, call, fragment):
     """Each of these raised TypeError, ValueError, IndexError, KeyError, OverflowError or
