@@ -10,6 +10,8 @@ builds, and writing is deterministic.
 
 from __future__ import annotations
 
+import re
+
 from .constants import AXIOM_LINE_CHARS
 
 from plantlod.lsys.errors import InputError
@@ -83,9 +85,9 @@ def _header_lines(system: LSystem) -> list[str]:
     for key in HEADER_KEYS:
         value = getattr(system, key)
         if key == "name":
-            # (what the reader reads back: lines end at "\n" alone, so a "\r" inside a name
-            # that a file gave reads back; `simplify` refused to write it, an internal error)
-            if value != value.strip() or any(c in value for c in "#\n"):
+            # (what the reader reads back: lines end at "\n", "\r\n" or a lone "\r" since
+            # session 29, so no file gives a name holding either)
+            if value != value.strip() or any(c in value for c in "#\n\r"):
                 raise InputError(f"name {value[:80]!r} cannot be written: it would not read "
                                  "back (no '#', line breaks or surrounding spaces)")
             if value:
@@ -130,7 +132,9 @@ def axiom_lines(modules: list[str]) -> list[str]:
 
 
 def _comment_lines(comment: str) -> list[str]:
-    return [f"# {line}".rstrip() for line in comment.split("\n")]
+    """``comment`` as '# ' lines, broken where the reader breaks lines (a "\r" in a file
+    name it quotes would otherwise start a line that is no comment)."""
+    return [f"# {line}".rstrip() for line in re.split(r"\r\n?|\n", comment)]
 
 
 def with_header_comment(text: str, header_comment: str) -> str:

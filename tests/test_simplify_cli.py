@@ -257,21 +257,22 @@ def test_branches_of_no_surface_are_simplified_with_finite_numbers(tmp_path):
             assert all(math.isfinite(v) for v in values), path
 
 
-def test_a_level_whose_chord_overflows_is_a_run_failure(tmp_path):
-    """A root moved 1e300 m out (`f(1e300)`, legal) gives a level whose chord reaches there: its
+def test_a_tree_reaching_1e300_m_is_refused_before_any_fit(tmp_path):
+    """A root moved 1e300 m out (`f(1e300)`) gives a level whose chord reaches there: its
     length overflows and the level diverges at its first step. It was named by the system's
     `name:` ('far:'), not by the file given (session 23, found by fuzzing in session 22), then
-    reported against the file as "unstable in simplify's winds"; since session 25 a level whose
-    fitted numbers are not finite is the fit's failure, as a strength of 1e-300 is (exit 1,
-    one line, nothing written)."""
+    reported against the file as "unstable in simplify's winds", then (session 25) as the
+    fit's failure (exit 1). Since session 29 a tree reaching past MAX_EXTENT_M at rest is bad
+    input where positions are measured (exit 2, naming the file, nothing written)."""
     lsys = tmp_path / "far.lsys"
     lsys.write_text("name: far\nderivation_length: 2\nbranching_angle: 30\nforce_absorbed: 0.001\n"
                     "force_propagated: 0.6\n"
                     "branch F: length=0.5 radius=0.01 bend_strength=30 rotation_strength=30\n"
                     "axiom: F [f(1e300) F A] A\nproductions:\n  A -> F [+F] [-F] A\n")
     result = run_cli("simplify", str(lsys), "--level", "1", "--form", "explicit", "-o",
-                     str(tmp_path / "o.lsys"), exit_code=1)
-    assert "far outside what it fits" in result.stderr and result.stderr.count("\n") == 1
+                     str(tmp_path / "o.lsys"), exit_code=2)
+    assert result.stderr.startswith(f"{lsys}: error: the tree reaches 1e+300 m from the origin")
+    assert result.stderr.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["far.lsys"]
 
 
