@@ -8,8 +8,8 @@ import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths, open_output, say,
-                 warn_once_running)
+from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths,
+                 open_output, say, warn_once_running)
 from .loading import load_system
 
 

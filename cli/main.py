@@ -14,7 +14,8 @@ from collections.abc import MutableMapping
 import click
 
 from .discipline import (
-    ReaderGone, Terminated, harden_params, install_signal_handlers, run_guarded, set_current_command,
+    ReaderGone, Terminated, harden_params, install_signal_handlers, run_guarded,
+    set_current_command,
 )
 
 # command -> the module of cli/ that defines it; a command's module (and what it

@@ -141,8 +141,9 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
         out.write(result.text)
     s = result.summary
     form_used = "explicit" if result.tree.group_root else "grammar"
+    calibrated = ", calibrated" if calibrate and form_used == "grammar" else ""
     say(f"simplify: {display_name(input_path)} level {level}, {form_used} form ({method}"
-        f"{', calibrated' if calibrate and form_used == 'grammar' else ''}): {result.original.n_branches:,} -> "
+        f"{calibrated}): {result.original.n_branches:,} -> "
         f"{counted(result.tree.n_branches, 'branch')}; worst over every measurement wind: "
         f"amplitude error {_pct(s.amplitude)}, period {_pct(s.period)}, tip {_pct(s.tip)} of height")
     for note in result.notes:

@@ -7,8 +7,8 @@ import time
 
 import click
 
-from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths, is_terminal,
-                 open_output, say, warn)
+from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths,
+                 is_terminal, open_output, say, warn)
 from .loading import load_tree
 from .sim_options import settings_from_kwargs, simulation_options
 

@@ -96,7 +96,7 @@ class _Checker:
 
     def __init__(self, doc, path: str):
         self.doc, self.path = doc, path
-        self._checked: dict[str, list] = {}      # each list checked once: `index` asks per reference
+        self._checked: dict[str, list] = {}      # each list checked once (`items`)
 
     def fail(self, message: str):
         raise InputError(message, self.path)
