@@ -70,6 +70,13 @@ def fit_gain_matrices(level: Tree, original: Tree, gmap: GroupMap,
     f = np.concatenate(forces)                                                       # (K, G, 3)
     t = np.concatenate(wanted)                                                       # (K, G, 2)
     largest = np.abs(t).max(axis=(1, 2))                                             # (K,)
+    base = np.asarray(IDENTITY_GAIN)
+    if not float(largest.max()) > 0.0:
+        # no group's combined angle moves in any wind (its main path's members absorb no
+        # force, k_FA = 0, and what moves hangs beside them): nothing to fit, the scalar
+        # gain stands. Scaled by the floor of a zero target, the forces overflowed the
+        # normal equations to NaN (a stiff trunk under swaying laterals, level 2; session 29)
+        return np.asarray(level.force_absorbed, dtype=np.float64)[:, None] * base[None, :]
     scale = np.maximum(largest, GAIN_TARGET_FLOOR * max(float(largest.max()), 1e-300))
     # G is solved for in units of `unit` (a power of two near the gains, so that the solution
     # is the same to the bit, only exactly scaled): targets and forces far from 1 (k_FA of
@@ -78,7 +85,6 @@ def fit_gain_matrices(level: Tree, original: Tree, gmap: GroupMap,
     f = f / (scale / unit)[:, None, None]
     t = t / scale[:, None, None]
     out = np.empty((g_count, 6))
-    base = np.asarray(IDENTITY_GAIN)
     for g in range(g_count):
         # rows: y_i = A[i,0] (f · G_b) + A[i,1] (f · G_r), i = bend, rotation
         design = np.concatenate([np.concatenate([a[g, i, 0] * f[:, g], a[g, i, 1] * f[:, g]], axis=1)

@@ -118,6 +118,24 @@ def test_branches_that_absorb_no_force_are_simplified_and_held_to_the_bounds(tmp
         assert figures["tip_error"] <= 0.01
 
 
+def test_levels_whose_measured_branches_all_absorb_no_force_have_their_scalar_gain(tmp_path):
+    """A stiff trunk G (force_absorbed = 0) with swaying laterals F beside it: from level 2
+    on every group's main path is G alone, so no measured angle moves in any wind, and the
+    gain-matrix fit, scaled by the floor of a zero target, overflowed to NaN: `--levels`
+    and scenes stopped with "numbers that are not finite" (exit 1; session 29, a helper's
+    novel trees). Each such level keeps its scalar gain (0) and is written."""
+    text = (HEAD + "branch G: length=1 radius=0.02 bend_strength=20 rotation_strength=20 "
+            "force_absorbed=0\naxiom: A\nproductions:\n  A -> G [+F L] G A\n")
+    path = _write(tmp_path, text)
+    run_cli("simplify", path, "--levels", str(tmp_path / "lv"))
+    names = sorted(p.name for p in (tmp_path / "lv").iterdir())
+    assert names == ["level1.lsys", "level2.lsys", "level3.lsys"]
+    level = build(read_lsys(str(tmp_path / "lv" / "level2.lsys"))).tree
+    gains = [level.force_gain] if level.force_gain is not None else []
+    assert all(math.isfinite(float(x)) for g in gains for x in g.ravel())
+    assert all(math.isfinite(x) for x in level.force_absorbed)
+
+
 @pytest.mark.parametrize("text, fragment", [
     (HEAD.replace("derivation_length: 3", "derivation_length: 0") + "axiom: F L\n",
      "it is already a single branch"),
