@@ -163,15 +163,16 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     sides += [(s, simplified_angles[i] if simplified_angles else None,
                simplified_n[i] if simplified_n else None) for i, s in enumerate(simplified)]
     settings = _settings_if_needed(ctx, sides, sim_kwargs)
-    from plantlod.compare.runs import check_bounds, on_common_samples
+    from plantlod.compare.runs import check_bounds, compare_runs, on_common_samples
 
     # a side kept every K-th step (simulate --every K): every side at its samples, so that
     # the comparisons and the pictures pose each tree at one time
     runs = on_common_samples([_run_side(path, csv, n, degrees, settings)
                               for path, csv, n in sides])
 
-    comparisons = [_compare_one(runs[0], run, path, window)
-                   for run, (path, _csv, _n) in zip(runs[1:], sides[1:])]
+    # (an error of a SIMPLIFIED's groups names its file, the run's name; one of the samples or
+    # the window names the files or the option at fault: `compare_runs`)
+    comparisons = [compare_runs(runs[0], run, *(window or (None, None))) for run in runs[1:]]
     bounds = {"amplitude_error": max_amplitude_error, "period_error": max_period_error,
               "tip_error": max_tip_error, "motion_error": max_motion_error,
               "period_error_major": max_period_error_major, "tip_error_max_m": max_tip_error_m}
@@ -201,16 +202,6 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
 
 
 # --- inputs ----------------------------------------------------------------------------
-
-def _compare_one(original_run, run, path: str, window):
-    """`compare_runs` of one SIMPLIFIED (an error of its groups against the original, an
-    address of no original branch or two groups at one root, names its file: the run's name;
-    one of the samples or the window names the files or option at fault, not it)."""
-    from plantlod.compare.runs import compare_runs
-
-    return compare_runs(original_run, run, window[0] if window else None,
-                        window[1] if window else None)
-
 
 def _check_pairs(simplified, values, option: str) -> None:
     if values and len(values) != len(simplified):

@@ -318,8 +318,7 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
                 os.chmod(tmp, usual_file_mode(folder=True))
                 os.replace(tmp, path)
     finally:
-        if os.path.isdir(tmp):
-            remove_folder(tmp)
+        remove_folder(tmp)                     # (nothing where it was renamed into place)
         release(tmp)
 
 

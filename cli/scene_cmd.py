@@ -93,9 +93,7 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
     check_scene(spec)
-    rate_given = click.get_current_context().get_parameter_source("frame_rate") \
-        is not click.core.ParameterSource.DEFAULT
-    check_frame_rate(spec, frame_rate, given=rate_given)
+    check_frame_rate(spec, frame_rate, given=given(click.get_current_context(), "frame_rate"))
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
     if cache is not None and (cache.exists() or cache.is_symlink()) and not cache.is_dir():
         # (a link that leads nowhere, or round in a loop, too: it failed at mkdir, exit 1)

@@ -191,7 +191,8 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
     original, simplified = on_common_samples([original, simplified])
     for run in (original, simplified):
         check_extent(run.tree, run.name or None)
-    if not rest_height(original.tree) > 0:         # (compare_groups says so too, naming no file)
+    height = rest_height(original.tree)
+    if not height > 0:                             # (compare_groups says so too, naming no file)
         raise InputError("the tree's rest height is 0 m: tip errors are fractions of it "
                          "(model.md 6); expected a tree whose highest tip is above z = 0",
                          original.name or None)
@@ -220,7 +221,7 @@ def compare_runs(original: Run, simplified: Run, t0: float | None = None,
                                   simp_b, simp_r)
     report = compare_groups(original.times[cut], combined_b[cut], combined_r[cut],
                             simp_b, simp_r, tips_o, tips_s,
-                            rest_height(original.tree), list(simplified.tree.address))
+                            height, list(simplified.tree.address))
     return Comparison(original, simplified, groups, paths, int((groups < 0).sum()),
                       combined_b, combined_r, cut, report)
 

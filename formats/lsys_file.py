@@ -10,14 +10,12 @@ builds, and writing is deterministic.
 
 from __future__ import annotations
 
-import re
-
 from .constants import AXIOM_LINE_CHARS
 
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.expr import format_expr, format_number
 from plantlod.lsys.constants import MAX_LINE_CHARS
-from plantlod.lsys.parse import HEADER_KEYS, continues_axiom, parse_lsys
+from plantlod.lsys.parse import HEADER_KEYS, LINE_BREAK, continues_axiom, parse_lsys
 from plantlod.lsys.system import (
     BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
@@ -134,7 +132,7 @@ def axiom_lines(modules: list[str]) -> list[str]:
 def _comment_lines(comment: str) -> list[str]:
     """``comment`` as '# ' lines, broken where the reader breaks lines (a "\r" in a file
     name it quotes would otherwise start a line that is no comment)."""
-    return [f"# {line}".rstrip() for line in re.split(r"\r\n?|\n", comment)]
+    return [f"# {line}".rstrip() for line in LINE_BREAK.split(comment)]
 
 
 def with_header_comment(text: str, header_comment: str) -> str:

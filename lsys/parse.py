@@ -40,6 +40,9 @@ from .system import (
     TURTLE_NO_ARG, TURTLE_OPTIONAL_ARG, TURTLE_SYMBOLS, UNSUPPORTED_SYMBOLS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
+# where a line ends: \n, \r\n or a lone \r (an old Mac file was one comment line)
+LINE_BREAK = re.compile(r"\r\n?|\n")
+
 # Header keys in the order the writer uses; name and ignore are not numbers.
 HEADER_KEYS = (
     "name", "derivation_length", "branching_angle", "rotation_angle", "seed",
@@ -650,8 +653,7 @@ class _FileParser:
         self.preprocessor_warned = False
 
     def run(self) -> LSystem:
-        # lines end in \n, \r\n or a lone \r (old Mac files: one comment line before)
-        for number, raw in enumerate(re.split(r"\r\n?|\n", self.text), start=1):
+        for number, raw in enumerate(LINE_BREAK.split(self.text), start=1):
             if len(raw) > MAX_LINE_CHARS:
                 raise _error(Pos(self.source, number, MAX_LINE_CHARS + 1),
                              f"line longer than {MAX_LINE_CHARS:,} characters; expected "

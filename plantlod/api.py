@@ -523,10 +523,8 @@ def _wind(wind: Any):
     try:
         if np.iscomplexobj(wind):                 # (float64 of it drops the imaginary part)
             raise TypeError("complex")
-        if isinstance(wind, np.ndarray) and not np.issubdtype(wind.dtype, np.number):
-            raise TypeError("not numbers")        # (an array of strings was read as numbers)
-        if isinstance(wind, (list, tuple)) and not all(_is_number(v) for v in wind):
-            raise TypeError("not numbers")        # ("1" in a list: the same)
+        if not np.issubdtype(np.asarray(wind).dtype, np.number):
+            raise TypeError("not numbers")        # (strings, "1" in a list, were read as numbers)
         vector = np.asarray(wind, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):   # (an int past a double's range)
         vector = np.zeros(0)
@@ -637,28 +635,21 @@ def _checked(tree: Tree) -> Tree:
         scale = tree.leaf_force_scale
         if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)):
             raise ValueError(f"leaf_force_scale must be one number, got {type(scale).__name__}")
-        given = [getattr(tree, name) for name in BRANCH_FLOAT_FIELDS] + [
-            tree.euler, tree.offset, tree.leaf_area, tree.leaf_normal, tree.force_gain,
-            tree.swing_roll]
-        for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal"):
-            value = getattr(tree, name)          # (a list said "'list' object has no attribute
-            if not isinstance(value, np.ndarray) or not (      # 'shape'"; strings were read)
-                    np.issubdtype(value.dtype, np.number)):
+        fields = (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal")
+        for name in fields:                      # (a list said "'list' object has no attribute
+            value = getattr(tree, name)          # 'shape'"; strings were read as numbers)
+            if not isinstance(value, np.ndarray) or not np.issubdtype(value.dtype, np.number):
                 kind = (f"an array of {value.dtype}" if isinstance(value, np.ndarray)
                         else type(value).__name__)
                 raise ValueError(f"{name} must be a numpy array of numbers, got {kind}")
-        if any(a is not None and np.iscomplexobj(a) for a in given):
+        optional = [a for a in (tree.force_gain, tree.swing_roll) if a is not None]
+        given = [getattr(tree, name) for name in fields] + optional
+        if any(np.iscomplexobj(a) for a in given):
             raise ValueError("its numbers must be real (a complex array lost its imaginary "
                              "part without a word)")
         tree.check()
-        arrays = [np.asarray(getattr(tree, name), dtype=np.float64)
-                  for name in BRANCH_FLOAT_FIELDS] + [
-            np.asarray(tree.euler, dtype=np.float64), np.asarray(tree.offset, dtype=np.float64),
-            np.asarray(tree.leaf_area, dtype=np.float64),
-            np.asarray(tree.leaf_normal, dtype=np.float64),
-            np.asarray([tree.leaf_force_scale], dtype=np.float64)] + [
-            np.asarray(a, dtype=np.float64) for a in (tree.force_gain, tree.swing_roll)
-            if a is not None]
+        arrays = [np.asarray(a, dtype=np.float64) for a in given] + [
+            np.asarray([tree.leaf_force_scale], dtype=np.float64)]
         if not all(np.all(np.isfinite(a)) for a in arrays):
             raise ValueError("its numbers must be finite (a NaN or an infinity in lengths, "
                              "strengths, forces, rest angles, offsets, leaves, gains or rolls)")

@@ -49,7 +49,5 @@ class RootedStore(LocalStore):
         if not self._is_open:
             await self._open()
         self._check_writable()
-        if not self.root.is_dir():
-            raise FileNotFoundError(f"the store {self.root} is gone")
         await asyncio.to_thread(put_below, self.root, self.root / key, value.as_buffer_like(),
                                 exclusive)

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from plantlod.compare.runs import check_extent
 from plantlod.lsys.build import build
 from .constants import SIMPLIFY_WRITE_DIGITS
 from plantlod.lsys.errors import InputError
@@ -45,8 +46,6 @@ def check_moves(original, source: str | None, height: bool = True) -> None:
     one gave tip errors of 1e15 % of its rounding-noise height)."""
     if original.n_branches == 0:
         raise InputError("the original tree has no branches; expected a tree to simplify", source)
-    from plantlod.compare.runs import check_extent
-
     check_extent(original, source)              # (simplify measures tip positions)
     gain = original.force_gain
     absorbs = np.asarray(original.force_absorbed, dtype=np.float64)

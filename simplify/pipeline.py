@@ -484,14 +484,7 @@ def simplify_explicit(system: LSystem, options: Options,
     if progress:
         progress("measuring", 0.5)
     runs = shared.runs_for(options)(tree)   # the motion fit's, when the level's branches are the same
-    from .explicit import is_stalk
-
-    stalk = is_stalk(original)              # (a chain: its downward periods too, for a note)
-    reports = list(zip(options.winds(), runs.compare(tree, downward=stalk)))
-    summary = summarize([r for _, r in reports])
-    largest = runs.largest_combined_angle()
-    notes = _angle_notes(runs.winds, largest) + _period_notes(original, reports, options) \
-        + (_opposite_wind_notes(original, runs, tree, reports, options) if stalk else [])
+    reports, summary, largest, notes = _measured(original, runs, tree, options)
     comment = header_comment(system, options, reports, summary, form="explicit",
                              branches=(original.n_branches, tree.n_branches))
     # the level's text is canonical (what write_lsys writes of it; tests/test_simplify_explicit.py)
@@ -568,6 +561,23 @@ def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],
             f"hold fewer than two swings of the tree's slowest branch ({slowest:.3g} s at dt = "
             f"{options.dt:g} s{f', damping ratio {zeta:g}' if zeta else ''}), so the level's "
             f"periods are not checked; give a duration of {longer:g} s or more"]
+
+
+def _measured(original: Tree, runs: Runs, tree: Tree, options: Options) -> tuple:
+    """The level ``tree`` measured against the original's ``runs`` in the measurement winds
+    (either form): (reports [(wind, Report)], their summary, the original's largest combined
+    angle per wind, and the notes the measurement gives: angles past SMALL_ANGLE_LIMIT, runs
+    too short for a period, and for a chain, whose downward periods are read too, a period
+    bound missed in the opposite winds)."""
+    from .explicit import is_stalk
+
+    stalk = is_stalk(original)
+    reports = list(zip(options.winds(), runs.compare(tree, downward=stalk)))
+    summary = summarize([r for _, r in reports])
+    largest = runs.largest_combined_angle()
+    notes = _angle_notes(runs.winds, largest) + _period_notes(original, reports, options) \
+        + (_opposite_wind_notes(original, runs, tree, reports, options) if stalk else [])
+    return reports, summary, largest, notes
 
 
 def _opposite_wind_notes(original: Tree, runs: Runs, tree: Tree,
@@ -681,14 +691,8 @@ def simplify_grammar(system: LSystem, options: Options,
     if runs is None:
         runs = Runs(original, gmap, winds, options.dt, options.steps, options.every,
                     options.damping)
-    from .explicit import is_stalk
-
-    stalk = is_stalk(original)              # (a chain: its downward periods too, for a note)
-    reports = list(zip(winds, runs.compare(tree, downward=stalk)))
-    summary = summarize([r for _, r in reports])
-    largest = runs.largest_combined_angle()
-    notes += _angle_notes(runs.winds, largest) + _period_notes(original, reports, options) \
-        + (_opposite_wind_notes(original, runs, tree, reports, options) if stalk else [])
+    reports, summary, largest, measured_notes = _measured(original, runs, tree, options)
+    notes += measured_notes
     header = header_comment(system, options, reports, summary, form="grammar",
                             branches=(original.n_branches, tree.n_branches))
     out = replace(out, comment=header)
