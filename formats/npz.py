@@ -27,6 +27,7 @@ from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
 
 from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL
 from .text_input import reading, source_name, stdin_bytes
+from .treefile import first_bad_address
 
 TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
@@ -195,9 +196,9 @@ def _strings(arrays: dict, name: str, source: str, pattern=None) -> list[str]:
     if a.ndim != 1 or a.dtype.kind != "U":
         raise InputError(f"{name!r} in the archive must be a list of text (1-D unicode), got "
                          f"{a.dtype} of shape {a.shape}", source)
-    out = [str(s) for s in a.tolist()]
+    out = a.tolist()                              # (Python str, from a unicode array)
     if pattern is not None:
-        bad = next((s for s in out if not pattern.match(s)), None)
+        bad = first_bad_address(out, pattern)
         if bad is not None:
             raise InputError(f"{name!r} in the archive holds {bad[:60]!r}, not an address", source)
     return out

@@ -47,14 +47,28 @@ BRANCH_KEYS = ("type", "index", "address", "symbol", "parent", *BRANCH_FLOAT_FIE
 LEAF_KEYS = ("type", "index", "address", "branch", "area", "normal")
 
 # Addresses a0.a1...ak; a branch's may end in ":j" (a repeat, lsys/tree.py).
-# Each pattern matches one address; the "many" forms match a block of them
-# joined by "\n" (one regex call per block instead of one per record).
+# Each pattern matches one address; `first_bad_address` checks a block of them at once.
 _ADDRESS = r"[0-9]+(?:\.[0-9]+)*"
 BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::[0-9]+)?\Z")
 LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
-_BRANCH_ADDRESSES = re.compile(rf"(?:{_ADDRESS}(?::[0-9]+)?\n)*\Z")
-_LEAF_ADDRESSES = re.compile(rf"(?:{_ADDRESS}\n)*\Z")
+# the same patterns for many addresses at once, each followed by a line break (`first_bad_address`)
+# (possessive: nothing is tried again, 7x faster over 390,625 addresses than plain repeats)
+_JOINED = {BRANCH_ADDRESS: re.compile(r"(?:[0-9]++(?:\.[0-9]++)*+(?::[0-9]++)?+\n)*+\Z"),
+           LEAF_ADDRESS: re.compile(r"(?:[0-9]++(?:\.[0-9]++)*+\n)*+\Z")}
 _LINES_PER_WRITE = 4096
+
+
+def first_bad_address(strings: list[str], pattern: re.Pattern) -> str | None:
+    """The first of ``strings`` that ``pattern`` (BRANCH_ADDRESS or LEAF_ADDRESS) refuses, or
+    None: one match over all of them joined by line breaks (a string holding a line break of
+    its own is refused: "0\\n5" is no address, though "0" and "5" are), the string-by-string
+    loop only to name the one refused (390,625 addresses: 0.08 s against 0.16 s)."""
+    joined = "\n".join(strings) + ("\n" if strings else "")
+    if joined.count("\n") == len(strings) and _JOINED[pattern].match(joined):
+        return None
+    return next((s for s in strings if not pattern.match(s)), None)
+
+
 # Amounts that cannot be negative, and the strengths, which must be > 0 (model.md 4: a
 # strength of 0 or less has no period and no stable time step): both refused where the
 # file gives them, by line and column (a bend strength of 0 used to be refused only when
@@ -537,7 +551,7 @@ def _common(cols: dict[str, list], start: int, addresses: re.Pattern) -> list[st
     if not np.array_equal(_integers(cols["index"]), np.arange(start, start + n)):
         raise _Reject
     address = _typed(cols["address"], {str})
-    if not addresses.match("".join(a + "\n" for a in address)):
+    if first_bad_address(address, addresses) is not None:
         raise _Reject
     return address
 
@@ -556,7 +570,7 @@ class _Branches:
             roots = _typed(cols["group_root"], {str})
             # (a group root is an original branch's address: "0.0.0:1" where one module drew
             # several branches, as a level's `groups:` section may say)
-            if not _BRANCH_ADDRESSES.match("".join(a + "\n" for a in roots)):
+            if first_bad_address(roots, BRANCH_ADDRESS) is not None:
                 raise _Reject
             out["group_root"] = roots
         if "gain" in self.extras:
@@ -569,7 +583,7 @@ class _Branches:
 
     def __call__(self, block: list[_Line], start: int) -> dict:
         cols = _transpose(block, self.keys)
-        address = _common(cols, start, _BRANCH_ADDRESSES)
+        address = _common(cols, start, BRANCH_ADDRESS)
         if len(set(address)) != len(address) or not self.seen.keys().isdisjoint(address):
             raise _Reject
         symbol = _typed(cols["symbol"], {str})
@@ -648,7 +662,7 @@ class _Leaves:
 
     def __call__(self, block: list[_Line], start: int) -> dict:
         cols = _transpose(block, LEAF_KEYS)
-        address = _common(cols, start, _LEAF_ADDRESSES)
+        address = _common(cols, start, LEAF_ADDRESS)
         branch = _integers(cols["branch"])
         if np.any((branch < 0) | (branch >= self.n_branches)):
             raise _Reject

@@ -259,6 +259,10 @@ ERRORS = [
      r'"address" must be an address like "0.2.1", got ""'),
     ("suffix on leaf address", edit(6, '"address": "8"', '"address": "8:1"'), 6, '"address"',
      r'"address" must be an address like "0.2.1", got "8:1"'),
+    # (a block of addresses is matched joined by line breaks: "7\n8" read as two good ones and
+    # wrote a CSV header of two lines, session 30)
+    ("line break inside an address", edit(4, '"address": "7"', '"address": "7\\n8"'), 4,
+     '"address"', r'"address" must be an address like "0.2.1" or "0.2.1:1", got "7\\n8"'),
     ("branch suffix not a number", edit(3, '"address": "3"', '"address": "3:x"'), 3,
      '"address"', r'"address" must be an address like "0.2.1" or "0.2.1:1"'),
     ("long symbol", edit(3, '"symbol": "G"', '"symbol": "GG"'), 3, '"symbol"',
