@@ -21,6 +21,12 @@ VERIFY_LANES = 16             # full-detail trees run at once by --verify (bound
 STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
+# A switch to a finer level starts it from a predicted state (scene/switch.py); its error is
+# measured (`switch.switch_error`) for switches every SWITCH_SAMPLE_S of a steady-wind run,
+# each followed SWITCH_FOLLOW_S, tips compared every SWITCH_SAMPLE_EVERY_S
+SWITCH_SAMPLE_S = 2.0
+SWITCH_FOLLOW_S = 3.0
+SWITCH_SAMPLE_EVERY_S = 0.05
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
 WORKER_CHAINS = 16              # level chains a process (a Dask worker) keeps read, one per tree file
 CACHE_ENTRY_MAX_BYTES = 256 << 20   # a cache's KEY.json read at most (a forest's chains: a few MB);

@@ -35,8 +35,8 @@ from .constants import (
 )
 from .file import Scene, Source, seed_named, source_name, sources
 from .levels import Chain, chain_from_texts, level_chains
-from .schedule import distances, frame_times, schedules
-from .switch import Transfer
+from .schedule import distances, frame_times, returns, schedules
+from .switch import Transfer, switch_error
 
 
 @dataclass
@@ -190,11 +190,17 @@ def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.
     return None
 
 
-def make_batches(scene: Scene, chains: dict, every: int, budget: float
+def make_batches(scene: Scene, chains: dict, every: int, budget: float,
+                 transfers: dict | None = None, speed: float = 0.0
                  ) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
     """The batches of every source, the levels (N, F), per source (name, members, trees,
     seed), and the levels (N, F) of `schedule.coarsest_levels` (what the report's
-    `speedup_bound` counts)."""
+    `speedup_bound` counts).
+
+    Where a source's trees come back to a level they left (`schedule.returns`: a camera
+    turning away and back), the switch error of each such level is measured
+    (`switch.switch_error`, at ``speed`` m/s, with ``transfers``' `Transfer` of the source)
+    and the schedule made again spending it (`schedule.held_levels`)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)
@@ -206,6 +212,13 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float
         members = members_of[source]
         chain: Chain = chains[source]
         sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget)
+        back = returns(sched) if transfers is not None else set()
+        if back:
+            switch_m = np.zeros(len(chain.tip_error_m))
+            for level in sorted(back):
+                switch_m[level] = switch_error(chain, transfers[source], level, speed,
+                                               scene.dt, scene.duration)
+            sched, _ = schedules(scene, members, chain.tip_error_m, times, budget, switch_m)
         levels[members] = sched
         path, seed = source
         files.append((str(path), members, chain.trees, seed))
@@ -282,7 +295,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         chains[source] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)
-    batches, levels, files, bound_levels = make_batches(scene, chains, every, scene.budget_px)
+    transfers = {source: Transfer(chain.trees, chain.groups, chain.damping_ratio)
+                 for source, chain in chains.items()}
+    batches, levels, files, bound_levels = make_batches(scene, chains, every, scene.budget_px,
+                                                        transfers, speed)
     rows = steps // every
     store = None
     if store_path is not None:
@@ -301,8 +317,6 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     if scheduler is not None:
         spent, switches = _run_on_cluster(scheduler, scene, chains, batches, winds, every,
                                           store_path)
-    transfers = {source: Transfer(chain.trees, chain.groups, chain.damping_ratio)
-                 for source, chain in chains.items()}
     for n, batch in enumerate(batches if scheduler is None else []):
         chain = chains[batch.source]
         result = run_batch(chain, transfers[batch.source], batch,

@@ -6,7 +6,9 @@ error e_l (metres, times the tree's scale) as p_l = e_l H / (2 d tan(fov / 2)) p
 What scenes run is `two_way_schedule`: at each frame a tree is judged at its current
 distance; it starts at the coarsest level with p_l <= budget, goes finer as soon as its
 level passes the budget, and coarser only to a level with p_l <= HYSTERESIS x budget (so
-it does not flicker between two levels). Going finer is affordable because the finer
+it does not flicker between two levels) that it will not have to leave for a finer one
+through a switch that would overspend the budget (`held_levels`: a camera turning away
+and back in a strong wind). Going finer is affordable because the finer
 level's state is predicted from the tree's wind history (`switch.Transfer.predicted`), so
 the coarser level's error is not carried into it; going coarser carries the state.
 
@@ -53,15 +55,24 @@ def level_pixels(scene: Scene, members: list[int], tip_error_m: np.ndarray, time
     """(n, F, L) px: each level's tip error (max) on screen for each member at each frame
     (model.md 7), 0 for level 0 and while the tree is behind the camera, infinite where the
     camera stands on its base. ``look_ahead``: at the nearest the tree comes from then on."""
-    d, ahead = distances(scene, members, times)
-    scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0)   # (n, F)
-    if look_ahead:
-        seen = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]        # nearest from f on
+    seen = seen_scale(scene, members, times, look_ahead)                  # (n, F)
     with np.errstate(invalid="ignore"):
-        px = tip_error_m[None, None, :] * (scale * seen)[..., None]          # (n, F, L)
+        px = tip_error_m[None, None, :] * seen[..., None]                   # (n, F, L)
     px[..., 0] = 0.0                                                        # level 0: exact
     return np.where(np.isnan(px), np.inf, px)                               # 0 m x inf px
+
+
+def seen_scale(scene: Scene, members: list[int], times: np.ndarray, look_ahead: bool = False
+               ) -> np.ndarray:
+    """(n, F) px per metre of tip error (model.md 7, times the member's scale) at each
+    frame, 0 while the tree is behind the camera, infinite where the camera stands on its
+    base. ``look_ahead``: at the nearest the tree comes from then on."""
+    d, ahead = distances(scene, members, times)
+    scale = np.array([scene.trees[k].scale for k in members])[:, None]
+    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0) * scale
+    if look_ahead:
+        seen = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]        # nearest from f on
+    return seen
 
 
 def level_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
@@ -105,15 +116,24 @@ def two_way_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
 
 
 def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: np.ndarray,
-              budget: float) -> tuple[np.ndarray, np.ndarray]:
+              budget: float, switch_error_m: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
     """(`two_way_schedule`, `coarsest_levels`), both (n, F) int16, from one `level_pixels`
-    array (n, F, L): a scene of many trees builds it once."""
+    array (n, F, L): a scene of many trees builds it once.
+
+    switch_error_m: (L,) metres, what a switch into each level adds to its tip error
+    (`switch.switch_error`; 0 where not measured). A tree then goes coarser only to levels
+    it will not have to come back from to one whose switch would overspend (`held_levels`).
+    """
     px = level_pixels(scene, members, tip_error_m, times)
     within = _coarsest(px, budget)                                          # (n, F)
-    well = _coarsest(px, HYSTERESIS * budget)
     out = np.empty(within.shape, dtype=np.int16)
     if out.shape[1] == 0:
         return out, within.astype(np.int16)
+    well = _coarsest(px, HYSTERESIS * budget)
+    if switch_error_m is not None:
+        well = np.minimum(well, held_levels(scene, members, tip_error_m, switch_error_m,
+                                            times, budget, within))
     current = within[:, 0].copy()
     rows = np.arange(len(members))
     for f in range(out.shape[1]):
@@ -121,3 +141,37 @@ def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: 
         current = np.where(over, within[:, f], np.maximum(current, well[:, f]))
         out[:, f] = current
     return out, within.astype(np.int16)
+
+
+def held_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
+                switch_error_m: np.ndarray, times: np.ndarray, budget: float,
+                within: np.ndarray) -> np.ndarray:
+    """(n, F): the coarsest level each member may move to at each frame, so that it never
+    has to switch to a finer level whose switch overspends the budget.
+
+    A switch into level l at frame f' is *dear* where (e_l + s_l) times the pixels per metre
+    at the nearest the tree comes from f' on exceeds ``budget`` (e the tip error, s the
+    switch error, both (L,) m; what a switch misses swings on in the undamped model, so it
+    is seen wherever the tree is seen after it); l = ``within`` (n, F), the level each frame
+    needs. At frame f a tree may go no coarser than the finest level needed at a dear frame
+    from f on: it keeps running there, and comes back without a switch. A tree that only
+    comes nearer never goes coarser, and one that leaves for good is not held."""
+    seen = seen_scale(scene, members, times, look_ahead=True)
+    cost = (np.asarray(tip_error_m) + np.asarray(switch_error_m))[within]  # (n, F) m
+    with np.errstate(invalid="ignore"):
+        dear = (cost * seen > budget) & (switch_error_m[within] > 0)
+    last = len(tip_error_m) - 1
+    need = np.where(dear, within, last)
+    return np.minimum.accumulate(need[:, ::-1], axis=1)[:, ::-1]
+
+
+def returns(levels: np.ndarray) -> set[int]:
+    """The levels that some row of ``levels`` (n, F) comes back to: a frame's level finer
+    than the frame before's, and one the row ran at (or finer) before that."""
+    out: set[int] = set()
+    if levels.shape[1] < 2:
+        return out
+    finest_so_far = np.minimum.accumulate(levels, axis=1)
+    back = (levels[:, 1:] < levels[:, :-1]) & (levels[:, 1:] >= finest_so_far[:, :-1])
+    out.update(int(v) for v in np.unique(levels[:, 1:][back]))
+    return out

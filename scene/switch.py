@@ -200,3 +200,51 @@ def _uncarry(back: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.nd
     c, d = -back[:, 0, 1], back[:, 0, 0]                 # rot'  = c Θb + d Θr
     det = a * d - b * c
     return (d * bend - b * rot) / det, (a * rot - c * bend) / det
+
+
+def switch_error(chain, transfer: Transfer, level: int, speed: float, dt: float,
+                 duration: float) -> float:
+    """Metres: how far a switch into level ``level`` puts its tips from where the level run
+    from rest has them, the worst over steady winds of ``speed`` m/s toward
+    TIP_ERROR_DIRECTIONS (relative to the tree, as the levels' tip errors are measured),
+    switches every SWITCH_SAMPLE_S of a run of ``duration`` s and SWITCH_FOLLOW_S after each.
+
+    A switch to a finer level starts it from `Transfer.predicted`, linear theory, and in the
+    undamped model what that misses swings on; in a strong wind the tree's lean makes it
+    cm where the level's own tip error is mm (docs/scene.md, "Where the budget does not
+    hold"). The schedule spends it like a level's tip error (`schedule.schedules`).
+    chain: `levels.Chain`; transfer: its `Transfer`. Work: the level's branches x (the run
+    plus one follow-up per switch) x 4 winds.
+    """
+    from plantlod.sim.kinematics import pose
+    from plantlod.sim.lanes import run_lanes
+    from plantlod.sim.wind import wind_from_speed
+
+    from .constants import SWITCH_FOLLOW_S, SWITCH_SAMPLE_S, SWITCH_SAMPLE_EVERY_S, TIP_ERROR_DIRECTIONS
+
+    tree = chain.trees[level]
+    model = chain.lane_model(level)
+    every = max(1, int(round(SWITCH_SAMPLE_EVERY_S / dt)))       # steps between tip samples
+    gap = every * max(1, int(round(SWITCH_SAMPLE_S / (every * dt))))   # steps between switches
+    steps = int(round(duration / dt))
+    follow = every * max(1, int(round(SWITCH_FOLLOW_S / (every * dt))))
+    starts = list(range(gap, steps + 1, gap))
+    if not starts or tree.n_branches == 0 or speed <= 0:
+        return 0.0
+    worst = 0.0
+    for direction in TIP_ERROR_DIRECTIONS:
+        wind = wind_from_speed(speed, direction).vector                 # (3,) m/s
+        # the level from rest, its angles after every ``every``-th step (row j: step (j+1) every)
+        bend, rot = run_lanes(model, wind[None], dt, starts[-1] + follow, every=every)
+        history = np.tile(wind, (starts[-1], 1))
+        state = np.stack([transfer.predicted(level, history[:s], dt) for s in starts])
+        # each switch followed on from its predicted state (rows every ``every`` steps after it)
+        b_on, r_on = run_lanes(model, np.tile(wind, (len(starts), 1)), dt, follow, every=every,
+                               state=state.copy())
+        for k, s in enumerate(starts):
+            rows = slice(s // every - 1, (s + follow) // every)        # steps s .. s + follow
+            want = pose(tree, bend[0, rows], rot[0, rows]).tip
+            got = pose(tree, np.concatenate([state[k, :1], b_on[k]]),
+                       np.concatenate([state[k, 2:3], r_on[k]])).tip
+            worst = max(worst, float(np.linalg.norm(got - want, axis=-1).max()))
+    return worst

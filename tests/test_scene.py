@@ -175,6 +175,100 @@ def test_two_way_schedule_by_hand(tmp_path):
     assert got[0] == 3 and got.min() == 2 and got[-1] == 3     # in, finer, and out again
 
 
+@pytest.mark.parametrize("away_s", [1.0, 6.0])
+@pytest.mark.parametrize("switch_m, held", [(0.0, False), (0.03, False), (0.06, True)])
+def test_a_tree_the_camera_turns_back_to_is_held_where_its_switch_would_overspend(
+        tmp_path, away_s, switch_m, held):
+    """The camera 10 m from the tree looks away (the tree behind it: 0 px, any level fits)
+    for ``away_s`` seconds, then back. Level 2 (1 cm) is what the tree needs in view. Where
+    a switch into level 2 adds ``switch_m`` metres, coming back costs (0.01 + switch_m) m x
+    93.5 px/m at 10 m (model.md 7: 1080 / (2 x 10 m x tan 30°)): 3.7 px at 3 cm against a
+    budget of 5 px (level 3, 10 cm, is 9.35 px in view), so the tree goes coarse while away
+    and switches back; 6.5 px at 6 cm, so it is held at level 2 for as long as it is away,
+    however long."""
+    from dataclasses import replace
+
+    from plantlod.scene.schedule import returns, schedules
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -10.0)], duration=10.0)
+    times = np.arange(300) / 30.0
+    behind = (times >= 2.0) & (times < 2.0 + away_s)
+    keys = np.zeros((300, 3))
+    keys[:, 1] = -10.0
+    keys[:, 2] = 1.7
+    target = np.where(behind[:, None], [0.0, -20.0, 1.7], [0.0, 0.0, 1.7])
+    cam = replace(scene.camera, key_t=times, key_position=keys, key_target=target,
+                  position=keys[0], target=target[0])
+    scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    free = schedules(scene, [0], errors, times, 5.0)[0][0]
+    assert free.tolist() == np.where(behind, 3, 2).tolist() and returns(free[None]) == {2}
+    got = schedules(scene, [0], errors, times, 5.0, np.array([0.0, 0.0, switch_m, 0.0]))[0][0]
+    assert got.tolist() == ([2] * 300 if held else free.tolist())
+
+
+def test_switch_error_is_the_predicted_state_run_on_against_the_level_from_rest(chains):
+    """switch.switch_error against a literal recomputation: the single-run kernel stepped
+    from rest, and from `Transfer.predicted` at each switch (every 2 s), both posed at every
+    sample (0.05 s) of the 3 s after it, in each of the four directions. And what it
+    measures: in a light wind (linear) a switch misses by a fraction of a per cent of the
+    tips' travel, in a strong one (twin_draw at 15 m/s, docs/scene.md) by centimetres."""
+    from plantlod.scene.levels import level_chain
+    from plantlod.scene.constants import TIP_ERROR_DIRECTIONS
+    from plantlod.scene.switch import Transfer, switch_error
+    from plantlod.sim.kernel import KernelState, advance, prepare
+    from plantlod.sim.kinematics import pose
+    from plantlod.sim.wind import wind_from_speed
+
+    chain, _ = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 2.0, chains)
+    transfer = Transfer(chain.trees, chain.groups)
+    level, dt, every = 1, 0.01, 5
+    tree = chain.trees[level]
+    model = prepare(tree)
+
+    def literal(speed: float) -> tuple[float, float]:
+        worst = travel = 0.0
+        for direction in TIP_ERROR_DIRECTIONS:
+            wind = wind_from_speed(speed, direction).vector
+            total = 400 + 300
+            state = KernelState(tree.n_branches)
+            bend, rot = np.empty((total, tree.n_branches)), np.empty((total, tree.n_branches))
+            advance(model, state, np.tile(wind, (total, 1)), dt, 1, 1, bend, rot, 0)
+            rest = pose(tree, np.zeros(tree.n_branches), np.zeros(tree.n_branches)).tip
+            travel = max(travel, float(np.linalg.norm(pose(tree, bend, rot).tip - rest,
+                                                      axis=-1).max()))
+            for s_ in (200, 400):
+                p = transfer.predicted(level, np.tile(wind, (s_, 1)), dt)
+                on = KernelState(tree.n_branches)
+                on.bend[:], on.bend_vel[:], on.rot[:], on.rot_vel[:] = p
+                b2, r2 = np.empty((300, tree.n_branches)), np.empty((300, tree.n_branches))
+                advance(model, on, np.tile(wind, (300, 1)), dt, 1, 1, b2, r2, 0)
+                got_b = np.concatenate([p[:1], b2[every - 1::every]])
+                got_r = np.concatenate([p[2:3], r2[every - 1::every]])
+                rows = slice(s_ - 1, s_ + 300, every)             # after steps s_, s_ + 5, ..
+                gap = pose(tree, got_b, got_r).tip - pose(tree, bend[rows], rot[rows]).tip
+                worst = max(worst, float(np.linalg.norm(gap, axis=-1).max()))
+        return worst, travel
+
+    for speed in (0.5, 15.0):
+        got = switch_error(chain, transfer, level, speed, dt, 4.0)
+        want, travel = literal(speed)
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-12)
+        if speed == 0.5:
+            assert got < 0.005 * travel
+        else:
+            assert got > 0.01                                      # metres
+
+
+def test_returns_are_levels_a_row_comes_back_to():
+    from plantlod.scene.schedule import returns
+
+    assert returns(np.array([[3, 3, 2, 2, 1, 1]])) == set()           # only ever finer
+    assert returns(np.array([[1, 1, 2, 3, 3, 4]])) == set()           # only ever coarser
+    assert returns(np.array([[2, 3, 3, 2, 4, 1]])) == {2}            # back to 2; 1 is new
+    assert returns(np.array([[3, 2, 4, 3, 3], [1, 1, 1, 1, 1]])) == {3}
+
+
 def test_the_predicted_state_is_the_level_run_from_rest(tmp_path, chains):
     """switch.Transfer.predicted against the level itself simulated from rest in a gusty
     wind of one direction: at small angles the linear theory puts every tip within 1 % of
