@@ -63,6 +63,8 @@ def equivalent_leaves(tree: Tree, frames, members: np.ndarray) -> tuple[np.ndarr
     normals = np.einsum("kij,kj->ki", frames.frame[np.asarray(tree.leaf_branch)[on]],
                         np.asarray(tree.leaf_normal, dtype=np.float64)[on])
     area = np.asarray(tree.leaf_area, dtype=np.float64)[on]
+    if not area.any():                   # leaves of area 0 push nothing: as none (a 0/0 below)
+        return np.zeros(0), np.zeros((0, 3))
     values, vectors = principal_leaves(area, normals)
     # sum of the eigenvalues kept = trace = summed area (up to the dropped ~0 ones; summed in
     # eigh's ascending order, as before principal_leaves was split off: the same bits)

@@ -81,7 +81,8 @@ def lies_flat(original) -> str:
     from plantlod.sim.kinematics import rest_height
 
     return (f"the tree's highest tip at rest is at z = {rest_height(original):g} m (it lies "
-            "flat or hangs below its base)")
+            "flat or hangs below z = 0; model.md 6 measures tip errors against the highest "
+            "tip's z, so a tree must rise above z = 0)")
 
 
 def round_sig_down(x: float, digits: int = SIMPLIFY_WRITE_DIGITS) -> float:
