@@ -128,6 +128,12 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     distinct_paths({"-o" if output is not None else "the table (no -o)":
                     "-" if output is None else output, "--obj": obj_dir,
                     "--plot": plot_path}, inputs)
+    if obj_dir is not None:                 # (the frames land in DIR, over a file so named)
+        for what, path in inputs.items():
+            if path not in (None, "-") and _is_frame_in(path, obj_dir):
+                raise click.UsageError(f"--obj {obj_dir} writes frame_*.obj files, and the input "
+                                       f"{path} ({what}) is one of its names; expected another "
+                                       "folder")
     check_output_kind(output, "-o", "the report (a table, or JSON with --json)", (".txt", ".json"))
     check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))
     if angles_mode:
@@ -335,3 +341,13 @@ def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, a
         f"{counted(len(times_a), 'sample')}; "
         f"largest difference {largest * scale:.4g} {unit} at branch {diff.addresses[j]} "
         f"{component}, t = {t:g} s")
+
+
+def _is_frame_in(path: str, folder: str) -> bool:
+    """Whether ``path`` lies in ``folder`` under a name the OBJ frames take
+    (`compare_exports.write_pictures`: frame_t<T>.obj, frame_<NNNNN>.obj)."""
+    import re
+
+    here = os.path.realpath(os.path.dirname(os.path.abspath(path)))
+    return (here == os.path.realpath(folder)
+            and re.fullmatch(r"frame_(t.+|[0-9]{5})\.obj", os.path.basename(path)) is not None)

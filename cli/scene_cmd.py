@@ -92,15 +92,15 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
+    # the tree files the scene reads are inputs too (`--report treeA` replaced one)
+    distinct_paths({report_name: report_path, "--plot": plot_path},
+                   {f"tree file of {scene_path}": str(p)
+                    for p in dict.fromkeys(t.source[0] for t in spec.trees)})
     check_scene(spec)
     check_frame_rate(spec, frame_rate, given=given(click.get_current_context(), "frame_rate"))
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
-    if cache is not None and (cache.exists() or cache.is_symlink()) and not cache.is_dir():
-        # (a link that leads nowhere, or round in a loop, too: it failed at mkdir, exit 1)
-        from plantlod.lsys.errors import InputError
-
-        raise InputError("not a folder; expected a folder for the cached level chains (--cache "
-                         "DIR, $PLANTLOD_CACHE) or --no-cache", str(cache))
+    if cache is not None:
+        check_cache_folder(cache)
     if spec.wind.speed == 0:                 # (a missing [wind] is no wind: a still forest)
         warn_once_running("the wind is zero, so the trees stay at rest; give [wind] speed = S "
                           "(m/s) in the scene")
@@ -174,3 +174,21 @@ class _ProgressBar:
 
     def stop(self) -> None:
         self.bar.stop()
+
+
+def check_cache_folder(cache) -> None:
+    """Refuse, before any work, a cache path that is not a folder and cannot become one: the
+    path itself, or the nearest of its parents that exists, is not a folder (a link that
+    leads nowhere, or round in a loop, too). They failed at mkdir, after the fit, exit 1."""
+    from plantlod.lsys.errors import InputError
+
+    why = ("expected a folder for the cached level chains (--cache DIR, $PLANTLOD_CACHE) or "
+           "--no-cache")
+    if (cache.exists() or cache.is_symlink()) and not cache.is_dir():
+        raise InputError(f"not a folder; {why}", str(cache))
+    for parent in cache.parents:
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                raise InputError(f"{parent} is not a folder, so no cache can be made in it; "
+                                 f"{why}", str(cache))
+            return

@@ -36,7 +36,14 @@ def view(gltf_paths, output, wind_direction, title):
     if "-" in gltf_paths:                     # (it said "-: no such file")
         raise click.UsageError("view reads .glb or .gltf files by name (a .gltf's buffers lie "
                                "beside it); standard input ('-') is not read")
-    distinct_paths({"-o": output}, {f"input {k + 1}": p for k, p in enumerate(gltf_paths)})
+    from plantlod.export.constants import VIEW_MAX_FILE_BYTES
+    from plantlod.export.gltf_check import buffer_files
+
+    inputs = {f"input {k + 1}": p for k, p in enumerate(gltf_paths)}
+    for k, p in enumerate(gltf_paths):           # (a .gltf's buffer file is read too)
+        for b, name in enumerate(buffer_files(p, VIEW_MAX_FILE_BYTES)):
+            inputs[f"input {k + 1}'s buffer {b + 1}"] = name
+    distinct_paths({"-o": output}, inputs)
     check_output_kind(output, "-o", "a web page", (".html", ".htm"))
     with open_output(output) as out:          # refuses a bad target before any work
         write_view(list(gltf_paths), out, wind_direction=wind_direction, title=title)

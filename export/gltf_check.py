@@ -61,6 +61,31 @@ def check_glb_container(data: bytes, path: str) -> None:
         raise InputError("a GLB has at most one binary chunk, right after the JSON", path)
 
 
+def buffer_files(path: str, max_bytes: int) -> list[str]:
+    """The files beside the glTF (or GLB) at ``path`` that its buffers name, by path (what a
+    page written over one would destroy: `plantlod view -o x.bin` replaced the .gltf's own
+    buffer). Best effort: [] where the file cannot be read as glTF JSON (its reader says why)."""
+    import json
+
+    try:
+        with open(path, "rb") as f:
+            data = f.read(max_bytes + 1)
+        if data[:4] == GLB_MAGIC and len(data) >= 20:
+            size = struct.unpack_from("<I", data, 12)[0]
+            data = data[20:20 + size]
+        doc = json.loads(data.decode("utf-8"))
+    except (OSError, ValueError, RecursionError, struct.error):
+        return []
+    buffers = doc.get("buffers") if isinstance(doc, dict) else None
+    out = []
+    for buffer in buffers if isinstance(buffers, list) else []:
+        uri = buffer.get("uri") if isinstance(buffer, dict) else None
+        if isinstance(uri, str) and uri and not urllib.parse.urlsplit(uri).scheme:
+            out.append(os.path.join(os.path.dirname(os.path.abspath(path)),
+                                    urllib.parse.unquote(uri)))
+    return out
+
+
 def check_buffer_uris(doc, path: str, max_bytes: int) -> None:
     """Before any buffer is read: at most one buffer; a buffer in another file must be a
     regular file beside ``path`` (a relative URI, no scheme) of at most ``max_bytes``."""
@@ -79,7 +104,11 @@ def check_buffer_uris(doc, path: str, max_bytes: int) -> None:
         if "/" in name or "\\" in name or "\0" in name or name in (".", ".."):
             raise InputError(f"buffer URI {uri[:80]!r}: expected the name of a file beside the "
                              "glTF (no folder, no NUL byte)", path)
-        target = os.path.join(os.path.dirname(os.path.abspath(path)), name)
+        folder = os.path.dirname(os.path.abspath(path))
+        target = os.path.join(folder, name)
+        if os.path.dirname(os.path.realpath(target)) != os.path.realpath(folder):
+            raise InputError(f"buffer file {uri[:80]!r} is a link out of the glTF's folder; "
+                             "expected a file beside the glTF", path)
         try:
             info = os.stat(target)
         except OSError as exc:

@@ -253,16 +253,23 @@ def _store(path: pathlib.Path, data: bytes) -> None:
     a signal handler removes (`formats.atomic.atomic_path`)."""
     from plantlod.formats.atomic import atomic_path, write_whole
 
+    if path.is_dir() and not path.is_symlink():
+        return                            # a folder where the entry goes: left, not cached
     if path.is_symlink() or (path.exists() and not path.is_file()):
         path.unlink()                     # a FIFO or a device in the cache: replaced, not written
     with atomic_path(str(path)) as tmp:
         write_whole(tmp, data)
 
 
-def _texts_digest(texts: list[str]) -> bytes:
-    """SHA-256 of the level texts, the comment of the archive built from them: an archive
-    is read only beside the texts it was built from (a text changed in KEY.json is read)."""
-    return hashlib.sha256("\0".join(texts).encode("utf-8")).hexdigest().encode("ascii")
+def _archive_digest(texts: list[str], members: list[bytes]) -> bytes:
+    """SHA-256 of the level texts and of the archive's members, in order: the comment of the
+    archive built from them. An archive is read only beside the texts it was built from (a
+    text changed in KEY.json is read) and as it was written (members swapped by hand ran a
+    4-branch level as level 3, session 30)."""
+    h = hashlib.sha256("\0".join(texts).encode("utf-8"))
+    for data in members:
+        h.update(len(data).to_bytes(8, "little") + data)
+    return h.hexdigest().encode("ascii")
 
 
 def _write_built(path: pathlib.Path, trees: list[Tree], texts: list[str]) -> None:
@@ -274,11 +281,12 @@ def _write_built(path: pathlib.Path, trees: list[Tree], texts: list[str]) -> Non
 
     from plantlod.formats.npz import tree_bytes
 
+    members = [tree_bytes(tree) for tree in trees]
     out = io.BytesIO()
     with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as archive:
-        archive.comment = _texts_digest(texts)
-        for k, tree in enumerate(trees, start=1):
-            archive.writestr(f"level{k}.npz", tree_bytes(tree))
+        archive.comment = _archive_digest(texts, members)
+        for k, data in enumerate(members, start=1):
+            archive.writestr(f"level{k}.npz", data)
     try:
         _store(path, out.getvalue())
     except OSError:
@@ -298,11 +306,12 @@ def _read_built(path: pathlib.Path, texts: list[str]) -> list[Tree] | None:
     try:
         count = len(texts)
         with zipfile.ZipFile(path) as archive:
-            if archive.comment != _texts_digest(texts) or \
-                    archive.namelist() != [f"level{k}.npz" for k in range(1, count + 1)]:
+            if archive.namelist() != [f"level{k}.npz" for k in range(1, count + 1)]:
                 return None
-            return [read_tree_bytes(archive.read(f"level{k}.npz"), str(path))
-                    for k in range(1, count + 1)]
+            members = [archive.read(f"level{k}.npz") for k in range(1, count + 1)]
+            if archive.comment != _archive_digest(texts, members):
+                return None
+            return [read_tree_bytes(data, str(path)) for data in members]
     except (InputError, *DAMAGED_ARCHIVE_ERRORS):
         return None
 
@@ -332,7 +341,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
     is read and built."""
     from plantlod.compare.groups import assign_groups, main_paths
 
-    original = build(parse_lsys_text(data.decode("utf-8"), str(path)).grown_from(seed)).tree
+    original = build(parse_lsys_text(data.decode("utf-8-sig"), str(path)).grown_from(seed)).tree
     trees, groups, tips = [original], [np.arange(original.n_branches)], [np.arange(original.n_branches)]
     for k, text in enumerate(texts, start=1):
         tree = (built[k - 1] if built is not None
@@ -341,7 +350,7 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
         trees.append(tree)
         groups.append(g)
         tips.append(np.array([p[-1] for p in main_paths(original, g, tree.n_branches)], dtype=np.int64))
-    return Chain(trees, [data.decode("utf-8")] + list(texts), errors, groups, tips, damping_ratio,
+    return Chain(trees, [data.decode("utf-8-sig")] + list(texts), errors, groups, tips, damping_ratio,
                  seed)
 
 
@@ -359,7 +368,7 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
 
     from plantlod.simplify.levels import rises
 
-    system = parse_lsys_text(data.decode("utf-8"), str(path)).grown_from(seed)
+    system = parse_lsys_text(data.decode("utf-8-sig"), str(path)).grown_from(seed)
     original = build(system).tree
     if not rises(original):      # no height to measure levels against: full detail only
         return [], np.zeros(1)

@@ -276,6 +276,10 @@ def test_an_output_that_is_a_link_to_the_input_replaces_the_link(tmp_path):
                "5", "-o", "{d}/x.png", "--plot", "{d}/x.png"], "-o and --plot name the same file"),
     ("level", ["compare", "{s}", "{d}/level1.lsys", "--dt", "0.01", "--steps", "50", "--wind-speed",
                "5", "-o", "{d}/xd", "--obj", "{d}/xd", "--at", "0.1"], "-o and --obj name the same file"),
+    # an input named as an OBJ frame in --obj DIR: the frames landed over it (session 30)
+    ("frame", ["compare", "{d}/frame_t0.1.obj", "{d}/level1.lsys", "--dt", "0.01", "--steps",
+               "50", "--wind-speed", "5", "--obj", "{d}", "--at", "0.1"],
+     "is one of its names; expected another folder"),
 ])
 def test_an_output_over_an_input_or_another_output_is_refused_before_any_work(tmp_path, make, args,
                                                                               message):
@@ -286,6 +290,8 @@ def test_an_output_over_an_input_or_another_output_is_refused_before_any_work(tm
     if make:
         (tmp_path / "lv").mkdir()
         run_cli("simplify", str(s), "--level", "1", "-o", str(tmp_path / "lv" / "level1.lsys"))
+    if make == "frame":
+        (tmp_path / "lv" / "frame_t0.1.obj").write_text(s.read_text())
     before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     line = one_line(run_cli(*[a.format(s=s, d=tmp_path / "lv") for a in args], exit_code=None), 2,
                     message)

@@ -539,6 +539,46 @@ def test_a_cache_that_is_a_regular_file_is_bad_input(tmp_path, make):
         assert cache.read_text() == "not a folder\n"
 
 
+@pytest.mark.parametrize("below", ["file/sub", "file/a/b"])
+def test_a_cache_below_a_regular_file_is_bad_input_before_any_work(tmp_path, below,
+                                                                   monkeypatch):
+    """A cache path through a regular file (--cache, $PLANTLOD_CACHE, HOME=/dev/null) was
+    exit 1, 'Not a directory', once the chain was fitted (session 30, found by fuzzing)."""
+    (tmp_path / "file").write_text("x\n")
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    start = time.perf_counter()
+    line = one_line(run_cli("scene", path, "--cache", str(tmp_path / below), exit_code=None), 2,
+                    f"{tmp_path / 'file'} is not a folder, so no cache can be made in it")
+    assert line.startswith(f"{tmp_path / below}:") and time.perf_counter() - start < 10
+    monkeypatch.setenv("PLANTLOD_CACHE", str(tmp_path / below))
+    one_line(run_cli("scene", path, exit_code=None), 2, "is not a folder, so no cache")
+
+
+@pytest.mark.parametrize("output", ["--report", "--plot"])
+def test_a_scene_output_over_one_of_its_tree_files_is_refused(tmp_path, output):
+    """The tree files a scene reads are inputs (session 30: `--report treeA` replaced the tree
+    file with the report, exit 0, and the next run failed on it)."""
+    tree = tmp_path / ("tree.png" if output == "--plot" else "tree.json")
+    tree.write_text(open(STALK).read())
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{tree}"\n')
+    one_line(run_cli("scene", path, "--no-cache", output, str(tree), exit_code=None), 2,
+             f"{output} would write over the input {tree} (tree file of {path})")
+    assert tree.read_text() == open(STALK).read()
+
+
+def test_a_tree_file_with_a_byte_order_mark_runs_in_a_scene_as_derive_reads_it(tmp_path):
+    """derive and simplify read a UTF-8 byte order mark; the scene decoded the file's bytes
+    itself and refused it ("unexpected '\\ufeff' outside a section", session 30)."""
+    tree = tmp_path / "bom.lsys"
+    tree.write_bytes(b"\xef\xbb\xbf" + open(STALK, "rb").read())
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{tree}"\n')
+    report = json.loads(run_cli("scene", path, "--no-cache", "--report", "-").stdout)
+    plain = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    same = json.loads(run_cli("scene", plain, "--no-cache", "--report", "-").stdout)
+    for key in ("branch_steps_spent", "branch_steps_full", "switches"):
+        assert report[key] == same[key]
+
+
 @pytest.mark.parametrize("edit, tail, message, where", [
     # an integer past a float's range overflowed math.isfinite: an internal error
     (("dt = 0.01", "dt = 0.01\nbudget_px = 1" + "0" * 400), "", "'budget_px' must be a finite number", 2),

@@ -161,6 +161,33 @@ def test_external_buffers_are_checked(files, tmp_path):
             glb_from_file(str(path))
 
 
+def test_a_buffer_link_out_of_the_folder_is_refused_and_a_page_never_replaces_a_buffer(
+        files, tmp_path):
+    """A buffer file beside the glTF that links out of its folder was carried into the page
+    (a page must not carry /etc/passwd); `view t.gltf -o t.bin` replaced the glTF's own
+    buffer with the page, exit 0 (session 30, found by fuzzing)."""
+    import base64
+
+    doc = json.loads((files / "s.gltf").read_text())
+    data = base64.b64decode(doc["buffers"][0]["uri"].split(",", 1)[1])
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "far.bin").write_bytes(data)
+    (tmp_path / "near.bin").symlink_to(tmp_path / "out" / "far.bin")
+    doc["buffers"][0]["uri"] = "near.bin"
+    (tmp_path / "l.gltf").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="is a link out of the glTF's folder"):
+        glb_from_file(str(tmp_path / "l.gltf"))
+    (tmp_path / "t.bin").write_bytes(data)
+    doc["buffers"][0]["uri"] = "t.bin"
+    (tmp_path / "t.gltf").write_text(json.dumps(doc))
+    line = one_line(run_cli("view", str(tmp_path / "t.gltf"), "-o", str(tmp_path / "t.bin"),
+                            exit_code=None), 2, "-o would write over the input")
+    assert "(input 1's buffer 1)" in line
+    with pytest.raises(InputError, match="its buffer"):
+        plantlod.write_view([str(tmp_path / "t.gltf")], str(tmp_path / "t.bin"))
+    assert (tmp_path / "t.bin").read_bytes() == data
+
+
 @pytest.mark.parametrize("device", ["/dev/zero", "fifo"])
 def test_a_file_that_is_not_regular_is_refused_before_reading(tmp_path, device):
     """/dev/zero was read without end by the glTF reader (memory, then killed with a

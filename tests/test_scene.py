@@ -700,6 +700,47 @@ def test_a_cache_entry_that_is_no_file_or_whose_texts_changed_is_a_miss(tmp_path
     assert not hit and again.texts == first.texts and entry.read_text() == good
 
 
+def test_a_cache_entry_that_is_a_folder_is_a_miss_and_left(tmp_path):
+    """A folder where KEY.json goes was exit 1, "Is a directory", after the chain was fitted
+    (session 30, found by fuzzing): it is a miss, the chain fitted and used, the folder left
+    as it is (nothing the scene wrote) and the entry not kept."""
+    from plantlod.scene.levels import level_chain
+
+    cache = tmp_path / "cache"
+    first, _ = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    (entry,) = cache.glob("*.json")
+    entry.unlink()
+    entry.mkdir()
+    (entry / "mine").write_text("x")
+    again, hit = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    assert not hit and again.texts == first.texts
+    assert (entry / "mine").read_text() == "x"
+
+
+def test_a_cache_archive_whose_members_were_swapped_is_read_past(tmp_path):
+    """The archive's comment is a digest of the level texts and of its members: members
+    swapped by hand, the comment kept, ran a 4-branch tree as level 3 (session 30)."""
+    import zipfile
+
+    from plantlod.scene.levels import level_chain
+
+    cache = tmp_path / "cache"
+    first, _ = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    (archive,) = cache.glob("*.trees.zip")
+    with zipfile.ZipFile(archive) as old:
+        names, comment = old.namelist(), old.comment
+        members = [old.read(n) for n in names]
+    assert len(names) >= 3
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_STORED) as new:
+        new.comment = comment
+        for name, data in zip(names, [members[2], members[1], members[0], *members[3:]]):
+            new.writestr(name, data)
+    again, hit = level_chain(pathlib.Path(STALK), 5.0, 0.01, 1.0, cache)
+    assert hit and [t.n_branches for t in again.trees] == [t.n_branches for t in first.trees]
+    with zipfile.ZipFile(archive) as rewritten:            # written again from the texts
+        assert rewritten.read(names[0]) == members[0]
+
+
 def test_a_cache_entry_of_more_than_a_million_bytes_is_a_hit(tmp_path):
     """A tree of about 1,000 branches writes an entry over 1 MB on one line (json.dumps): the
     entry was read with the 1,000,000-byte line cap of other text, so it was always a miss
