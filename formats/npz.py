@@ -224,10 +224,10 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     values["leaf_normal"] = _numbers(arrays, "leaf_normal", source, (f, 3))
     values["address"] = _strings(arrays, "address", source, BRANCH_ADDRESS)
     values["symbol"] = _strings(arrays, "symbol", source)
-    long = next((s for s in values["symbol"] if len(s) != 1), None)
+    long = next((s for s in values["symbol"] if len(s) != 1 or not s.isprintable()), None)
     if long is not None:
-        raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one character "
-                         "a branch", source)
+        raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one printable "
+                         "character a branch", source)
     values["leaf_address"] = _strings(arrays, "leaf_address", source, LEAF_ADDRESS)
     values["group_root"] = (_strings(arrays, "group_root", source, BRANCH_ADDRESS)
                             if "group_root" in arrays else [])

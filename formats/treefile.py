@@ -587,7 +587,7 @@ class _Branches:
         if len(set(address)) != len(address) or not self.seen.keys().isdisjoint(address):
             raise _Reject
         symbol = _typed(cols["symbol"], {str})
-        if not set(map(len, symbol)) <= {1}:
+        if not set(map(len, symbol)) <= {1} or not "".join(symbol).isprintable():
             raise _Reject
         parent = _integers(cols["parent"])
         if np.any((parent < -1) | (parent >= np.arange(start, start + len(parent)))):
@@ -620,9 +620,11 @@ class _Branches:
                                  f"{self.seen[address]}; branch addresses are unique", "address")
             self.seen[address] = i
             symbol = line.string("symbol")
-            if len(symbol) != 1:
-                raise line.error(f'"symbol" must be one character, got '
-                                 f"{json.dumps(symbol, ensure_ascii=False)}", "symbol")
+            # (printable: "\ud800", half a surrogate pair, was read, and refused by the API)
+            if len(symbol) != 1 or not symbol.isprintable():
+                raise line.error(f'"symbol" must be one printable character, got '
+                                 f"{json.dumps(symbol, ensure_ascii=not symbol.isprintable())}",
+                                 "symbol")
             values = [line.number(k) for k in (*BRANCH_FLOAT_FIELDS, "phi", "alpha", "psi")]
             extra = {}
             if "group_root" in self.extras:
