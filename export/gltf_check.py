@@ -354,3 +354,91 @@ def _check_nodes(c: _Checker) -> None:
         for node in scene.nodes or []:
             c.index(node, "nodes", f"scenes[{i}].nodes")
     c.index(getattr(c.doc, "scene", None), "scenes", "scene", optional=True)
+
+
+def gltf_json(data: bytes) -> bytes | None:
+    """The JSON text of a .gltf file's bytes or of a GLB's first chunk (None: neither)."""
+    if data[:4] == GLB_MAGIC:
+        if len(data) < 20:
+            return None
+        size = struct.unpack_from("<I", data, 12)[0]
+        return data[20:20 + size]
+    return data
+
+
+def check_raw_json(data: bytes, path: str) -> None:
+    """What the glTF reader (pygltflib) would change before `check_document` sees it: JSON's
+    NaN and Infinity (not JSON; "cannot convert float NaN to integer" before), and values of
+    the wrong JSON type it casts (an accessor count of 1.5 read as 1, "3" as 3). Checked on
+    the file's own JSON: counts, offsets, lengths and strides whole numbers; a node's
+    rotation 4 numbers, translation and scale 3, matrix 16; a primitive's mode 0..6; an
+    animation sampler's interpolation LINEAR, STEP or CUBICSPLINE and its input a SCALAR of
+    floats (glTF 2.0, 3.6-3.11). Text that is not JSON is left to the reader."""
+    import json
+
+    text = gltf_json(data)
+    if text is None:
+        return
+
+    def constant(name: str):
+        raise InputError(f"the glTF's JSON holds {name}, which JSON has no number for", path)
+
+    try:
+        doc = json.loads(text.decode("utf-8-sig"), parse_constant=constant)
+    except (ValueError, RecursionError):
+        return
+    if not isinstance(doc, dict):
+        return
+    c = _Checker(None, path)
+
+    def listed(name: str) -> list:
+        value = doc.get(name)
+        return [v if isinstance(v, dict) else {} for v in value] if isinstance(value, list) else []
+
+    def whole(value, what: str) -> None:
+        if value is not None and (not isinstance(value, int) or isinstance(value, bool)):
+            c.fail(f"{what} is {_json(value)}; expected a whole number")
+
+    def numbers(value, size: int, what: str) -> None:
+        if value is not None and not (isinstance(value, list) and len(value) == size and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)):
+            c.fail(f"{what} is {_json(value)}; expected {size} numbers")
+
+    for i, buffer in enumerate(listed("buffers")):
+        whole(buffer.get("byteLength"), f"buffers[{i}].byteLength")
+    for i, view in enumerate(listed("bufferViews")):
+        for key in ("buffer", "byteOffset", "byteLength", "byteStride", "target"):
+            whole(view.get(key), f"bufferViews[{i}].{key}")
+    accessors = listed("accessors")
+    for i, acc in enumerate(accessors):
+        for key in ("bufferView", "byteOffset", "componentType", "count"):
+            whole(acc.get(key), f"accessors[{i}].{key}")
+    for i, node in enumerate(listed("nodes")):
+        for key, size in (("rotation", 4), ("translation", 3), ("scale", 3), ("matrix", 16)):
+            numbers(node.get(key), size, f"nodes[{i}].{key}")
+        for key in ("mesh", "skin", "camera"):
+            whole(node.get(key), f"nodes[{i}].{key}")
+    for i, mesh in enumerate(listed("meshes")):
+        prims = mesh.get("primitives")
+        for j, prim in enumerate(prims if isinstance(prims, list) else []):
+            mode = prim.get("mode") if isinstance(prim, dict) else None
+            if mode is not None and (not isinstance(mode, int) or isinstance(mode, bool)
+                                     or not 0 <= mode <= 6):
+                c.fail(f"meshes[{i}].primitives[{j}].mode is {_json(mode)}; expected 0..6")
+    for i, anim in enumerate(listed("animations")):
+        samplers = anim.get("samplers")
+        for j, sampler in enumerate(samplers if isinstance(samplers, list) else []):
+            if not isinstance(sampler, dict):
+                continue
+            what = f"animations[{i}].samplers[{j}]"
+            how = sampler.get("interpolation")
+            if how is not None and how not in ("LINEAR", "STEP", "CUBICSPLINE"):
+                c.fail(f"{what}.interpolation is {_json(how)}; expected LINEAR, STEP or "
+                       "CUBICSPLINE")
+            k = sampler.get("input")
+            if isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(accessors):
+                acc = accessors[k]
+                if acc.get("type") != "SCALAR" or acc.get("componentType") != 5126:
+                    c.fail(f"{what}.input is accessors[{k}], a {_json(acc.get('type'))} of "
+                           f"componentType {_json(acc.get('componentType'))}; expected a "
+                           "SCALAR of floats (5126): the key times")

@@ -21,7 +21,8 @@ from plantlod.formats.kinds import SNIFF_CHARS, USDC_MAGIC, other_kind, text_kin
 from plantlod.lsys.errors import InputError
 
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
-from .gltf_check import GLB_MAGIC, check_buffer_uris, check_document, check_glb_container
+from .gltf_check import (GLB_MAGIC, check_buffer_uris, check_document, check_glb_container,
+                         check_raw_json)
 
 GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
 OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
@@ -47,6 +48,7 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
                                  and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
         check_glb_container(data, path)
+    check_raw_json(data, path)                 # (what the reader would cast or choke on)
     try:
         with warnings.catch_warnings():        # pygltflib warns on stderr; the checks below say it
             warnings.simplefilter("ignore")

@@ -188,6 +188,29 @@ def test_a_buffer_link_out_of_the_folder_is_refused_and_a_page_never_replaces_a_
     assert (tmp_path / "t.bin").read_bytes() == data
 
 
+@pytest.mark.parametrize("edit, message", [
+    # pygltflib casts these before the checks see them (1.5 read as 1, "3" as 3), and chokes
+    # on NaN with Python's own words (session 30, found by fuzzing)
+    (lambda d: d["accessors"][0].update(count=1.5), r"accessors\[0\].count is 1.5; expected a whole"),
+    (lambda d: d["accessors"][0].update(count="3"), r'accessors\[0\].count is "3"; expected a whole'),
+    (lambda d: d["nodes"][0].update(rotation=[0, 0, 0]), r"nodes\[0\].rotation is \[0, 0, 0\]; expected 4"),
+    (lambda d: d["nodes"][0].update(matrix=[1] * 15), r"nodes\[0\].matrix is .*; expected 16 numbers"),
+    (lambda d: d["meshes"][0]["primitives"][0].update(mode=99), r"mode is 99; expected 0..6"),
+    (lambda d: d["animations"][0]["samplers"][0].update(interpolation="CUBIC"),
+     r'interpolation is "CUBIC"; expected LINEAR, STEP or CUBICSPLINE'),
+    (lambda d: d["animations"][0]["samplers"][0].update(
+        input=d["animations"][0]["samplers"][0]["output"]), r"expected a SCALAR of floats"),
+    (lambda d: d["accessors"][0].update(min=float("nan")), r"JSON holds NaN, which JSON has no number"),
+])
+def test_values_the_gltf_reader_would_cast_are_refused(files, tmp_path, edit, message):
+    doc = json.loads((files / "s.gltf").read_text())
+    edit(doc)
+    path = tmp_path / "t.gltf"
+    path.write_text(json.dumps(doc))                 # (json writes NaN as the literal NaN)
+    with pytest.raises(InputError, match=message):
+        glb_from_file(str(path))
+
+
 @pytest.mark.parametrize("device", ["/dev/zero", "fifo"])
 def test_a_file_that_is_not_regular_is_refused_before_reading(tmp_path, device):
     """/dev/zero was read without end by the glTF reader (memory, then killed with a
