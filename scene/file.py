@@ -506,7 +506,9 @@ def read_scene(path: str) -> Scene:
 
     cam_t = data.get("camera")
     if not isinstance(cam_t, dict):
-        raise r.error("missing [camera]: expected position and target (or [[camera.key]] "
+        said = ("missing [camera]" if cam_t is None else
+                "[camera] must be a table")   # (camera = "front" said "missing")
+        raise r.error(f"{said}: expected position and target (or [[camera.key]] "
                       "entries), and optionally fov_deg (default 60) and height_px (default "
                       "1080)", "camera")
     with r.table("camera"):
@@ -574,11 +576,11 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
             raise r.error("the camera's target is its position; expected a direction to look in",
                           "target")
         return Camera(pos, tgt, fov, height)
+    if not isinstance(keys, list) or not keys or not all(isinstance(k, dict) for k in keys):
+        raise r.error("camera keys are [[camera.key]] tables (t, position, target)", "key")
     if "position" in cam_t or "target" in cam_t:
         raise r.error("[camera] has both position/target and [[camera.key]] entries; expected "
                       "one or the other", "position" if "position" in cam_t else "target")
-    if not isinstance(keys, list) or not keys or not all(isinstance(k, dict) for k in keys):
-        raise r.error("camera keys are [[camera.key]] tables (t, position, target)", "key")
     times, positions, targets = [], [], []
     for index, key in enumerate(keys):
         with r.table("camera.key", index):
@@ -594,6 +596,22 @@ def _camera(r: _Reader, cam_t: dict) -> Camera:
             with r.table("camera.key", index + 1):
                 raise r.error("camera keys must have increasing times 't'", "t")
     kt, kp, ktg = np.array(times), np.array(positions), np.array(targets)
+    # between two keys position and target move linearly: their difference d0 + s (d1 - d0)
+    # passes through 0 where the camera would look at its own position (a key that does is
+    # refused above; one crossed between keys was accepted, session 30)
+    look = ktg - kp
+    for index, (d0, d1) in enumerate(zip(look, look[1:])):
+        step = d1 - d0
+        reach = float(step @ step)
+        s_ = min(max(-float(d0 @ step) / reach, 0.0), 1.0) if reach > 0 else 0.0
+        if np.array_equal(d0 + s_ * step, np.zeros(3)) or (
+                np.linalg.norm(d0 + s_ * step) <= 1e-12 * max(np.linalg.norm(d0), np.linalg.norm(d1))):
+            at = kt[index] + s_ * (kt[index + 1] - kt[index])
+            with r.table("camera.key", index + 1):
+                raise r.error(f"between the camera keys at t = {kt[index]:g} and "
+                              f"{kt[index + 1]:g} s the camera would look at its own position "
+                              f"(at t = {at:.6g} s); expected a target apart from the position "
+                              "all along", "target")
     return Camera(kp[0], ktg[0], fov, height, kt, kp, ktg)
 
 

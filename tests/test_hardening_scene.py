@@ -802,3 +802,25 @@ def test_a_tree_file_that_is_not_regular_is_named_so(tmp_path):
     path = scene_file(tmp_path, '[[tree]]\nfile = "/dev/null"\n')
     run = run_cli("scene", path, "--no-cache", exit_code=2)
     one_line(run, 2, "tree file '/dev/null' is not a regular file")
+
+
+@pytest.mark.parametrize("camera, where, message", [
+    # (session 30, found by fuzzing: the first said "missing [camera]", the second "both
+    # position/target and [[camera.key]] entries", the third ran)
+    ('camera = "front"\n', 1, "[camera] must be a table"),
+    ("[camera]\nposition = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\nkey = [1, 2]\n", 4,
+     "camera keys are [[camera.key]] tables"),
+    ("[[camera.key]]\nt = 0\nposition = [0, 0, 1]\ntarget = [0, 2, 1]\n"
+     "[[camera.key]]\nt = 2\nposition = [0, 2, 1]\ntarget = [0, 0, 1]\n", 8,
+     "between the camera keys at t = 0 and 2 s the camera would look at its own position "
+     "(at t = 1 s)"),
+])
+def test_camera_tables_of_the_wrong_shape_are_named_at_their_line(tmp_path, camera, where,
+                                                                 message):
+    path = tmp_path / "s.toml"
+    path.write_text(camera + f'dt = 0.01\nduration = 1\n[[tree]]\nfile = "{STALK}"\n'
+                    if camera.startswith("camera") else
+                    f'dt = 0.01\nduration = 1\n[[tree]]\nfile = "{STALK}"\n' + camera)
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
+    first = 1 if camera.startswith("camera") else 5
+    assert line.startswith(f"{path}:{first + where - 1}:"), line
