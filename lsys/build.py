@@ -41,7 +41,8 @@ def build(system: LSystem, steps: int | None = None,
     interpreted = interpret(system, derived, max_modules=max_modules)
     tree, warnings = build_tree_with_warnings(system, interpreted)
     if system.groups:
-        tree = _with_group_roots(system, tree)
+        tree, unmatched = _with_group_roots(system, tree)
+        warnings.extend(unmatched)
     if tree.n_branches == 0:
         warnings.append(no_branches_message(system))
     elif system.leaves and tree.n_leaves == 0 and not warnings and not system.groups:
@@ -64,8 +65,10 @@ def no_branches_message(system: LSystem) -> str:
             "so nothing moves")
 
 
-def _with_group_roots(system: LSystem, tree: Tree) -> Tree:
-    """``tree`` with `Tree.group_root` from the file's groups: section (every branch named)."""
+def _with_group_roots(system: LSystem, tree: Tree) -> tuple[Tree, list[str]]:
+    """``tree`` with `Tree.group_root` from the file's groups: section (every branch named),
+    and a warning for each line naming an address that draws no branch (as an override
+    that matches nothing gets; such a line was taken without a word, session 30)."""
     from dataclasses import replace
 
     from .errors import InputError
@@ -76,7 +79,13 @@ def _with_group_roots(system: LSystem, tree: Tree) -> Tree:
         raise InputError(f"the groups: section names no group for the branch at {missing[0]}"
                          f" ({len(missing)} branches without one); expected a line per branch",
                          system.source or None)
-    return replace(tree, group_root=[roots[a] for a in tree.address])
+    drawn = set(tree.address)
+    unmatched = [a for a in roots if a not in drawn]
+    said = [f"groups: line for address {a} names no branch the file draws"
+            for a in unmatched[:3]]
+    if len(unmatched) > 3:
+        said.append(f"{len(unmatched) - 3:,} more groups: lines name no branch the file draws")
+    return replace(tree, group_root=[roots[a] for a in tree.address]), said
 
 
 def build_tree_with_warnings(system: LSystem, interpreted: DerivedString) -> tuple[Tree, list[str]]:

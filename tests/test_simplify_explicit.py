@@ -122,6 +122,12 @@ def test_groups_section_round_trips_and_is_checked(tmp_path):
     result = run_cli("compare", "examples/stalk8.lsys", str(bad), "--dt", "0.01", "--steps", "10",
                      "--wind-speed", "1", exit_code=2)
     assert "no branch of the original" in result.stderr
+    # a line for an address that draws nothing is told, as an override for one is (it was
+    # taken without a word, session 30)
+    extra = tmp_path / "extra.lsys"
+    extra.write_text(text.replace("groups:\n", "groups:\n  77: 0.0.0.0\n"))
+    result = run_cli("derive", str(extra), "-o", str(tmp_path / "t.jsonl"))
+    assert "groups: line for address 77 names no branch the file draws" in result.stderr
 
 
 def test_unequal_strengths_keep_the_period():
