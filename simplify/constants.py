@@ -35,6 +35,7 @@ SIMPLIFY_DT = 0.01            # s, measurement runs (periods are 2.5 to 4.5 s)
 SIMPLIFY_DURATION = 20.0      # s, at least four periods
 SIMPLIFY_WIND_RANGE = (0.5, 20.0)   # m/s
 SIMPLIFY_EVERY = 4            # keep every 4th step when measuring
+MIN_SAMPLES_PER_PERIOD = 8    # a branch period shorter than this many measurement samples is aliased (a warning)
 CALIBRATION_EVALUATIONS = 40  # candidate trees simulated by --calibrate (each at every wind)
 CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_FA, C_d, strengths
 CALIBRATION_STABILITY_MARGIN = 0.9  # largest fraction of the stability limit a strength may reach

@@ -112,6 +112,27 @@ def test_leaves_of_area_zero_are_simplified_as_no_leaves_without_a_warning(tmp_p
         assert getattr(levels[0], name).tolist() == getattr(levels[1], name).tolist(), name
 
 
+def test_branches_swinging_faster_than_the_runs_sample_are_warned_of(tmp_path):
+    """A strength of 399,000 at dt = 0.01 s swings in 2.07 steps (model.md 4: P = 2π dt /
+    arccos(1 - k dt / 2000)), under 8 samples of runs kept every 4 steps: its figures are
+    aliased (46,464 % with no word, session 30). The dt named keeps 8 samples a period:
+    arccos(1 - k dt / 2000) <= 2π / 32 at dt = 2000 (1 - cos(2π / 32)) / k = 9.6e-5 s."""
+    stiff = _write(tmp_path, HEAD.replace("bend_strength=30 rotation_strength=30",
+                                          "bend_strength=399000 rotation_strength=399000")
+                   + BUSH.format(turn=""))
+    result = run_cli("simplify", stiff, "--level", "1", "--form", "explicit", "-o",
+                     str(tmp_path / "s1.lsys"))
+    period = 2 * math.pi * 0.01 / math.acos(1 - 399000 * 0.01 / 2000)
+    assert (f"the stiffest branch (strength 399000) swings with a period of {period:.3g} s, "
+            "under 8 samples") in result.stderr
+    dt = 2000 * (1 - math.cos(2 * math.pi / 32)) / 399000
+    assert f"give a dt of {float(f'{dt:.2g}'):g} s or less" in result.stderr
+    assert "9.6e-05" in result.stderr
+    plain = run_cli("simplify", _write(tmp_path, HEAD + BUSH.format(turn=""), "p.lsys"),
+                    "--level", "1", "--form", "explicit", "-o", str(tmp_path / "p1.lsys"))
+    assert "stiffest branch" not in plain.stderr
+
+
 @pytest.mark.parametrize("where", ["symbol", "override"])
 def test_branches_that_absorb_no_force_are_simplified_and_held_to_the_bounds(tmp_path, where):
     """A stiff trunk T of force_absorbed = 0 (legal: it never moves) under swaying laterals:
