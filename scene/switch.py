@@ -94,9 +94,8 @@ class Transfer:
         from plantlod.sim.kinematics import depth_levels, pose
 
         fine, coarse = self.trees[a], self.trees[b]
-        fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)} if a else None
-        target_of = np.array([fine_tip[int(p[-1])] if fine_tip is not None else int(p[-1])
-                              for p in self.paths(b)], dtype=np.int64)
+        fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)}
+        target_of = np.array([fine_tip[int(p[-1])] for p in self.paths(b)], dtype=np.int64)
         tips = pose(fine, state[0], state[2]).tip[target_of]                   # (B_b, 3)
         bend, rot = bend.copy(), rot.copy()
         at = np.zeros((2, coarse.n_branches))       # level b's angles set so far (parents)
