@@ -95,8 +95,10 @@ class Transfer:
 
         fine, coarse = self.trees[a], self.trees[b]
         fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)}
-        target_of = np.array([fine_tip[int(p[-1])] for p in self.paths(b)], dtype=np.int64)
-        tips = pose(fine, state[0], state[2]).tip[target_of]                   # (B_b, 3)
+        # (-1: no such tip, where levels were not nested; that chord keeps its combined angles)
+        target_of = np.array([fine_tip.get(int(p[-1]), -1) if len(p) else -1
+                              for p in self.paths(b)], dtype=np.int64)
+        tips = pose(fine, state[0], state[2]).tip[np.maximum(target_of, 0)]   # (B_b, 3)
         bend, rot = bend.copy(), rot.copy()
         at = np.zeros((2, coarse.n_branches))       # level b's angles set so far (parents)
         for depth in depth_levels(np.asarray(coarse.parent, dtype=np.int64)):
@@ -105,7 +107,7 @@ class Transfer:
             d = np.einsum("gji,gj->gi", posed.swing[depth], reach)          # Sᵀ (tip - base)
             size = np.linalg.norm(d, axis=1)
             side = np.hypot(d[:, 0], d[:, 1])
-            good = size > 0
+            good = (size > 0) & (target_of[depth] >= 0)
             theta = np.arccos(np.clip(d[:, 2] / np.where(good, size, 1.0), -1.0, 1.0))
             scale = np.where(side > 0, theta / np.where(side > 0, side, 1.0), 0.0)
             bend[depth] = np.where(good, scale * d[:, 0], bend[depth])
