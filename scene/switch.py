@@ -252,7 +252,8 @@ def switch_error(chain, transfer: Transfer, level: int, speed: float, dt: float,
     """Metres: how far a switch into level ``level`` puts its tips from where the level run
     from rest has them, the worst over steady winds of ``speed`` m/s toward
     TIP_ERROR_DIRECTIONS (relative to the tree, as the levels' tip errors are measured),
-    switches every SWITCH_SAMPLE_S of a run of ``duration`` s and SWITCH_FOLLOW_S after each.
+    switches every SWITCH_SAMPLE_S of a run of ``duration`` s (at its end where it is
+    shorter) and SWITCH_FOLLOW_S after each.
 
     A switch to a finer level starts it from `Transfer.predicted`, linear theory, and in the
     undamped model what that misses swings on; in a strong wind the tree's lean makes it
@@ -273,8 +274,8 @@ def switch_error(chain, transfer: Transfer, level: int, speed: float, dt: float,
     gap = every * max(1, int(round(SWITCH_SAMPLE_S / (every * dt))))   # steps between switches
     steps = int(round(duration / dt))
     follow = every * max(1, int(round(SWITCH_FOLLOW_S / (every * dt))))
-    starts = list(range(gap, steps + 1, gap))
-    if not starts or tree.n_branches == 0 or speed <= 0:
+    starts = list(range(gap, steps + 1, gap)) or [steps // every * every]   # (a short run: its end)
+    if not starts[0] or tree.n_branches == 0 or speed <= 0:
         return 0.0
     worst = 0.0
     for direction in TIP_ERROR_DIRECTIONS:

@@ -258,6 +258,8 @@ def test_switch_error_is_the_predicted_state_run_on_against_the_level_from_rest(
             assert got < 0.005 * travel
         else:
             assert got > 0.01                                      # metres
+    # a scene shorter than the 2 s between switches is measured at its end (it was 0)
+    assert switch_error(chain, transfer, level, 15.0, dt, 1.0) > 0.001
 
 
 def test_returns_are_levels_a_row_comes_back_to():
