@@ -68,6 +68,8 @@ def buffer_files(path: str, max_bytes: int) -> list[str]:
     import json
 
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):   # (a FIFO would wait: its reader says)
+            return []
         with open(path, "rb") as f:
             data = f.read(max_bytes + 1)
         if data[:4] == GLB_MAGIC and len(data) >= 20:
@@ -80,7 +82,11 @@ def buffer_files(path: str, max_bytes: int) -> list[str]:
     out = []
     for buffer in buffers if isinstance(buffers, list) else []:
         uri = buffer.get("uri") if isinstance(buffer, dict) else None
-        if isinstance(uri, str) and uri and not urllib.parse.urlsplit(uri).scheme:
+        try:
+            local = isinstance(uri, str) and uri and not urllib.parse.urlsplit(uri).scheme
+        except ValueError:                   # ("//[x": an invalid IPv6 host; its reader says)
+            continue
+        if local:
             out.append(os.path.join(os.path.dirname(os.path.abspath(path)),
                                     urllib.parse.unquote(uri)))
     return out
@@ -97,7 +103,11 @@ def check_buffer_uris(doc, path: str, max_bytes: int) -> None:
         uri = getattr(buffer, "uri", None)
         if uri is None or (isinstance(uri, str) and uri.startswith("data:")):
             continue
-        if not isinstance(uri, str) or not uri or urllib.parse.urlsplit(uri).scheme:
+        try:
+            scheme = urllib.parse.urlsplit(uri).scheme if isinstance(uri, str) else None
+        except ValueError:                   # ("//[x": an invalid IPv6 host)
+            scheme = "?"
+        if not isinstance(uri, str) or not uri or scheme:
             raise InputError(f"buffer URI {str(uri)[:80]!r}: expected a data: URI or the name "
                              "of a file beside the glTF", path)
         name = urllib.parse.unquote(uri)

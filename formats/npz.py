@@ -23,7 +23,7 @@ import zlib
 import numpy as np
 
 from plantlod.lsys.errors import InputError
-from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree
+from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, is_symbol
 
 from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL
 from .text_input import reading, source_name, stdin_bytes
@@ -224,10 +224,10 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     values["leaf_normal"] = _numbers(arrays, "leaf_normal", source, (f, 3))
     values["address"] = _strings(arrays, "address", source, BRANCH_ADDRESS)
     values["symbol"] = _strings(arrays, "symbol", source)
-    long = next((s for s in values["symbol"] if len(s) != 1 or not s.isprintable()), None)
+    long = next((s for s in values["symbol"] if not is_symbol(s)), None)
     if long is not None:
-        raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one printable "
-                         "character a branch", source)
+        raise InputError(f"'symbol' in the archive holds {long[:60]!r}; expected one character "
+                         "a branch (not a control character nor half a surrogate pair)", source)
     values["leaf_address"] = _strings(arrays, "leaf_address", source, LEAF_ADDRESS)
     values["group_root"] = (_strings(arrays, "group_root", source, BRANCH_ADDRESS)
                             if "group_root" in arrays else [])

@@ -29,7 +29,7 @@ import numpy as np
 from .constants import MAX_JSON_DEPTH, NORMAL_UNIT_TOL
 from plantlod.lsys.checks import digits_past_limit
 from plantlod.lsys.errors import InputError, RunFailure
-from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths
+from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths, is_symbol
 
 FORMAT_NAME = "plantlod-tree"
 # Version 1: plain trees. Version 2: a level's tree, whose header lists in "extras" the
@@ -587,7 +587,7 @@ class _Branches:
         if len(set(address)) != len(address) or not self.seen.keys().isdisjoint(address):
             raise _Reject
         symbol = _typed(cols["symbol"], {str})
-        if not set(map(len, symbol)) <= {1} or not "".join(symbol).isprintable():
+        if not all(map(is_symbol, symbol)):
             raise _Reject
         parent = _integers(cols["parent"])
         if np.any((parent < -1) | (parent >= np.arange(start, start + len(parent)))):
@@ -620,9 +620,10 @@ class _Branches:
                                  f"{self.seen[address]}; branch addresses are unique", "address")
             self.seen[address] = i
             symbol = line.string("symbol")
-            # (printable: "\ud800", half a surrogate pair, was read, and refused by the API)
-            if len(symbol) != 1 or not symbol.isprintable():
-                raise line.error(f'"symbol" must be one printable character, got '
+            # ("\ud800", half a surrogate pair, was read, and refused by the API)
+            if not is_symbol(symbol):
+                raise line.error(f'"symbol" must be one character (not a control character '
+                                 f'nor half a surrogate pair), got '
                                  f"{json.dumps(symbol, ensure_ascii=not symbol.isprintable())}",
                                  "symbol")
             values = [line.number(k) for k in (*BRANCH_FLOAT_FIELDS, "phi", "alpha", "psi")]

@@ -629,7 +629,7 @@ def _checked(tree: Tree) -> Tree:
     it (a parent cycle made `write_tree` loop forever, a short array leaked numpy's errors)."""
     from plantlod.formats.treefile import (BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS,
                                            POSITIVE_FIELDS)
-    from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS
+    from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, is_symbol
 
     try:
         for name in ("parent", "leaf_branch"):
@@ -675,8 +675,9 @@ def _checked(tree: Tree) -> Tree:
         if not all(isinstance(a, str) and pattern.match(a) for a, pattern in addresses):
             raise ValueError("its addresses must be strings like '0.2.1' (a branch's may end "
                              "in ':K')")
-        if not all(isinstance(s, str) and len(s) == 1 and s.isprintable() for s in tree.symbol):
-            raise ValueError("its symbols must be single characters")
+        if not all(map(is_symbol, tree.symbol)):     # (as the tree files' readers hold them)
+            raise ValueError("its symbols must be single characters (not control characters "
+                             "nor halves of surrogate pairs)")
         if tree.group_root and len(tree.group_root) != tree.n_branches:
             raise ValueError(f"group_root must name a root for each of its {tree.n_branches} "
                              "branches, or none")

@@ -131,37 +131,59 @@ def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: 
     if out.shape[1] == 0:
         return out, within.astype(np.int16)
     well = _coarsest(px, HYSTERESIS * budget)
+    out = _walk(px, within, well, budget)
     if switch_error_m is not None:
-        well = np.minimum(well, held_levels(scene, members, tip_error_m, switch_error_m,
-                                            times, budget, within))
+        held = held_levels(scene, members, tip_error_m, switch_error_m, times, budget, out)
+        out = _walk(px, within, np.minimum(well, held), budget)
+    return out, within.astype(np.int16)
+
+
+def _walk(px: np.ndarray, within: np.ndarray, well: np.ndarray, budget: float) -> np.ndarray:
+    """(n, F) int16: each frame's level, from the coarsest within ``budget`` at the first
+    frame, finer at once where the level overspends (to ``within``), coarser to ``well``."""
+    out = np.empty(within.shape, dtype=np.int16)
     current = within[:, 0].copy()
-    rows = np.arange(len(members))
+    rows = np.arange(within.shape[0])
     for f in range(out.shape[1]):
         over = px[rows, f, current] > budget
         current = np.where(over, within[:, f], np.maximum(current, well[:, f]))
         out[:, f] = current
-    return out, within.astype(np.int16)
+    return out
 
 
 def held_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
                 switch_error_m: np.ndarray, times: np.ndarray, budget: float,
-                within: np.ndarray) -> np.ndarray:
+                levels: np.ndarray) -> np.ndarray:
     """(n, F): the coarsest level each member may move to at each frame, so that it never
-    has to switch to a finer level whose switch overspends the budget.
+    has to switch to a finer level whose switch overspends the budget. ``levels`` (n, F):
+    the schedule without the hold, whose switches to a finer level are the ones judged.
 
     A switch into level l at frame f' is *dear* where (e_l + s_l) times the pixels per metre
-    at the nearest the tree comes from f' on exceeds ``budget`` (e the tip error, s the
-    switch error, both (L,) m; what a switch misses swings on in the undamped model, so it
-    is seen wherever the tree is seen after it); l = ``within`` (n, F), the level each frame
-    needs. At frame f a tree may go no coarser than the finest level needed at a dear frame
-    from f on: it keeps running there, and comes back without a switch. A tree that only
-    comes nearer never goes coarser, and one that leaves for good is not held."""
-    seen = seen_scale(scene, members, times, look_ahead=True)
-    cost = (np.asarray(tip_error_m) + np.asarray(switch_error_m))[within]  # (n, F) m
+    at the nearest the tree comes within SWITCH_FOLLOW_S of f' exceeds ``budget`` (e the
+    tip error, s the switch error, both (L,) m, s measured over that time after a switch,
+    `switch.switch_error`; a later switch to a finer level starts from a new prediction);
+    l = ``levels`` at f', a frame where they go finer. At frame f a tree may go no coarser
+    than the finest level needed at a dear frame from f on: it keeps running there, and
+    comes back without a switch. A tree that only comes nearer never goes coarser, and one
+    that leaves for good is not held. (Judged at the nearest the tree comes from f' on,
+    the tip error alone was over the budget wherever the tree came nearer later, and any
+    switch error held it; a review, session 30.)"""
+    from scipy.ndimage import maximum_filter1d
+
+    from .constants import SWITCH_FOLLOW_S
+
+    seen = seen_scale(scene, members, times)
+    if len(times) > 1 and seen.size:
+        size = int(np.searchsorted(times - times[0], SWITCH_FOLLOW_S, side="right"))
+        seen = maximum_filter1d(seen, size, axis=1, mode="nearest", origin=-(size // 2))
+    levels = np.asarray(levels, dtype=np.int64)
+    cost = (np.asarray(tip_error_m) + np.asarray(switch_error_m))[levels]  # (n, F) m
+    finer = np.zeros(levels.shape, dtype=bool)
+    finer[:, 1:] = levels[:, 1:] < levels[:, :-1]
     with np.errstate(invalid="ignore"):
-        dear = (cost * seen > budget) & (switch_error_m[within] > 0)
+        dear = finer & (cost * seen > budget) & (np.asarray(switch_error_m)[levels] > 0)
     last = len(tip_error_m) - 1
-    need = np.where(dear, within, last)
+    need = np.where(dear, levels, last)
     return np.minimum.accumulate(need[:, ::-1], axis=1)[:, ::-1]
 
 

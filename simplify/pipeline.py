@@ -577,6 +577,7 @@ def _sampling_notes(original: Tree, options: Options) -> list[str]:
     in 2.2 steps: a level's figures of 46,464 %, no word of why; session 30). The fix it
     names: the largest dt under which P holds that many samples."""
     from .explicit import period_of_strength
+    from .levels import round_sig_down
 
     if original.n_branches == 0:
         return []
@@ -593,7 +594,7 @@ def _sampling_notes(original: Tree, options: Options) -> list[str]:
             f"{fastest:.3g} s, under {MIN_SAMPLES_PER_PERIOD} samples of the measurement runs "
             f"(every {options.every} steps of {options.dt:g} s), so the periods and amplitudes "
             f"read from them are aliased and the level's figures mean little; give a dt of "
-            f"{float(f'{wanted:.2g}'):g} s or less"]
+            f"{round_sig_down(wanted, 2):g} s or less"]
 
 
 def _measured(original: Tree, runs: Runs, tree: Tree, options: Options) -> tuple:

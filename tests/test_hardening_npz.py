@@ -296,8 +296,8 @@ def test_an_archive_version_other_than_1_is_refused(change, fragment):
 
 
 @pytest.mark.parametrize("field, value, fragment", [
-    ("symbol", "FF", "'symbol' in the archive holds 'FF'; expected one printable character"),
-    ("symbol", "\ud800", "'symbol' in the archive holds '\\ud800'; expected one printable"),
+    ("symbol", "FF", "'symbol' in the archive holds 'FF'; expected one character"),
+    ("symbol", "\ud800", "'symbol' in the archive holds '\\ud800'; expected one character"),
     ("group_root", "x", "'group_root' in the archive holds 'x', not an address"),
     ("group_root", "0\n1", "'group_root' in the archive holds '0\\n1', not an address"),
     ("address", "0.1:2\n3", "'address' in the archive holds '0.1:2\\n3', not an address"),

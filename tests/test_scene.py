@@ -262,6 +262,37 @@ def test_switch_error_is_the_predicted_state_run_on_against_the_level_from_rest(
     assert switch_error(chain, transfer, level, 15.0, dt, 1.0) > 0.001
 
 
+def test_a_cheap_switch_back_is_not_held_because_the_tree_comes_nearer_later(tmp_path):
+    """A switch's error is spent at the nearest the tree comes within the 3 s it is measured
+    over, not at the nearest it ever comes: a tree the camera comes to later leaves that
+    level anyway, through a new prediction (a review, session 30: judged on its whole future,
+    every return was held wherever the tree came nearer later). The camera, 40 m from the
+    tree, looks away for 1 s (level 4, 1 m, in view would be 23 px) and back (level 3, 0.1 m:
+    2.3 px), then drives to 10 m over 6 s. A switch back into level 3 adding 1 cm costs
+    0.11 m x 23.4 px/m = 2.6 px at 40 m and at most 3.6 px within 3 s (31 m): not dear under
+    a 5 px budget. Level 3 would have been 10.3 px at 10 m, judged on the whole future."""
+    from dataclasses import replace
+
+    from plantlod.scene.schedule import returns, schedules
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1, 1.0])
+    scene = _keyed_scene(tmp_path, [(0.0, -40.0)], duration=10.0)
+    times = np.arange(300) / 30.0
+    y = np.where(times < 3.0, -40.0, np.minimum(-40.0 + 5.0 * (times - 3.0), -10.0))
+    keys = np.stack([np.zeros(300), y, np.full(300, 1.7)], axis=1)
+    away = (times >= 1.0) & (times < 2.0)
+    target = np.where(away[:, None], [0.0, -80.0, 1.7], [0.0, 0.0, 1.7])
+    cam = replace(scene.camera, key_t=times, key_position=keys, key_target=target,
+                  position=keys[0], target=target[0])
+    scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    free = schedules(scene, [0], errors, times, 5.0)[0]
+    assert returns(free) == {3} and free[0, 45] == 4 and free[0, -1] == 2
+    cheap = schedules(scene, [0], errors, times, 5.0, np.array([0, 0, 0, 0.01, 0]))[0]
+    assert cheap.tolist() == free.tolist()
+    dear = schedules(scene, [0], errors, times, 5.0, np.array([0, 0, 0, 0.2, 0]))[0]
+    assert dear[0, 30:60].tolist() == [3] * 30                # held while away
+
+
 def test_returns_are_levels_a_row_comes_back_to():
     from plantlod.scene.schedule import returns
 

@@ -266,10 +266,11 @@ ERRORS = [
     ("branch suffix not a number", edit(3, '"address": "3"', '"address": "3:x"'), 3,
      '"address"', r'"address" must be an address like "0.2.1" or "0.2.1:1"'),
     ("long symbol", edit(3, '"symbol": "G"', '"symbol": "GG"'), 3, '"symbol"',
-     r'"symbol" must be one printable character'),
+     r'"symbol" must be one character'),
     # (half a surrogate pair was read; the API refused the tree it gave, session 30)
     ("surrogate symbol", edit(3, '"symbol": "G"', '"symbol": "\\ud800"'), 3, '"symbol"',
-     r'"symbol" must be one printable character, got "\\ud800"'),
+     r'"symbol" must be one character \(not a control character nor half a surrogate pair\), '
+     r'got "\\ud800"'),
     ("misnumbered branch", edit(4, '"index": 2', '"index": 5'), 4, '"index"',
      r'"index" is 5, expected 2'),
     ("misnumbered leaf", edit(6, '"index": 1', '"index": 0'), 6, '"index"',
@@ -369,8 +370,9 @@ def unit_vectors(n, draw):
 FLOATS = st.floats(allow_nan=False, allow_infinity=False)   # with -0.0, subnormals, 1e308
 AMOUNTS = st.floats(min_value=0, allow_nan=False, allow_infinity=False)   # lengths, areas
 STRENGTHS = st.floats(min_value=0, exclude_min=True, allow_nan=False, allow_infinity=False)
-# any printable character, quotes included (the readers and the API refuse the rest)
-SYMBOLS = st.characters(blacklist_categories=("Cs", "Cc")).filter(str.isprintable)
+# any character but a control character or half a surrogate pair, quotes included (the
+# readers and the API refuse those)
+SYMBOLS = st.characters(blacklist_categories=("Cs", "Cc"))
 ADDRESSES = st.builds(lambda parts, rep: ".".join(map(str, parts)) + (f":{rep}" if rep else ""),
                       st.lists(st.integers(0, 10**6), min_size=1, max_size=6),
                       st.integers(0, 3))
