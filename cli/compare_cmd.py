@@ -345,9 +345,9 @@ def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, a
 
 def _is_frame_in(path: str, folder: str) -> bool:
     """Whether ``path`` lies in ``folder`` under a name the OBJ frames take
-    (`compare_exports.write_pictures`: frame_t<T>.obj, frame_<NNNNN>.obj)."""
+    (`compare_exports.write_pictures`: frame_t<T>.obj, frame_<NNNNN>.obj, five digits or more)."""
     import re
 
     here = os.path.realpath(os.path.dirname(os.path.abspath(path)))
     return (here == os.path.realpath(folder)
-            and re.fullmatch(r"frame_(t.+|[0-9]{5})\.obj", os.path.basename(path)) is not None)
+            and re.fullmatch(r"frame_(t.+|[0-9]{5,})\.obj", os.path.basename(path)) is not None)
