@@ -27,6 +27,7 @@ HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x
 SWITCH_SAMPLE_S = 2.0
 SWITCH_FOLLOW_S = 3.0
 SWITCH_SAMPLE_EVERY_S = 0.05
+TIP_RATE_STEP_S = 1e-6         # s: a tip-matched carry's rates differenced over this much of the finer level's
 SHARE_FLOOR = 1e-9             # a group whose static deflection is below this x the largest shares equally
 WORKER_CHAINS = 16              # level chains a process (a Dask worker) keeps read, one per tree file
 CACHE_ENTRY_MAX_BYTES = 256 << 20   # a cache's KEY.json read at most (a forest's chains: a few MB);

@@ -67,39 +67,55 @@ class Transfer:
         m/s is the wind the tree feels now, in its own frame (for the static shares)."""
         if a == b:
             return state.copy()
-        full = state if a == 0 else self.to_original(a, state, wind)
-        if b == 0:
-            return full.copy()
-        out = self.to_level(b, full)
         if 0 < a < b:          # between two levels: its tips where the finer level has them
-            out[0], out[2] = self.tips_matched(b, a, state, out[0], out[2])
+            targets = self._tip_targets(a, b)
+            if targets is not None:
+                return self._tips_matched_state(a, b, targets, state)
+        full = state if a == 0 else self.to_original(a, state, wind)
+        return full.copy() if b == 0 else self.to_level(b, full)
+
+    def _tip_targets(self, a: int, b: int) -> np.ndarray | None:
+        """(B_b,) the branch of level ``a`` whose tip each branch of level ``b`` stands for
+        (a coarser level's group tips are among a finer level's); None where one is not."""
+        fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)}
+        found = [fine_tip.get(int(p[-1])) if len(p) else None for p in self.paths(b)]
+        return None if any(j is None for j in found) else np.array(found, dtype=np.int64)
+
+    def _tips_matched_state(self, a: int, b: int, targets: np.ndarray,
+                            state: np.ndarray) -> np.ndarray:
+        """Level ``a``'s state (4, B_a) as level ``b``'s (4, B_b), b coarser: angles from
+        `tips_matched`, rates their derivative along level a's rates (the same map at the
+        angles moved by TIP_RATE_STEP_S of them, differenced). The combined angles sum the
+        members' rotation vectors, exact to first order; from the full tree they hold at a
+        strong wind too (a sympodial tree at 15 m/s: level 2's tips 5.5 mm from the tree's),
+        but between two levels the way through the full tree shares level a's angles among
+        the members by linear statics, and there they put level 2's tips 12 cm from level
+        1's (level 2's own tip error 2.9 cm, level 1's 1.7 cm; matched: 1.7 cm; session 30),
+        and it inverts each chord's 2 x 2 carry map, whose near-singular determinant blew a
+        twin_draw switch from level 1 to 2 at 20 m/s up to 5e11 rad/s (84 px at 1 px; a
+        helper's scenes). model.md 7 leaves how a switch carries state free."""
+        from .constants import TIP_RATE_STEP_S
+
+        out = np.empty((4, self.trees[b].n_branches))
+        out[0], out[2] = self.tips_matched(b, a, targets, state[0], state[2])
+        h = TIP_RATE_STEP_S
+        moved_b, moved_r = self.tips_matched(b, a, targets, state[0] + h * state[1],
+                                             state[2] + h * state[3])
+        out[1], out[3] = (moved_b - out[0]) / h, (moved_r - out[2]) / h
         return out
 
-    def tips_matched(self, b: int, a: int, state: np.ndarray, bend: np.ndarray,
-                     rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def tips_matched(self, b: int, a: int, targets: np.ndarray, bend_a: np.ndarray,
+                     rot_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Angles (B_b,) x 2 of the coarser level ``b`` that point each of its chords, from
-        where its parent chords put its base, at the tip of level ``a`` (in ``state``) that
-        its group tip is (a coarser level's group tips are among a finer level's), parents
-        first: with the swing frame S (at the branch's own angles 0) and the unit direction
-        d = Sᵀ (tip - base) / |tip - base|, model.md 3's Rot turns e_z to
-        (sin θ b/θ, sin θ r/θ, cos θ), so θ = arccos d_z and (θb, θr) = θ (d_x, d_y) /
-        |(d_x, d_y)|. The combined angles (``bend``, ``rot``: `to_level`) sum the members'
-        rotation vectors, exact to first order; from the full tree they hold at a strong
-        wind too (a sympodial tree at 15 m/s: level 2's tips 5.5 mm from the tree's), but
-        between two levels the way through the full tree shares level a's angles among the
-        members by linear statics, and there they put level 2's tips 12 cm from level 1's
-        (level 2's own tip error 2.9 cm, level 1's 1.7 cm; matched: 1.7 cm; session 30). So
-        `carry` matches tips between two levels only. Where a chord's target is its base,
-        its combined angles are kept. model.md 7 leaves how a switch carries state free."""
+        where its parent chords put its base, at the tip of the branch ``targets`` names in
+        level ``a`` posed at ``bend_a``, ``rot_a``, parents first: with the swing frame S (at
+        the branch's own angles 0) and the unit direction d = Sᵀ (tip - base) / |tip - base|,
+        model.md 3's Rot turns e_z to (sin θ b/θ, sin θ r/θ, cos θ), so θ = arccos d_z and
+        (θb, θr) = θ (d_x, d_y) / |(d_x, d_y)|; 0 where the target is the base itself."""
         from plantlod.sim.kinematics import depth_levels, pose
 
         fine, coarse = self.trees[a], self.trees[b]
-        fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)}
-        # (-1: no such tip, where levels were not nested; that chord keeps its combined angles)
-        target_of = np.array([fine_tip.get(int(p[-1]), -1) if len(p) else -1
-                              for p in self.paths(b)], dtype=np.int64)
-        tips = pose(fine, state[0], state[2]).tip[np.maximum(target_of, 0)]   # (B_b, 3)
-        bend, rot = bend.copy(), rot.copy()
+        tips = pose(fine, bend_a, rot_a).tip[targets]                         # (B_b, 3)
         at = np.zeros((2, coarse.n_branches))       # level b's angles set so far (parents)
         for depth in depth_levels(np.asarray(coarse.parent, dtype=np.int64)):
             posed = pose(coarse, at[0], at[1])      # (this depth's own angles still 0)
@@ -107,13 +123,10 @@ class Transfer:
             d = np.einsum("gji,gj->gi", posed.swing[depth], reach)          # Sᵀ (tip - base)
             size = np.linalg.norm(d, axis=1)
             side = np.hypot(d[:, 0], d[:, 1])
-            good = (size > 0) & (target_of[depth] >= 0)
-            theta = np.arccos(np.clip(d[:, 2] / np.where(good, size, 1.0), -1.0, 1.0))
+            theta = np.arccos(np.clip(d[:, 2] / np.where(size > 0, size, 1.0), -1.0, 1.0))
             scale = np.where(side > 0, theta / np.where(side > 0, side, 1.0), 0.0)
-            bend[depth] = np.where(good, scale * d[:, 0], bend[depth])
-            rot[depth] = np.where(good, scale * d[:, 1], rot[depth])
-            at[0, depth], at[1, depth] = bend[depth], rot[depth]
-        return bend, rot
+            at[0, depth], at[1, depth] = scale * d[:, 0], scale * d[:, 1]
+        return at[0], at[1]
 
     def to_level(self, level: int, full: np.ndarray) -> np.ndarray:
         """Fine to coarse: each level branch takes its group's combined angles and rates."""
