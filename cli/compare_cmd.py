@@ -20,7 +20,7 @@ from plantlod.lsys.errors import InputError, RunFailure
 from .discipline import given, require_together
 from .io import (check_output_kind, check_output_path, display_name, distinct_paths,
                  is_terminal, open_output, say, warn, warn_once_running)
-from .compare_exports import prepare_pictures, write_pictures
+from .compare_exports import is_frame_in, prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
 from plantlod.lsys.words import counted
@@ -130,7 +130,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
                     "--plot": plot_path}, inputs)
     if obj_dir is not None:                 # (the frames land in DIR, over a file so named)
         for what, path in inputs.items():
-            if path not in (None, "-") and _is_frame_in(path, obj_dir):
+            if path not in (None, "-") and is_frame_in(path, obj_dir):
                 raise click.UsageError(f"--obj {obj_dir} writes frame_*.obj files, and the input "
                                        f"{path} ({what}) is one of its names; expected another "
                                        "folder")
@@ -341,13 +341,3 @@ def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, a
         f"{counted(len(times_a), 'sample')}; "
         f"largest difference {largest * scale:.4g} {unit} at branch {diff.addresses[j]} "
         f"{component}, t = {t:g} s")
-
-
-def _is_frame_in(path: str, folder: str) -> bool:
-    """Whether ``path`` lies in ``folder`` under a name the OBJ frames take
-    (`compare_exports.write_pictures`: frame_t<T>.obj, frame_<NNNNN>.obj, five digits or more)."""
-    import re
-
-    here = os.path.realpath(os.path.dirname(os.path.abspath(path)))
-    return (here == os.path.realpath(folder)
-            and re.fullmatch(r"frame_(t.+|[0-9]{5,})\.obj", os.path.basename(path)) is not None)

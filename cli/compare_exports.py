@@ -5,12 +5,26 @@ rendered (`prepare_pictures`) before the command writes its first output."""
 from __future__ import annotations
 
 import os
+import re
 
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.words import counted
 from plantlod.compare.constants import DEFAULT_PLOT_TIME
 
 from .io import open_output, output_folder, say
+
+
+# the OBJ frames' names (`write_pictures`): at a time (--at), and numbered (--every)
+FRAME_AT = "frame_t{:g}.obj"
+FRAME_NUMBERED = "frame_{:05d}.obj"
+FRAME_NAME = re.compile(r"frame_(t.+|[0-9]{5,})\.obj")
+
+
+def is_frame_in(path: str, folder: str) -> bool:
+    """Whether ``path`` lies in ``folder`` under a name the OBJ frames take (FRAME_NAME)."""
+    here = os.path.realpath(os.path.dirname(os.path.abspath(path)))
+    return (here == os.path.realpath(folder)
+            and FRAME_NAME.fullmatch(os.path.basename(path)) is not None)
 
 
 def _sample_index(times, t: float, option: str) -> int:
@@ -76,12 +90,12 @@ def write_pictures(runs, obj_dir, every, plot_path, pictures, landing) -> list[s
         # outputs land: a failure or a signal leaves neither part of them nor a new empty DIR
         folder = landing.enter_context(output_folder(obj_dir, merge=True))
         for t, k in at_frames:
-            with open_output(os.path.join(folder, f"frame_t{t:g}.obj")) as out:
+            with open_output(os.path.join(folder, FRAME_AT.format(t))) as out:
                 out.write(frame(k))
             written += 1
         if every is not None:
             for number, k in enumerate(range(0, len(times), every)):
-                with open_output(os.path.join(folder, f"frame_{number:05d}.obj")) as out:
+                with open_output(os.path.join(folder, FRAME_NUMBERED.format(number))) as out:
                     out.write(frame(k))
                 written += 1
         lines.append(f"compare: wrote {counted(written, 'OBJ file')} to {obj_dir}")

@@ -36,13 +36,12 @@ def view(gltf_paths, output, wind_direction, title):
     if "-" in gltf_paths:                     # (it said "-: no such file")
         raise click.UsageError("view reads .glb or .gltf files by name (a .gltf's buffers lie "
                                "beside it); standard input ('-') is not read")
-    from plantlod.export.constants import VIEW_MAX_FILE_BYTES
-    from plantlod.export.gltf_check import buffer_files
+    from plantlod.export.view import files_read
 
-    inputs = {f"input {k + 1}": p for k, p in enumerate(gltf_paths)}
+    inputs = {}
     for k, p in enumerate(gltf_paths):           # (a .gltf's buffer file is read too)
-        for b, name in enumerate(buffer_files(p, VIEW_MAX_FILE_BYTES)):
-            inputs[f"input {k + 1}'s buffer {b + 1}"] = name
+        for b, name in enumerate(files_read(p)):
+            inputs[f"input {k + 1}" + (f"'s buffer {b}" if b else "")] = name
     distinct_paths({"-o": output}, inputs)
     check_output_kind(output, "-o", "a web page", (".html", ".htm"))
     with open_output(output) as out:          # refuses a bad target before any work

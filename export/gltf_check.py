@@ -71,12 +71,9 @@ def buffer_files(path: str, max_bytes: int) -> list[str]:
         if not stat.S_ISREG(os.stat(path).st_mode):   # (a FIFO would wait: its reader says)
             return []
         with open(path, "rb") as f:
-            data = f.read(max_bytes + 1)
-        if data[:4] == GLB_MAGIC and len(data) >= 20:
-            size = struct.unpack_from("<I", data, 12)[0]
-            data = data[20:20 + size]
-        doc = json.loads(data.decode("utf-8"))
-    except (OSError, ValueError, RecursionError, struct.error):
+            text = gltf_json(f.read(max_bytes + 1))
+        doc = json.loads(text.decode("utf-8")) if text is not None else None
+    except (OSError, ValueError, RecursionError):
         return []
     buffers = doc.get("buffers") if isinstance(doc, dict) else None
     out = []

@@ -21,12 +21,18 @@ from plantlod.formats.kinds import SNIFF_CHARS, USDC_MAGIC, other_kind, text_kin
 from plantlod.lsys.errors import InputError
 
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
-from .gltf_check import (GLB_MAGIC, check_buffer_uris, check_document, check_glb_container,
-                         check_raw_json)
+from .gltf_check import (GLB_MAGIC, buffer_files, check_buffer_uris, check_document,
+                         check_glb_container, check_raw_json)
 
 GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
 OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
 ZIP_MAGIC = b"PK\x03\x04"                                       # an .npz is a zip archive
+
+
+def files_read(path: str) -> list[str]:
+    """``path`` and the buffer files beside it that its glTF names (`gltf_check.buffer_files`):
+    what `view` reads of one input, so that no page is written over any of them."""
+    return [path, *buffer_files(path, VIEW_MAX_FILE_BYTES)]
 
 
 def glb_from_file(path: str) -> tuple[bytes, int | None]:

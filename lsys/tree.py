@@ -10,14 +10,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import unicodedata
+
 import numpy as np
+
 
 def is_symbol(text) -> bool:
     """Whether ``text`` can be a branch's symbol: one character, neither half of a surrogate
     pair (no file can hold it) nor a control character. Any other character an L-system's
     module may be named by is one (a soft hyphen, U+00AD, too: the writers write it)."""
-    import unicodedata
-
     return (isinstance(text, str) and len(text) == 1
             and unicodedata.category(text) not in ("Cs", "Cc"))
 

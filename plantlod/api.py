@@ -436,12 +436,11 @@ def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
         raise InputError(f"title must be text, got {type(title).__name__}")
     output_target(path_or_file)
     if isinstance(path_or_file, (str, os.PathLike)):
-        from plantlod.export.constants import VIEW_MAX_FILE_BYTES
-        from plantlod.export.gltf_check import buffer_files
+        from plantlod.export.view import files_read
         from plantlod.formats.atomic import lands_on
 
         for p in paths:
-            for source in [p, *buffer_files(p, VIEW_MAX_FILE_BYTES)]:
+            for source in files_read(p):
                 if lands_on(os.fspath(path_or_file), source):
                     raise InputError("the page would be written over its input"
                                      + ("" if source == p else f" (its buffer {source})")

@@ -350,8 +350,8 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
         trees.append(tree)
         groups.append(g)
         tips.append(np.array([p[-1] for p in main_paths(original, g, tree.n_branches)], dtype=np.int64))
-    return Chain(trees, [data.decode("utf-8-sig")] + list(texts), errors, groups, tips, damping_ratio,
-                 seed)
+    return Chain(trees, [data.decode("utf-8-sig")] + list(texts), errors, groups, tips,
+                 damping_ratio, seed)
 
 
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,

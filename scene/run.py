@@ -35,7 +35,7 @@ from .constants import (
 )
 from .file import Scene, Source, seed_named, source_name, sources
 from .levels import Chain, chain_from_texts, level_chains
-from .schedule import distances, frame_times, returns, schedules
+from .schedule import distances, frame_times, schedules
 from .switch import Transfer, switch_error
 
 
@@ -190,9 +190,8 @@ def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.
     return None
 
 
-def make_batches(scene: Scene, chains: dict, every: int, budget: float,
-                 transfers: dict | None = None, speed: float = 0.0
-                 ) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
+def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfers: dict,
+                 speed: float) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
     """The batches of every source, the levels (N, F), per source (name, members, trees,
     seed), and the levels (N, F) of `schedule.coarsest_levels` (what the report's
     `speedup_bound` counts).
@@ -200,7 +199,7 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float,
     Where a source's trees come back to a level they left (`schedule.returns`: a camera
     turning away and back), the switch error of each such level is measured
     (`switch.switch_error`, at ``speed`` m/s, with ``transfers``' `Transfer` of the source)
-    and the schedule made again spending it (`schedule.held_levels`)."""
+    and spent by the schedule (`schedule.schedules`, `schedule.held_levels`)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)
@@ -211,14 +210,15 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float,
     for fi, source in enumerate(sources(scene.trees)):
         members = members_of[source]
         chain: Chain = chains[source]
-        sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget)
-        back = returns(sched) if transfers is not None else set()
-        if back:
-            switch_m = np.zeros(len(chain.tip_error_m))
+        def measured(back: set[int], chain=chain, transfer=transfers[source]) -> np.ndarray:
+            out = np.zeros(len(chain.tip_error_m))
             for level in sorted(back):
-                switch_m[level] = switch_error(chain, transfers[source], level, speed,
-                                               scene.dt, scene.duration)
-            sched, _ = schedules(scene, members, chain.tip_error_m, times, budget, switch_m)
+                out[level] = switch_error(chain, transfer, level, speed, scene.dt,
+                                          scene.duration)
+            return out
+
+        sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget,
+                                          measured)
         levels[members] = sched
         path, seed = source
         files.append((str(path), members, chain.trees, seed))

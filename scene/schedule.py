@@ -28,6 +28,8 @@ prediction made it unnecessary, and it cost a moving camera half its speed-up.
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from .constants import HYSTERESIS
@@ -116,22 +118,27 @@ def two_way_schedule(scene: Scene, members: list[int], tip_error_m: np.ndarray,
 
 
 def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: np.ndarray,
-              budget: float, switch_error_m: np.ndarray | None = None
+              budget: float,
+              switch_error_m: "np.ndarray | Callable[[set[int]], np.ndarray] | None" = None
               ) -> tuple[np.ndarray, np.ndarray]:
     """(`two_way_schedule`, `coarsest_levels`), both (n, F) int16, from one `level_pixels`
     array (n, F, L): a scene of many trees builds it once.
 
     switch_error_m: (L,) metres, what a switch into each level adds to its tip error
-    (`switch.switch_error`; 0 where not measured). A tree then goes coarser only to levels
-    it will not have to come back from to one whose switch would overspend (`held_levels`).
+    (`switch.switch_error`; 0 where not measured), or a function giving it for the levels
+    the schedule comes back to (`returns`), called only where it comes back to some. A tree
+    then goes coarser only to levels it will not have to come back from to one whose
+    switch would overspend (`held_levels`).
     """
     px = level_pixels(scene, members, tip_error_m, times)
     within = _coarsest(px, budget)                                          # (n, F)
-    out = np.empty(within.shape, dtype=np.int16)
-    if out.shape[1] == 0:
-        return out, within.astype(np.int16)
+    if within.shape[1] == 0:
+        return within.astype(np.int16), within.astype(np.int16)
     well = _coarsest(px, HYSTERESIS * budget)
     out = _walk(px, within, well, budget)
+    if callable(switch_error_m):
+        back = returns(out)
+        switch_error_m = switch_error_m(back) if back else None
     if switch_error_m is not None:
         held = held_levels(scene, members, tip_error_m, switch_error_m, times, budget, out)
         out = _walk(px, within, np.minimum(well, held), budget)

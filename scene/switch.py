@@ -43,6 +43,7 @@ class Transfer:
         self._turn: dict[int, np.ndarray] = {}
         self._frames: dict[int, object] = {}
         self._carry: dict[int, np.ndarray] = {}
+        self._targets: dict[tuple[int, int], np.ndarray | None] = {}
 
     def paths(self, level: int) -> list[np.ndarray]:
         if level not in self._paths:
@@ -76,10 +77,14 @@ class Transfer:
 
     def _tip_targets(self, a: int, b: int) -> np.ndarray | None:
         """(B_b,) the branch of level ``a`` whose tip each branch of level ``b`` stands for
-        (a coarser level's group tips are among a finer level's); None where one is not."""
-        fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)}
-        found = [fine_tip.get(int(p[-1])) if len(p) else None for p in self.paths(b)]
-        return None if any(j is None for j in found) else np.array(found, dtype=np.int64)
+        (a coarser level's group tips are among a finer level's); None where one is not.
+        Once per pair of levels."""
+        if (a, b) not in self._targets:
+            fine_tip = {int(p[-1]): j for j, p in enumerate(self.paths(a)) if len(p)}
+            found = [fine_tip.get(int(p[-1])) if len(p) else None for p in self.paths(b)]
+            self._targets[(a, b)] = (None if any(j is None for j in found)
+                                     else np.array(found, dtype=np.int64))
+        return self._targets[(a, b)]
 
     def _tips_matched_state(self, a: int, b: int, targets: np.ndarray,
                             state: np.ndarray) -> np.ndarray:
@@ -279,7 +284,8 @@ def switch_error(chain, transfer: Transfer, level: int, speed: float, dt: float,
     from plantlod.sim.lanes import run_lanes
     from plantlod.sim.wind import wind_from_speed
 
-    from .constants import SWITCH_FOLLOW_S, SWITCH_SAMPLE_S, SWITCH_SAMPLE_EVERY_S, TIP_ERROR_DIRECTIONS
+    from .constants import (SWITCH_FOLLOW_S, SWITCH_SAMPLE_EVERY_S, SWITCH_SAMPLE_S,
+                            TIP_ERROR_DIRECTIONS)
 
     tree = chain.trees[level]
     model = chain.lane_model(level)
