@@ -196,10 +196,10 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfer
     seed), and the levels (N, F) of `schedule.coarsest_levels` (what the report's
     `speedup_bound` counts).
 
-    Where a source's trees come back to a level they left (`schedule.returns`: a camera
-    turning away and back), the switch error of each such level is measured
-    (`switch.switch_error`, at ``speed`` m/s, with ``transfers``' `Transfer` of the source)
-    and spent by the schedule (`schedule.schedules`, `schedule.held_levels`)."""
+    Where a source's trees switch into a level from a coarser one (`schedule.finer_switches`:
+    a camera coming nearer, or turning away and back), the switch error of each such level
+    is measured (`switch.switch_error`, at ``speed`` m/s, with ``transfers``' `Transfer` of
+    the source) and spent by the schedule (`schedule.schedules`, `schedule.held_levels`)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)

@@ -7,8 +7,9 @@ What scenes run is `two_way_schedule`: at each frame a tree is judged at its cur
 distance; it starts at the coarsest level with p_l <= budget, goes finer as soon as its
 level passes the budget, and coarser only to a level with p_l <= HYSTERESIS x budget (so
 it does not flicker between two levels) that it will not have to leave for a finer one
-through a switch that would overspend the budget (`held_levels`: a camera turning away
-and back in a strong wind). Going finer is affordable because the finer
+through a switch that would overspend the budget, nor starts coarser than such a level
+(`held_levels`: a camera turning away and back, or coming nearer, in a strong wind).
+Going finer is affordable because the finer
 level's state is predicted from the tree's wind history (`switch.Transfer.predicted`), so
 the coarser level's error is not carried into it; going coarser carries the state.
 
@@ -126,9 +127,10 @@ def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: 
 
     switch_error_m: (L,) metres, what a switch into each level adds to its tip error
     (`switch.switch_error`; 0 where not measured), or a function giving it for the levels
-    the schedule comes back to (`returns`), called only where it comes back to some. A tree
-    then goes coarser only to levels it will not have to come back from to one whose
-    switch would overspend (`held_levels`).
+    the schedule switches into from a coarser one (`finer_switches`), called only where it
+    has such switches. A tree then goes coarser only to levels it will not have to come
+    back from to one whose switch would overspend, and starts no coarser than a level its
+    first such switch would overspend (`held_levels`).
     """
     px = level_pixels(scene, members, tip_error_m, times)
     within = _coarsest(px, budget)                                          # (n, F)
@@ -137,19 +139,21 @@ def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: 
     well = _coarsest(px, HYSTERESIS * budget)
     out = _walk(px, within, well, budget)
     if callable(switch_error_m):
-        back = returns(out)
-        switch_error_m = switch_error_m(back) if back else None
+        into = finer_switches(out)
+        switch_error_m = switch_error_m(into) if into else None
     if switch_error_m is not None:
         held = held_levels(scene, members, tip_error_m, switch_error_m, times, budget, out)
-        out = _walk(px, within, np.minimum(well, held), budget)
+        out = _walk(px, within, np.minimum(well, held), budget, start=held[:, 0])
     return out, within.astype(np.int16)
 
 
-def _walk(px: np.ndarray, within: np.ndarray, well: np.ndarray, budget: float) -> np.ndarray:
+def _walk(px: np.ndarray, within: np.ndarray, well: np.ndarray, budget: float,
+          start: np.ndarray | None = None) -> np.ndarray:
     """(n, F) int16: each frame's level, from the coarsest within ``budget`` at the first
-    frame, finer at once where the level overspends (to ``within``), coarser to ``well``."""
+    frame (no coarser than ``start`` (n,) where given), finer at once where the level
+    overspends (to ``within``), coarser to ``well``."""
     out = np.empty(within.shape, dtype=np.int16)
-    current = within[:, 0].copy()
+    current = within[:, 0].copy() if start is None else np.minimum(within[:, 0], start)
     rows = np.arange(within.shape[0])
     for f in range(out.shape[1]):
         over = px[rows, f, current] > budget
@@ -171,7 +175,9 @@ def held_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     `switch.switch_error`; a later switch to a finer level starts from a new prediction);
     l = ``levels`` at f', a frame where they go finer. At frame f a tree may go no coarser
     than the finest level needed at a dear frame from f on: it keeps running there, and
-    comes back without a switch. A tree that only comes nearer never goes coarser, and one
+    comes back without a switch; where the dear switch is a tree's first to that level
+    (a camera coming nearer in a strong wind), it starts there (`schedules`: the first
+    frame's level is capped too), and runs it from rest, which needs no prediction. One
     that leaves for good is not held. (Judged at the nearest the tree comes from f' on,
     the tip error alone was over the budget wherever the tree came nearer later, and any
     switch error held it; a review, session 30.)"""
@@ -194,13 +200,10 @@ def held_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     return np.minimum.accumulate(need[:, ::-1], axis=1)[:, ::-1]
 
 
-def returns(levels: np.ndarray) -> set[int]:
-    """The levels that some row of ``levels`` (n, F) comes back to: a frame's level finer
-    than the frame before's, and one the row ran at (or finer) before that."""
-    out: set[int] = set()
+def finer_switches(levels: np.ndarray) -> set[int]:
+    """The levels that some row of ``levels`` (n, F) switches into from a coarser one: the
+    switches `held_levels` judges, whose switch errors a scene measures."""
     if levels.shape[1] < 2:
-        return out
-    finest_so_far = np.minimum.accumulate(levels, axis=1)
-    back = (levels[:, 1:] < levels[:, :-1]) & (levels[:, 1:] >= finest_so_far[:, :-1])
-    out.update(int(v) for v in np.unique(levels[:, 1:][back]))
-    return out
+        return set()
+    finer = levels[:, 1:] < levels[:, :-1]
+    return {int(v) for v in np.unique(levels[:, 1:][finer])}

@@ -135,19 +135,21 @@ def test_switching_levels_mid_run_carries_the_state_and_stays_within_budget(tmp_
 
 def test_a_camera_driving_in_switches_finer_and_stays_within_budget(tmp_path, chains):
     """Coming nearer, trees go finer as their level passes the budget (two_way_schedule); the
-    finer level's state is predicted from the wind history, so the verified error stays
-    within the budget and the speed-up is the bound's (no hysteresis on the way in). A 0.5 px
-    budget (14 switches, verified at 0.35 px with session 14's levels, 0.28 px with session
-    13's). At smaller budgets the first-order prediction's own error shows: at 0.1 px the
-    verified error is 0.1005 px, at 0.2 px 0.225 px (0.227 px with session 13's levels, whose
-    branches may swing far beyond their static angles, which the prediction does not know;
-    0.166 px before; docs/scene.md, "Limits")."""
+    finer level's state is predicted from the wind history, so the coarser level's error
+    is not carried into it. A 0.5 px budget (14 switches, verified at 0.35 px with session
+    14's levels, 0.28 px with session 13's). At smaller budgets the first-order prediction's
+    own error shows: at 0.1 px the verified error was 0.1005 px, at 0.2 px 0.225 px
+    (docs/scene.md, "Limits"). Since session 31 a switch whose measured error
+    (`switch.switch_error`, a worst case) would overspend is not made: the tree starts at
+    the finer level (here 4 switches, 0.28 px, 12.9x against a bound of 75x; the speed-up was
+    the bound's before)."""
     scene = _keyed_scene(tmp_path, [(0.0, -150.0), (3.0, -22.0)], duration=3.0, budget_px=0.5)
     report = run_scene(scene, cache=chains, verify=True)
-    levels = report["_levels"]
-    assert report["switches"] >= 5 and np.any(np.diff(levels.astype(int), axis=1) < 0)
+    levels = report["_levels"].astype(int)
+    assert report["switches"] >= 1 and np.any(np.diff(levels, axis=1) < 0)
+    assert np.all(np.diff(levels, axis=1) <= 0)                        # only ever finer
     assert report["max_error_px"] <= report["budget_px"] + 1e-9
-    assert report["speedup"] == pytest.approx(report["speedup_bound"])
+    assert report["speedup"] <= report["speedup_bound"] + 1e-9
 
 
 def test_two_way_schedule_by_hand(tmp_path):
@@ -188,7 +190,7 @@ def test_a_tree_the_camera_turns_back_to_is_held_where_its_switch_would_overspen
     however long."""
     from dataclasses import replace
 
-    from plantlod.scene.schedule import returns, schedules
+    from plantlod.scene.schedule import finer_switches, schedules
 
     errors = np.array([0.0, 0.001, 0.01, 0.1])
     scene = _keyed_scene(tmp_path, [(0.0, -10.0)], duration=10.0)
@@ -202,7 +204,7 @@ def test_a_tree_the_camera_turns_back_to_is_held_where_its_switch_would_overspen
                   position=keys[0], target=target[0])
     scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
     free = schedules(scene, [0], errors, times, 5.0)[0][0]
-    assert free.tolist() == np.where(behind, 3, 2).tolist() and returns(free[None]) == {2}
+    assert free.tolist() == np.where(behind, 3, 2).tolist() and finer_switches(free[None]) == {2}
     got = schedules(scene, [0], errors, times, 5.0, np.array([0.0, 0.0, switch_m, 0.0]))[0][0]
     assert got.tolist() == ([2] * 300 if held else free.tolist())
 
@@ -273,7 +275,7 @@ def test_a_cheap_switch_back_is_not_held_because_the_tree_comes_nearer_later(tmp
     a 5 px budget. Level 3 would have been 10.3 px at 10 m, judged on the whole future."""
     from dataclasses import replace
 
-    from plantlod.scene.schedule import returns, schedules
+    from plantlod.scene.schedule import finer_switches, schedules
 
     errors = np.array([0.0, 0.001, 0.01, 0.1, 1.0])
     scene = _keyed_scene(tmp_path, [(0.0, -40.0)], duration=10.0)
@@ -286,20 +288,58 @@ def test_a_cheap_switch_back_is_not_held_because_the_tree_comes_nearer_later(tmp
                   position=keys[0], target=target[0])
     scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
     free = schedules(scene, [0], errors, times, 5.0)[0]
-    assert returns(free) == {3} and free[0, 45] == 4 and free[0, -1] == 2
+    assert finer_switches(free) == {3, 2} and free[0, 45] == 4 and free[0, -1] == 2
     cheap = schedules(scene, [0], errors, times, 5.0, np.array([0, 0, 0, 0.01, 0]))[0]
     assert cheap.tolist() == free.tolist()
     dear = schedules(scene, [0], errors, times, 5.0, np.array([0, 0, 0, 0.2, 0]))[0]
     assert dear[0, 30:60].tolist() == [3] * 30                # held while away
 
 
-def test_returns_are_levels_a_row_comes_back_to():
-    from plantlod.scene.schedule import returns
+def test_finer_switches_are_the_levels_a_row_switches_into_from_a_coarser_one():
+    from plantlod.scene.schedule import finer_switches
 
-    assert returns(np.array([[3, 3, 2, 2, 1, 1]])) == set()           # only ever finer
-    assert returns(np.array([[1, 1, 2, 3, 3, 4]])) == set()           # only ever coarser
-    assert returns(np.array([[2, 3, 3, 2, 4, 1]])) == {2}            # back to 2; 1 is new
-    assert returns(np.array([[3, 2, 4, 3, 3], [1, 1, 1, 1, 1]])) == {3}
+    assert finer_switches(np.array([[3, 3, 2, 2, 1, 1]])) == {2, 1}       # only ever finer
+    assert finer_switches(np.array([[1, 1, 2, 3, 3, 4]])) == set()        # only ever coarser
+    assert finer_switches(np.array([[2, 3, 3, 2, 4, 1]])) == {2, 1}
+    assert finer_switches(np.array([[3, 2, 4, 3, 3], [1, 1, 1, 1, 1]])) == {2, 3}
+    assert finer_switches(np.zeros((2, 1), dtype=np.int16)) == set()
+
+
+@pytest.mark.parametrize("switch_m, held", [(0.02, False), (0.05, True)])
+def test_a_tree_whose_first_switch_finer_would_overspend_starts_at_that_level(
+        tmp_path, switch_m, held):
+    """A camera that only comes nearer, in a strong wind (a helper's scenes, session 30:
+    3.8 px against 1 px). It stands 40 m from the tree for 3 s (level 3, 0.1 m: 2.3 px at
+    23.4 px/m, model.md 7), then drives to 10 m over 6 s; level 3 passes the 5 px budget at
+    18.7 m (t = 7.3 s) and the tree goes to level 2 (1 cm). A switch into level 2 adding
+    ``switch_m`` metres costs (0.01 + switch_m) m x 93.5 px/m at 10 m, the nearest within
+    3 s of it: 2.8 px at 2 cm, so the tree switches; 5.6 px at 5 cm, so it runs level 2 from
+    its first frame (from rest, no prediction) and never switches."""
+    from dataclasses import replace
+
+    from plantlod.scene.schedule import schedules
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1, 1.0])
+    scene = _keyed_scene(tmp_path, [(0.0, -40.0)], duration=10.0)
+    times = np.arange(300) / 30.0
+    y = np.where(times < 3.0, -40.0, np.minimum(-40.0 + 5.0 * (times - 3.0), -10.0))
+    keys = np.stack([np.zeros(300), y, np.full(300, 1.7)], axis=1)
+    target = np.tile([0.0, 0.0, 1.7], (300, 1))
+    cam = replace(scene.camera, key_t=times, key_position=keys, key_target=target,
+                  position=keys[0], target=target[0])
+    scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    free = schedules(scene, [0], errors, times, 5.0)[0][0]
+    switch = int(np.argmax(free < 3))
+    assert free[0] == 3 and 7.2 < times[switch] < 7.4 and set(free[switch:].tolist()) == {2}
+    asked = []
+
+    def measured(levels):
+        asked.append(set(levels))
+        return np.array([0.0, 0.0, switch_m, 0.0, 0.0])
+
+    got = schedules(scene, [0], errors, times, 5.0, measured)[0][0]
+    assert asked == [{2}]
+    assert got.tolist() == ([2] * 300 if held else free.tolist())
 
 
 def test_the_predicted_state_is_the_level_run_from_rest(tmp_path, chains):
