@@ -239,7 +239,7 @@ def _loose_line(text: str, key: str, span: tuple[int, int] | None, value=_ANY) -
                          else pattern.finditer(text))
              if "#" not in text[text.rfind("\n", 0, m.start()) + 1:m.start()]]
     if not found:
-        return None
+        return _quoted_line(text, key, span)
     chosen = found[0]
     if value is not _ANY:
         for m in found:
@@ -250,6 +250,23 @@ def _loose_line(text: str, key: str, span: tuple[int, int] | None, value=_ANY) -
             except (tomllib.TOMLDecodeError, RecursionError, ValueError):
                 continue
     return text.count("\n", 0, chosen.start()) + 1
+
+
+_QUOTED_KEY = re.compile(r"""(?m)^[ \t]*("(?:[^"\\\n]|\\.)*"|'[^'\n]*')[ \t]*=""")
+
+
+def _quoted_line(text: str, key: str, span: tuple[int, int] | None) -> int | None:
+    """The line of a quoted key that reads as ``key`` only once its escapes are read
+    (``"x\\u0001y" = 3``: the key holds a control character), within ``span`` where given;
+    None where there is none."""
+    for m in (_QUOTED_KEY.finditer(text, *span) if span is not None
+              else _QUOTED_KEY.finditer(text)):
+        try:
+            if key in tomllib.loads(f"{m.group(1)} = 0"):
+                return text.count("\n", 0, m.start()) + 1
+        except (tomllib.TOMLDecodeError, RecursionError, ValueError):
+            continue
+    return None
 
 
 def _key_match(text: str, key: str, value=_ANY, span: tuple[int, int] | None = None):

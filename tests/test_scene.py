@@ -413,6 +413,8 @@ def test_the_bound_uses_each_frames_current_distance(tmp_path):
 
 @pytest.mark.parametrize("body, message", [
     (BASE + "colour = 3\n", "unknown key 'colour'"),
+    (BASE + '"x\\u0001y" = 3\n', "unknown key 'x\\x01y'"),     # found by its escapes read
+    (BASE + "'x y' = 3\n", "unknown key 'x y'"),
     (BASE.replace("fov_deg = 60", "fov_deg = 200"), "'fov_deg' must be below 180"),
     (BASE.replace("speed = 5", "speed = -1"), "'speed' must be >= 0"),
     (BASE.replace(STALK, "missing.lsys"), "not found"),
