@@ -160,15 +160,22 @@ def assign_stated_groups(original: Tree, simplified: Tree) -> np.ndarray:
     """
     index = {a: i for i, a in enumerate(original.address)}
     owner = np.full(original.n_branches, -1, dtype=np.int64)
+    lines = simplified.group_line
+
+    def at(s: int) -> dict:
+        """The InputError location of simplified branch s's groups: line, where known."""
+        line = lines[s] if s < len(lines) and lines[s] > 0 else None
+        return {"file": simplified.where or None, "line": line, "col": 1 if line else None}
+
     for s, root in enumerate(simplified.group_root):
         i = index.get(root)
         if i is None:
             raise InputError(f"simplified branch {simplified.address[s]} stands for the group at "
                              f"{root}, which is no branch of the original; expected the original "
-                             f"that the file was simplified from")
+                             f"that the file was simplified from", **at(s))
         if owner[i] >= 0:
             raise InputError(f"the original branch {root} roots two groups (simplified branches "
-                             f"{simplified.address[owner[i]]} and {simplified.address[s]})")
+                             f"{simplified.address[owner[i]]} and {simplified.address[s]})", **at(s))
         owner[i] = s
     parent = np.asarray(original.parent, dtype=np.int64)
     groups = owner.copy()

@@ -33,6 +33,7 @@ TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
 ARCHIVE_VERSION = 1          # `version` of both archives (read: exactly this)
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
+_NOT_STORED = ("group_line",)      # where an .lsys wrote each group (messages), not the tree
 ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
 # What a damaged member raises while it is decompressed or laid out (zlib's and lzma's own
 # errors escaped as internal errors; bz2 raises OSError), besides zipfile's and numpy's
@@ -49,7 +50,7 @@ def tree_bytes(tree: Tree) -> bytes:
     fields = {}
     for f in dataclasses.fields(tree):
         value = getattr(tree, f.name)
-        if value is None:                  # force_gain, swing_roll of a tree without them
+        if value is None or f.name in _NOT_STORED:   # force_gain, swing_roll of a tree without them
             continue
         if f.name in _STRINGS:
             fields[f.name] = np.array(list(value), dtype=str)

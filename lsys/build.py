@@ -74,6 +74,7 @@ def _with_group_roots(system: LSystem, tree: Tree) -> tuple[Tree, list[str]]:
     from .errors import InputError
 
     roots = {".".join(map(str, a)): root for a, root in system.groups}
+    lines = {".".join(map(str, a)): n for (a, _root), n in zip(system.groups, system.group_lines)}
     missing = [a for a in tree.address if a not in roots]
     if missing:
         raise InputError(f"the groups: section names no group for the branch at {missing[0]}"
@@ -85,7 +86,8 @@ def _with_group_roots(system: LSystem, tree: Tree) -> tuple[Tree, list[str]]:
             for a in unmatched[:3]]
     if len(unmatched) > 3:
         said.append(f"{len(unmatched) - 3:,} more groups: lines name no branch the file draws")
-    return replace(tree, group_root=[roots[a] for a in tree.address]), said
+    return replace(tree, group_root=[roots[a] for a in tree.address],
+                   group_line=[lines.get(a, 0) for a in tree.address]), said
 
 
 def build_tree_with_warnings(system: LSystem, interpreted: DerivedString) -> tuple[Tree, list[str]]:

@@ -1047,7 +1047,8 @@ class _FileParser:
             interpretation=tuple(self.rules["interpretation"]),
             branches=tuple(self.branches), leaves=tuple(self.leaves),
             defines=tuple(self.defines.items()), overrides=tuple(self.overrides),
-            groups=tuple(self.groups), source=self.source, **values,
+            groups=tuple(self.groups), source=self.source,
+            group_lines=tuple(self.group_pos[a].line or 0 for a, _root in self.groups), **values,
         )
         errors = list(_whole_file_errors(system))
         if errors:

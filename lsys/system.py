@@ -176,6 +176,8 @@ class LSystem:
     # explicit form (model.md 5): (address of a branch here, address of the original
     # branch that roots the group it stands for), in file order
     groups: tuple[tuple[tuple[int, ...], str], ...] = ()
+    # the line of each groups: entry (0: unknown), for messages; not part of what the file says
+    group_lines: tuple[int, ...] = field(default=(), compare=False)
     drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT
     leaf_force_scale: float = DEFAULT_LEAF_FORCE_SCALE
     seed: int = DEFAULT_SEED

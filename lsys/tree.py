@@ -136,6 +136,8 @@ class Tree:
     # explicit form: per branch, the address of the original branch rooting its group
     # (the file's `groups:` section); empty for a tree whose addresses say it
     group_root: list[str] = field(default_factory=list)
+    # the line of each one's groups: entry in the .lsys (0: unknown), for messages only
+    group_line: list[int] = field(default_factory=list, compare=False)
     force_gain: np.ndarray | None = None
     swing_roll: np.ndarray | None = None
     read_from: str = field(default="")

@@ -321,7 +321,7 @@ def test_errors_of_the_samples_name_the_files_at_fault_not_the_simplified_one(tm
 
 def test_a_simplified_file_whose_groups_miss_the_original_is_named(tmp_path):
     """With several SIMPLIFIED files, an error of one's groups against the original names
-    that file (it named none before session 21)."""
+    that file (it named none before session 21) and the groups: line (since session 31)."""
     good = tmp_path / "l1.lsys"
     run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--level", "1", "--form",
             "explicit", "-o", str(good))
@@ -330,7 +330,8 @@ def test_a_simplified_file_whose_groups_miss_the_original_is_named(tmp_path):
     result = run_cli("compare", str(ROOT / "examples" / "stalk8.lsys"), str(good), str(bad),
                      "--dt", "0.01", "--steps", "20", "--wind-speed", "5", exit_code=2)
     lines = result.stderr.strip().splitlines()
-    assert lines[-1].startswith(f"{bad}: error:") and "9.9.9.9" in lines[-1], lines
+    at = bad.read_text().splitlines().index("  3: 9.9.9.9") + 1      # the groups: line's own
+    assert lines[-1].startswith(f"{bad}:{at}:1: error:") and "9.9.9.9" in lines[-1], lines
 
 
 def test_an_angle_csv_kept_every_k_steps_is_compared_at_its_samples(tmp_path):

@@ -317,6 +317,8 @@ def test_the_level_tree_is_what_its_text_reads_back_as(name, gains):
     assert (level.force_gain is not None) == gains
     assert (level.swing_roll is not None) == name.startswith("family/")
     for f in fields(parsed):
+        if not f.compare:                  # group_line: where the text puts each group
+            continue
         a, b = getattr(level, f.name), getattr(parsed, f.name)
         if isinstance(b, np.ndarray):
             np.testing.assert_array_equal(a, b, err_msg=f.name)
