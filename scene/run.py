@@ -36,7 +36,7 @@ from .constants import (
 from .file import Scene, Source, seed_named, source_name, sources
 from .levels import Chain, chain_from_texts, level_chains
 from .schedule import distances, frame_times, schedules
-from .switch import Transfer, switch_error
+from .switch import Transfer, switch_errors
 
 
 @dataclass
@@ -198,7 +198,7 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfer
 
     Where a source's trees switch into a level from a coarser one (`schedule.finer_switches`:
     a camera coming nearer, or turning away and back), the switch error of each such level
-    is measured (`switch.switch_error`, at ``speed`` m/s, with ``transfers``' `Transfer` of
+    is measured (`switch.switch_errors`, at ``speed`` m/s, with ``transfers``' `Transfer` of
     the source) and spent by the schedule (`schedule.schedules`, `schedule.held_levels`)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
@@ -210,12 +210,8 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfer
     for fi, source in enumerate(sources(scene.trees)):
         members = members_of[source]
         chain: Chain = chains[source]
-        def measured(back: set[int], chain=chain, transfer=transfers[source]) -> np.ndarray:
-            out = np.zeros(len(chain.tip_error_m))
-            for level in sorted(back):
-                out[level] = switch_error(chain, transfer, level, speed, scene.dt,
-                                          scene.duration)
-            return out
+        def measured(into: set[int], chain=chain, transfer=transfers[source]) -> np.ndarray:
+            return switch_errors(chain, transfer, into, speed, scene.dt, scene.duration)
 
         sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget,
                                           measured)

@@ -125,8 +125,8 @@ def schedules(scene: Scene, members: list[int], tip_error_m: np.ndarray, times: 
     """(`two_way_schedule`, `coarsest_levels`), both (n, F) int16, from one `level_pixels`
     array (n, F, L): a scene of many trees builds it once.
 
-    switch_error_m: (L,) metres, what a switch into each level adds to its tip error
-    (`switch.switch_error`; 0 where not measured), or a function giving it for the levels
+    switch_error_m: (L,) metres, each level's tip error after a switch into it
+    (`switch.switch_errors`; 0 where not measured), or a function giving it for the levels
     the schedule switches into from a coarser one (`finer_switches`), called only where it
     has such switches. A tree then goes coarser only to levels it will not have to come
     back from to one whose switch would overspend, and starts no coarser than a level its
@@ -169,10 +169,11 @@ def held_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
     has to switch to a finer level whose switch overspends the budget. ``levels`` (n, F):
     the schedule without the hold, whose switches to a finer level are the ones judged.
 
-    A switch into level l at frame f' is *dear* where (e_l + s_l) times the pixels per metre
-    at the nearest the tree comes within SWITCH_FOLLOW_S of f' exceeds ``budget`` (e the
-    tip error, s the switch error, both (L,) m, s measured over that time after a switch,
-    `switch.switch_error`; a later switch to a finer level starts from a new prediction);
+    A switch into level l at frame f' is *dear* where max(e_l, s_l) times the pixels per
+    metre at the nearest the tree comes within SWITCH_FOLLOW_S of f' exceeds ``budget`` (e
+    the tip error, s the tip error after a switch, both (L,) m, s measured against the full
+    tree over that time after a switch, `switch.switch_errors`; a later switch to a finer
+    level starts from a new prediction);
     l = ``levels`` at f', a frame where they go finer. At frame f a tree may go no coarser
     than the finest level needed at a dear frame from f on: it keeps running there, and
     comes back without a switch; where the dear switch is a tree's first to that level
@@ -190,7 +191,7 @@ def held_levels(scene: Scene, members: list[int], tip_error_m: np.ndarray,
         size = int(np.searchsorted(times - times[0], SWITCH_FOLLOW_S, side="right"))
         seen = maximum_filter1d(seen, size, axis=1, mode="nearest", origin=-(size // 2))
     levels = np.asarray(levels, dtype=np.int64)
-    cost = (np.asarray(tip_error_m) + np.asarray(switch_error_m))[levels]  # (n, F) m
+    cost = np.maximum(np.asarray(tip_error_m), np.asarray(switch_error_m))[levels]  # (n, F) m
     finer = np.zeros(levels.shape, dtype=bool)
     finer[:, 1:] = levels[:, 1:] < levels[:, :-1]
     with np.errstate(invalid="ignore"):

@@ -265,51 +265,69 @@ def _uncarry(back: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.nd
     return (d * bend - b * rot) / det, (a * rot - c * bend) / det
 
 
-def switch_error(chain, transfer: Transfer, level: int, speed: float, dt: float,
-                 duration: float) -> float:
-    """Metres: how far a switch into level ``level`` puts its tips from where the level run
-    from rest has them, the worst over steady winds of ``speed`` m/s toward
-    TIP_ERROR_DIRECTIONS (relative to the tree, as the levels' tip errors are measured),
-    switches every SWITCH_SAMPLE_S of a run of ``duration`` s (at its end where it is
-    shorter) and SWITCH_FOLLOW_S after each.
+def switch_errors(chain, transfer: Transfer, levels, speed: float, dt: float,
+                  duration: float) -> np.ndarray:
+    """(L,) metres, 0 for levels not in ``levels``: how far each level in ``levels``, switched
+    into, puts its tips from the full tree's (the original's group tips, as a level's tip
+    error is measured), the worst over steady winds of ``speed`` m/s toward
+    TIP_ERROR_DIRECTIONS (relative to the tree), switches every SWITCH_SAMPLE_S of a run of
+    ``duration`` s (at its end where it is shorter) and SWITCH_FOLLOW_S after each.
 
     A switch to a finer level starts it from `Transfer.predicted`, linear theory, and in the
     undamped model what that misses swings on; in a strong wind the tree's lean makes it
     cm where the level's own tip error is mm (docs/scene.md, "Where the budget does not
-    hold"). The schedule spends it like a level's tip error (`schedule.schedules`).
-    chain: `levels.Chain`; transfer: its `Transfer`. Work: the level's branches x (the run
-    plus one follow-up per switch) x 4 winds.
+    hold"). The schedule spends it as the level's error after such a switch
+    (`schedule.held_levels`). Measured against the full tree, not against the level run from
+    rest (session 30: the two misses then added up, though they are largest at other times
+    and toward other sides: twin_draw at 15 m/s, level 6 switched into is 62 mm from the full
+    tree where its tip error and its miss against itself summed to 106 mm). chain:
+    `levels.Chain`; transfer: its `Transfer`. Work: the full tree's run, then each level's
+    branches x (the run plus one follow-up per switch), per direction.
     """
-    from plantlod.sim.kinematics import pose
+    from plantlod.compare.runs import tip_series
     from plantlod.sim.lanes import run_lanes
     from plantlod.sim.wind import wind_from_speed
+    from plantlod.simplify.targets import group_map
 
     from .constants import (SWITCH_FOLLOW_S, SWITCH_SAMPLE_EVERY_S, SWITCH_SAMPLE_S,
                             TIP_ERROR_DIRECTIONS)
 
-    tree = chain.trees[level]
-    model = chain.lane_model(level)
+    out = np.zeros(len(chain.trees))
+    original = chain.trees[0]
     every = max(1, int(round(SWITCH_SAMPLE_EVERY_S / dt)))       # steps between tip samples
     gap = every * max(1, int(round(SWITCH_SAMPLE_S / (every * dt))))   # steps between switches
     steps = int(round(duration / dt))
     follow = every * max(1, int(round(SWITCH_FOLLOW_S / (every * dt))))
     starts = list(range(gap, steps + 1, gap)) or [steps // every * every]   # (a short run: its end)
-    if not starts[0] or tree.n_branches == 0 or speed <= 0:
-        return 0.0
-    worst = 0.0
+    levels = sorted(int(k) for k in levels)
+    if not levels or not starts[0] or original.n_branches == 0 or speed <= 0:
+        return out
+    # each level's branches' group tips on the full tree (a level's branches in its order)
+    tips_of = {k: (np.arange(original.n_branches) if k == 0
+                   else group_map(original, chain.trees[k]).tips) for k in levels}
+    wanted = np.unique(np.concatenate(list(tips_of.values())))
+    column = np.searchsorted(wanted, np.arange(original.n_branches))
+    rows_at = [slice(s // every - 1, (s + follow) // every) for s in starts]   # steps s .. s + follow
     for direction in TIP_ERROR_DIRECTIONS:
         wind = wind_from_speed(speed, direction).vector                 # (3,) m/s
-        # the level from rest, its angles after every ``every``-th step (row j: step (j+1) every)
-        bend, rot = run_lanes(model, wind[None], dt, starts[-1] + follow, every=every)
+        # the full tree from rest, its angles after every ``every``-th step (row j: step (j+1) every)
+        bend, rot = run_lanes(chain.lane_model(0), wind[None], dt, starts[-1] + follow,
+                              every=every)
+        full = tip_series(original, bend[0], rot[0], wanted)              # (rows, n, 3)
         history = np.tile(wind, (starts[-1], 1))
-        state = np.stack([transfer.predicted(level, history[:s], dt) for s in starts])
-        # each switch followed on from its predicted state (rows every ``every`` steps after it)
-        b_on, r_on = run_lanes(model, np.tile(wind, (len(starts), 1)), dt, follow, every=every,
-                               state=state.copy())
-        for k, s in enumerate(starts):
-            rows = slice(s // every - 1, (s + follow) // every)        # steps s .. s + follow
-            want = pose(tree, bend[0, rows], rot[0, rows]).tip
-            got = pose(tree, np.concatenate([state[k, :1], b_on[k]]),
-                       np.concatenate([state[k, 2:3], r_on[k]])).tip
-            worst = max(worst, float(np.linalg.norm(got - want, axis=-1).max()))
-    return worst
+        for k in levels:
+            tree = chain.trees[k]
+            if tree.n_branches == 0:
+                continue
+            state = np.stack([transfer.predicted(k, history[:s], dt) for s in starts])
+            # each switch followed on from its predicted state (rows every ``every`` steps after it)
+            b_on, r_on = run_lanes(chain.lane_model(k), np.tile(wind, (len(starts), 1)), dt,
+                                   follow, every=every, state=state.copy())
+            want = full[:, column[tips_of[k]]]
+            for j, rows in enumerate(rows_at):
+                got = tip_series(tree, np.concatenate([state[j, :1], b_on[j]]),
+                                 np.concatenate([state[j, 2:3], r_on[j]]),
+                                 np.arange(tree.n_branches))
+                gap_m = np.linalg.norm(got - want[rows], axis=-1).max()
+                out[k] = max(out[k], float(gap_m))
+    return out
