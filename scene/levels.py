@@ -111,6 +111,8 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
     h = hashlib.sha256()
     # (a seed joins the settings only where given: the keys of unseeded trees are unchanged)
     settings = (speed, dt, duration, damping_ratio) + (() if seed is None else (int(seed),))
+    # (and the directions the tip errors are the worst over: a cached chain's errors are theirs)
+    settings += (TIP_ERROR_DIRECTIONS,)
     for part in (data, program.encode(), fit_code_digest(), repr(settings).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)

@@ -660,6 +660,17 @@ def test_a_chain_cache_key_changes_with_the_fitting_code(monkeypatch, module):
     assert levels.cache_key(b"tree", 5.0, 0.01, 20.0) == before
 
 
+def test_the_tip_error_directions_are_part_of_a_chains_cache_key(monkeypatch):
+    """A cached chain's tip errors are the worst over TIP_ERROR_DIRECTIONS (scene/constants.py,
+    outside the fitting packages the code digest covers): other directions, another key, so a
+    chain measured over four sides is not read back as measured over eight."""
+    from plantlod.scene import levels
+
+    before = levels.cache_key(b"tree", 5.0, 0.01, 20.0)
+    monkeypatch.setattr(levels, "TIP_ERROR_DIRECTIONS", (0.0, 90.0, 180.0, 270.0))
+    assert levels.cache_key(b"tree", 5.0, 0.01, 20.0) != before
+
+
 def test_a_cached_chain_reads_its_built_levels_as_its_texts_give_them(tmp_path):
     """The levels kept built in the cache (KEY.trees.zip) are the trees the level texts
     build, field by field; a damaged archive is read past (the texts again) and rewritten."""

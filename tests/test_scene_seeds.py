@@ -249,7 +249,8 @@ def test_a_bad_key_is_named_at_its_own_line(tmp_path, body, line):
 
 def test_an_unseeded_trees_cache_key_is_the_one_before_seeds(tmp_path):
     """Seeds join the key only where given: the key of an unseeded tree is the formula it had
-    before seeds (so existing caches still hit), computed here independently."""
+    before seeds, with the tip errors' directions after the settings (session 32), computed
+    here independently."""
     import hashlib
     from importlib.metadata import version
 
@@ -257,8 +258,9 @@ def test_an_unseeded_trees_cache_key_is_the_one_before_seeds(tmp_path):
 
     data = STOCHASTIC.encode()
     h = hashlib.sha256()
+    directions = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
     for part in (data, version("plantlod").encode(), fit_code_digest(),
-                 repr((5.0, 0.01, 2.0, 0.0)).encode()):
+                 repr((5.0, 0.01, 2.0, 0.0, directions)).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     assert cache_key(data, 5.0, 0.01, 2.0) == h.hexdigest()[:32]
