@@ -176,13 +176,18 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
     """Refuse, before any work, two outputs naming one path (one would overwrite the other,
     or a failure of the second would leave the first's file where the second wanted a
     folder), and an output naming an input (the input would be written over: `derive x.lsys
-    -o x.lsys` replaced its own L-system). ``outputs`` and
+    -o x.lsys` replaced its own L-system), and two inputs read from standard input (the
+    second read nothing, and was called empty: `compare - -`). ``outputs`` and
     ``inputs`` map an option's name to its path (None or ``-``: none); a device or a pipe
     (``/dev/null``) may take several outputs."""
     to_stdout = [option for option, path in outputs.items() if path == "-"]
     if len(to_stdout) > 1:                  # (a PNG and a JSON report mixed in one stream)
         raise click.UsageError(f"{to_stdout[0]} and {to_stdout[1]} both write to standard output "
                                "(-); give one of them a file")
+    from_stdin = [what for what, source in (inputs or {}).items() if source == "-"]
+    if len(from_stdin) > 1:
+        raise click.UsageError(f"{from_stdin[0]} and {from_stdin[1]} both read standard input (-), "
+                               "which can be read once; give one of them a file")
     seen: dict[str, str] = {}
     for option, path in outputs.items():
         if path is None or path == "-":
@@ -236,7 +241,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
                 yield sys.stdout
                 sys.stdout.flush()
                 return
-            out = WholeWrites(buffer, text=not binary)
+            out = WholeWrites(buffer, text=not binary, name="standard output")
             yield out
             out.flush()
         return
@@ -254,8 +259,10 @@ class WholeWrites:
     surrogate that stands for an undecodable byte of a file name, is written as its
     escape ``\\udcff``, which a JSON reader turns back into it)."""
 
-    def __init__(self, stream: IO[bytes], text: bool):
+    def __init__(self, stream: IO[bytes], text: bool, name: str | None = None):
         self.stream, self.text = stream, text
+        if name is not None:
+            self.name = name        # (what an API writer names in an error: "standard output")
 
     def write(self, data) -> int:
         write_all(self.stream, data.encode("utf-8", "backslashreplace") if self.text else data)

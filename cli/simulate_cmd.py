@@ -39,8 +39,6 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
       plantlod simulate examples/stalk8.lsys --dt 0.01 --steps 500 --wind-file gusts.csv --every 10
     (gusts.csv: rows t,vx,vy,vz in m/s, linearly interpolated; docs/model.md, "Winds")
     """
-    if input_path == "-" and kwargs.get("wind_file") == "-":
-        raise click.UsageError("INPUT and --wind-file cannot both be - (stdin)")
     distinct_paths({"-o": output}, {"INPUT": input_path, "--wind-file": kwargs.get("wind_file")})
     check_output_kind(output, "-o", "angles (a CSV, or an .npz archive)", (".csv", ".npz", ".txt"))
     check_output_path(output)                   # (a missing folder: before the run, not after)

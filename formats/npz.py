@@ -16,6 +16,7 @@ import dataclasses
 import io
 import lzma
 import math
+import re
 import tokenize
 import zipfile
 import zlib
@@ -133,7 +134,11 @@ def _checked_members(data: bytes, source: str) -> None:
 
 
 def _reason(exc: BaseException) -> str:
-    return str(exc) or type(exc).__name__
+    """What went wrong, in words: ast.literal_eval names the node it refused by its repr
+    (`<ast.Call object at 0x7f…>`, an address that changes from run to run); its kind is said."""
+    text = str(exc) or type(exc).__name__
+    return re.sub(r"<ast\.(\w+) object at 0x[0-9a-fA-F]+>",
+                  lambda m: f"a {m.group(1)} where a literal belongs", text)
 
 
 def _load(data: bytes, source: str, kind: str) -> dict[str, np.ndarray]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import codecs
 import contextlib
+import re
 import sys
 from typing import BinaryIO, Iterator
 
@@ -18,6 +19,7 @@ from .constants import MAX_LINE_BYTES, MAX_TEXT_BYTES, READ_CHUNK_BYTES
 from .kinds import USDC_MAGIC
 
 _BOM = b"\xef\xbb\xbf"
+_LINE_BREAK = re.compile(rb"\r\n?|\n")     # where a line ends (lsys.parse.LINE_BREAK, in bytes)
 # Binary files a user may hand to a text reader, and what to say of them.
 BINARY_KINDS = (
     (b"PK\x03\x04", "a zip archive (an .npz?): archives are read by their .npz extension, so "
@@ -62,8 +64,9 @@ def _not_utf8(data: bytes, offset: int, name: str) -> InputError:
         if data.startswith(magic):
             return InputError(f"not text but {what}", name)
     bom = len(_BOM) if data.startswith(_BOM) else 0
-    line = data.count(b"\n", 0, offset) + 1
-    line_start = max(data.rfind(b"\n", 0, offset) + 1, bom)
+    breaks = list(_LINE_BREAK.finditer(data, 0, offset))   # (\r\n, a lone \r or \n: as the
+    line = len(breaks) + 1                                  # .lsys parser and text mode count)
+    line_start = max(breaks[-1].end() if breaks else 0, bom)
     col = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
     return InputError(f"not UTF-8 text (byte {offset}), 0x{data[offset]:02x} cannot be "
                       "decoded; expected a UTF-8 file", name, line, col)

@@ -210,8 +210,7 @@ class _Line:
         """A list of three finite numbers."""
         v = self.record[key]
         if type(v) is not list or len(v) != 3:
-            raise self.error(f'"{key}" must be a list of 3 numbers, got {_json_type(v)}'
-                             + (f" of length {len(v)}" if type(v) is list else ""), key)
+            raise self.error(f'"{key}" must be a list of 3 numbers, got {_json_kind(v)}', key)
         return (_finite(self, key, v[0]), _finite(self, key, v[1]), _finite(self, key, v[2]))
 
     def string(self, key: str) -> str:
@@ -240,6 +239,11 @@ def _finite(line: _Line, key: str, v) -> float:
             raise line.error(f'"{key}" must be a finite number, got an integer of '
                              f"{v.bit_length()} bits", key) from None
     raise line.error(f'"{key}" must be a number, got {_json_type(v)}', key)
+
+
+def _json_kind(value) -> str:
+    """`_json_type`, and a list's length (what a wrong-length list gets wrong)."""
+    return _json_type(value) + (f" of length {len(value)}" if type(value) is list else "")
 
 
 def _json_type(v) -> str:
@@ -637,7 +641,7 @@ class _Branches:
             if "gain" in self.extras:
                 g = line.record["gain"]
                 if type(g) is not list or len(g) != 6:
-                    raise line.error(f'"gain" must be a list of 6 numbers, got {_json_type(g)}',
+                    raise line.error(f'"gain" must be a list of 6 numbers, got {_json_kind(g)}',
                                      "gain")
                 extra["gain"] = [_finite(line, "gain", x) for x in g]
             if "swing_roll" in self.extras:

@@ -23,6 +23,7 @@ import difflib
 import math
 import re
 import sys
+import unicodedata
 from typing import Iterable, Iterator, NamedTuple
 
 from .checks import digits_past_limit, steps_past_limit
@@ -476,6 +477,7 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
                             "docs/notation.md)")
         if c in RESERVED_CHARS:
             raise cur.error(f"unexpected character '{c}'; expected a module")
+        _refuse_control(cur, c, "a module")
         cur.i += 1
         args: tuple[Expr, ...] = ()
         if cur.i < n and text[cur.i] == "(":
@@ -484,6 +486,15 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
             for arg in args:
                 _check_depth(arg, cur, start + 2)
         out.append(Module(c, args, cur.pos(start)))
+
+
+def _refuse_control(cur: "_Cursor", c: str, what: str) -> None:
+    """A control character (Unicode category Cc: U+0001, DEL, ...) names no module: the tree
+    files refuse it as a branch's symbol (`lsys.tree.is_symbol`), so derive wrote files that
+    simulate could not read (a helper's fuzzing, session 32). Refused here, at its place."""
+    if unicodedata.category(c) == "Cc":
+        raise cur.error(f"a control character (U+{ord(c):04X}) cannot be {what}; expected a "
+                        "printable character such as F")
 
 
 def _check_brackets(modules: tuple[Module, ...], closing: str = "on this line") -> None:
@@ -518,6 +529,7 @@ def _patterns(cur: _Cursor) -> list[tuple[Pattern, list[tuple[str, Pos]]]]:
         if c in RESERVED_CHARS:
             raise cur.error(f"unexpected character '{c}'; expected a module pattern, "
                             "'<', '>', ':' or '->'")
+        _refuse_control(cur, c, "a module pattern")
         if c in STRUCTURE_SYMBOLS:
             raise cur.error(f"'{c}' cannot be a predecessor or a context pattern; "
                             "expected a module such as A or A(x)")
@@ -818,6 +830,7 @@ class _FileParser:
         while c := cur.char():
             if c in RESERVED_CHARS:
                 raise cur.error(f"unexpected character '{c}'; expected symbols separated by spaces")
+            _refuse_control(cur, c, "a symbol")
             if c in BRACKETS:
                 raise cur.error(f"'{c}' cannot be ignored: brackets give context its structure; "
                                 "expected other symbols")
@@ -857,6 +870,7 @@ class _FileParser:
         if c in RESERVED_CHARS:
             raise cur.error(f"unknown symbol in a declaration: '{c}' is reserved; expected one "
                             f"character such as F, as in '{example}'")
+        _refuse_control(cur, c, "a symbol")
         if c in TURTLE_SYMBOLS:
             raise cur.error(f"unknown symbol in a declaration: '{c}' is a turtle symbol; "
                             f"expected a symbol of your own, as in '{example}'")

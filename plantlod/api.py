@@ -802,9 +802,13 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
 @contextlib.contextmanager
 def _writing(path: str):
     """A file that cannot be written (a full disk, a folder that takes no file) is a
-    `RunFailure` naming it, as the commands say it (it was a raw OSError)."""
+    `RunFailure` naming it, as the commands say it (it was a raw OSError). A reader that went
+    away (``plantlod view ... -o - | head``) is not a failure: BrokenPipeError passes, and
+    the command ends quietly (exit 141) as every other does."""
     try:
         yield
+    except BrokenPipeError:
+        raise
     except OSError as exc:
         raise RunFailure(f"cannot write {exc.filename or path}: "
                          f"{exc.strerror or exc}") from None

@@ -4,6 +4,8 @@ MAX_TREES = 100_000            # trees one scene may place (a [scatter] count is
 # distinct (file, seed) pairs of one scene: a level chain each, fitted in 10-20 s for the
 # bundled trees (a few hours at the limit; one seed per tree of a 100,000-tree forest was weeks)
 MAX_SCENE_CHAINS = 1_000
+MAX_SCENE_NESTING = 100          # arrays and inline tables inside each other: where tomllib's stack ran
+                                 # out, the first bracket past this many is named (a scene needs 3)
 MAX_SCENE_STEPS = 1_000_000    # time steps of one scene (duration / dt): 10,000 s at dt = 0.01
 # trees x branches x steps of a scene at full detail (a tree with no branch counts as one):
 # the bound on the work a scene may ask for; forest10k.toml asks about 2e9

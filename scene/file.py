@@ -38,8 +38,8 @@ from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 from plantlod.sim.wind import gust_peak_factor
 from plantlod.simplify.constants import SIMPLIFY_EVERY
 
-from .constants import (MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_CHAINS, MAX_SCENE_STEPS,
-                        MAX_TREES)
+from .constants import (MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_CHAINS, MAX_SCENE_NESTING,
+                        MAX_SCENE_STEPS, MAX_TREES)
 
 TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
@@ -318,11 +318,7 @@ def _element_offset(text: str, start: int, index: int) -> int | None:
                 return k
             expect = False
         if c in "\"'":                                 # a string: to its closing quote
-            quote = text[k:k + 3] if text[k:k + 3] in ('"""', "'''") else c
-            k += len(quote)
-            while k < len(text) and not text.startswith(quote, k):
-                k += 2 if quote == '"' and text[k] == "\\" else 1
-            k += len(quote)
+            k = _past_string(text, k)
             continue
         if c in "[{":
             depth += 1
@@ -330,6 +326,51 @@ def _element_offset(text: str, start: int, index: int) -> int | None:
             depth -= 1
         elif c == "," and depth == 1:
             element, expect = element + 1, True
+        k += 1
+    return None
+
+
+def _past_string(text: str, k: int) -> int:
+    """The offset just past the TOML string that opens at ``text[k]`` (a quote: basic or
+    literal, single-line or triple)."""
+    quote = text[k:k + 3] if text[k:k + 3] in ('"""', "'''") else text[k]
+    k += len(quote)
+    while k < len(text) and not text.startswith(quote, k):
+        k += 2 if quote[0] == '"' and text[k] == "\\" else 1
+    return k + len(quote)
+
+
+def _too_deep(text: str, limit: int = MAX_SCENE_NESTING) -> int | None:
+    """The offset of the first ``[`` or ``{`` of a value that opens more than ``limit`` arrays
+    and inline tables at once (strings, comments and table headers skipped), None where
+    none does: where tomllib ran out of stack, the place to name."""
+    depth, k, line_start = 0, 0, True
+    while k < len(text):
+        c = text[k]
+        if c == "#":                                   # a comment runs to the line's end
+            k = text.find("\n", k)
+            if k < 0:
+                return None
+            continue
+        if c in "\"'":
+            k = _past_string(text, k)
+            line_start = False
+            continue
+        if c == "\n":
+            line_start = True
+        elif c not in " \t\r":
+            if c == "[" and depth == 0 and line_start:     # a [table] or [[array]] header
+                k = text.find("\n", k)
+                if k < 0:
+                    return None
+                continue
+            if c in "[{":
+                depth += 1
+                if depth > limit:
+                    return k
+            elif c in "]}":
+                depth = max(depth - 1, 0)
+            line_start = False
         k += 1
     return None
 
@@ -478,7 +519,12 @@ def read_scene(path: str) -> Scene:
         raise InputError(f"not valid TOML: {str(exc).split(' (at')[0]}", path,
                          int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None
     except RecursionError:              # arrays or tables nested thousands deep
-        raise InputError("not valid here: TOML nested too deeply for a scene", path) from None
+        at = _too_deep(text)
+        line, col = (None, None) if at is None else (
+            text.count("\n", 0, at) + 1, at - text.rfind("\n", 0, at))
+        raise InputError(f"not valid here: TOML nested too deeply for a scene (more than "
+                         f"{MAX_SCENE_NESTING} arrays or inline tables inside each other)",
+                         path, line, col) from None
     except ValueError:                  # an integer past Python's digit limit (tomllib's int())
         raise _long_integer(text, path) from None
     r = _Reader(text, path)
@@ -488,7 +534,8 @@ def read_scene(path: str) -> Scene:
     duration = r.number(data, "duration", 10.0, low=0, low_open=True)
     steps = duration / dt
     if not steps <= MAX_SCENE_STEPS:                 # NaN and infinity included
-        raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {steps:,.3g} steps, more than "
+        count = f"{steps:,.3g}" if math.isfinite(steps) else "more than 1e308"
+        raise r.error(f"duration {duration:g} s at dt = {dt:g} s is {count} steps, more than "
                       f"the limit of {MAX_SCENE_STEPS:,}; expected a shorter scene or a larger dt",
                       "duration" if "duration" in data else "dt")
     if steps < 2 * SIMPLIFY_EVERY:                   # (the levels' motion fit reads periods)

@@ -611,3 +611,40 @@ def test_a_summary_naming_a_file_with_a_line_break_stays_one_line(tmp_path):
     result = run_cli("view", str(glb), "-o", str(out))
     assert result.stderr.count("\n") == 1 and "x\\ny.html" in result.stderr
     assert out.exists()
+
+
+def test_view_to_a_reader_of_stdout_that_goes_away_ends_quietly(tmp_path):
+    """`plantlod view A.glb -o - | head` ended with exit 1 and "cannot write the stream: Broken
+    pipe" where every other command ends quietly with 141 (a helper's fuzzing, session 32),
+    and a full stdout did not say which output: now "standard output", as derive says it."""
+    csv, glb = tmp_path / "a.csv", tmp_path / "a.glb"
+    run_cli("simulate", STALK8, "--dt", "0.01", "--duration", "1", "--wind-speed", "5", "-o", str(csv))
+    run_cli("export", STALK8, str(csv), "-o", str(glb))
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} view {glb} -o - | head -c 15; "
+                           "exit ${PIPESTATUS[0]}"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=120)
+    assert (done.returncode, done.stderr, done.stdout) == (141, "", "<!DOCTYPE html>")
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} view {glb} -o - > /dev/full"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [
+        "plantlod view: error: cannot write standard output: No space left on device"]
+
+
+@pytest.mark.parametrize("args", [
+    ("compare", "-", "-", "--dt", "0.01", "--duration", "1", "--wind-speed", "3"),
+    ("compare", "--angles", "-", "-"),
+    ("export", "-", "-", "-o", "OUT/e.glb"),
+    ("simulate", "-", "--wind-file", "-", "--dt", "0.01", "--steps", "3"),
+])
+def test_standard_input_is_read_by_one_input_only(tmp_path, args):
+    """`compare - -` read the tree from stdin and then called the second input "empty"
+    (a helper's fuzzing, session 32): two inputs given as - are refused before any reading,
+    naming both, and nothing is written."""
+    args = [a.replace("OUT", str(tmp_path)) for a in args]
+    done = subprocess.run([PLANTLOD, *args], input=(ROOT / STALK8).read_text(),
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    line, = done.stderr.splitlines()
+    assert "both read standard input (-), which can be read once" in line
+    assert os.listdir(tmp_path) == []

@@ -294,6 +294,20 @@ def test_utf8_is_checked_across_chunk_boundaries():
         _read_capped(io.BytesIO(b"ab\ncd\xc3\xa9\xc3"), "x", 1000)
     assert (info.value.line, info.value.col) == (2, 4)
 
+
+@pytest.mark.parametrize("data, where", [
+    (b"name: a\rderivation_length: 1\rbad\xff\n", (3, 4)),       # lone \r: an old Mac file
+    (b"name: a\r\nderivation_length: 1\r\nbad\xff\n", (3, 4)),   # \r\n: one line end, not two
+    (b"a\n\rb\r\r\nc\xff", (5, 2)),                               # \n, \r, \r, \r\n: 4 ends
+])
+def test_a_byte_that_is_not_utf8_is_placed_where_the_parser_counts_lines(data, where):
+    """The parser ends a line at \n, \r\n or a lone \r (lsys.parse.LINE_BREAK); the UTF-8
+    error counted \n only, so a file of lone-\r lines had its bad byte at 1:33 where it
+    sits at 3:4 (a helper's fuzzing, session 32)."""
+    with pytest.raises(InputError) as info:
+        _read_capped(io.BytesIO(data), "x.lsys", 1000)
+    assert (info.value.line, info.value.col) == where
+
 def test_long_line_cap_names_the_line(tmp_path):
     path = tmp_path / "x.csv"
     path.write_bytes(b"t\n0\n" + b"1" * 300 + b"\n")
@@ -469,3 +483,19 @@ def test_lanes_refuse_arrays_past_the_memory_cap():
     rows = MAX_HELD_ANGLE_BYTES // (2 * 8 * tree.n_branches) + 1
     with pytest.raises(InputError, match="GB of angles in memory"):
         run_lanes(LaneModel.from_tree(tree), np.zeros((1, 3)), 0.01, rows)
+
+
+@pytest.mark.parametrize("text, where, what", [
+    ("branch \x01: length=1\naxiom: F\n", (1, 8), "U+0001) cannot be a symbol"),
+    ("axiom: F \x7f F\n", (1, 10), "U+007F) cannot be a module"),
+    ("axiom: F\nproductions:\n  \x02 -> F\n", (3, 3), "U+0002) cannot be a module pattern"),
+    ("ignore: + \x1b\naxiom: F\n", (1, 11), "U+001B) cannot be a symbol"),
+])
+def test_a_control_character_is_no_module(text, where, what):
+    """derive read `branch \\x01: ...` and wrote tree files that simulate refused ("symbol"
+    must be one character, not a control character): the parser now refuses a control
+    character where it stands (a helper's fuzzing, session 32)."""
+    with pytest.raises(InputError) as info:
+        parse_lsys(text, "x.lsys")
+    assert (info.value.line, info.value.col) == where
+    assert f"a control character ({what}" in info.value.message

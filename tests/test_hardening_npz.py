@@ -312,3 +312,15 @@ def test_tree_archive_strings_are_checked_as_the_tree_file_checks_them(field, va
     strings = [value] * tree.n_branches
     members[field] = npy(np.array(strings))
     refused(archive(members), fragment, reader=read_tree_bytes)
+
+
+def test_a_header_holding_a_call_is_named_in_words():
+    """numpy reads an .npy header with ast.literal_eval, whose refusal named the node by its
+    repr, `<ast.Call object at 0x7f…>` (an address that changes from run to run; a helper's
+    fuzzing, session 32): the kind of node is said instead."""
+    good = npy(np.zeros(2))
+    bad = good.replace(b"(2,)", b"f(2)")              # (same length: the header stays aligned)
+    assert bad != good
+    message = refused(archive(angles_members(bend=bad)), "'bend' in the archive is not a readable "
+                      "array", "a Call where a literal belongs")
+    assert "0x" not in message

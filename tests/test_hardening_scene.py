@@ -462,14 +462,22 @@ def test_simplify_levels_into_a_folder_holding_a_folder_of_a_level_name_moves_no
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
 
 
-def test_toml_nested_thousands_deep_names_the_file(tmp_path):
+@pytest.mark.parametrize("head, deep, where", [
+    ("", "a = " + "[" * 5000 + "]" * 5000, (1, 105)),
+    ("", "a = " + "{b=" * 3000 + "1" + "}" * 3000, (1, 305)),
+    # a comment, a string and a table header hold brackets that open nothing
+    ('# [[[[\n[camera]\nfov_deg = 60\n\n[[tree]]\nfile = "[[[["\n', "x = " + "[" * 3000 + "]" * 3000,
+     (7, 105)),
+])
+def test_toml_nested_thousands_deep_names_the_file_and_the_place(tmp_path, head, deep, where):
     """tomllib's RecursionError reached the command as "input nested too deeply" with no
-    file (session 21, found by fuzzing)."""
+    file (session 21, found by fuzzing), then with no line (session 32, fuzzing): the first
+    bracket past MAX_SCENE_NESTING is named."""
     path = tmp_path / "s.toml"
-    path.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    path.write_text(head + deep + "\n")
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     "nested too deeply")
-    assert line.startswith(f"{path}: error:")
+    assert line.startswith(f"{path}:{where[0]}:{where[1]}: error:")
 
 
 @pytest.mark.parametrize("spacing", ["0", "1e-300"])
@@ -820,3 +828,14 @@ def test_camera_tables_of_the_wrong_shape_are_named_at_their_line(tmp_path, came
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2, message)
     first = 1 if camera.startswith("camera") else 5
     assert line.startswith(f"{path}:{first + where - 1}:"), line
+
+
+@pytest.mark.parametrize("dt, count", [("5e-324", "more than 1e308"), ("1e-300", "1e+300")])
+def test_a_time_step_too_small_to_count_its_steps_says_so_in_words(tmp_path, dt, count):
+    """duration / dt overflows for a subnormal dt: the message read "is inf steps" (a
+    helper's fuzzing, session 32)."""
+    path = tmp_path / "s.toml"
+    path.write_text(f"dt = {dt}\nduration = 1\n[[tree]]\nfile = \"{STALK}\"\n")
+    line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
+                    f"is {count} steps, more than the limit of 1,000,000")
+    assert "inf" not in line

@@ -219,6 +219,11 @@ ERRORS = [
      1, '"extras"', r'"extras" must be a non-empty list'),
     ("gain missing", edit(1, '"version": 1', '"version": 2, "extras": ["gain"]'), 2, None,
      r'missing key "gain" in a branch record'),
+    # (a list of the wrong length said only "got a list", session 32's fuzzing)
+    ("short gain", edit(1, '"version": 1', '"version": 2, "extras": ["gain"]').replace(
+        '"psi": 0.0, "offset": [0.0, 0.0, 0.0]}', '"psi": 0.0, "offset": [0.0, 0.0, 0.0], '
+        '"gain": [0.01, 0, 0, 0, 0.01]}', 1), 2, '"gain"',
+     r'"gain" must be a list of 6 numbers, got a list of length 5'),
     ("missing key", edit(3, '"radius": 0.05, ', ""), 3, None,
      r'missing key "radius" in a branch record'),
     ("unknown key", edit(3, '"radius": 0.05, ', '"radius": 0.05, "colour": 1, '), 3, '"colour"',
