@@ -28,6 +28,7 @@ import math
 import pathlib
 import re
 import tomllib
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -302,32 +303,37 @@ def _element_offset(text: str, start: int, index: int) -> int | None:
         k += 1
     if k >= len(text) or text[k] != "[":
         return None
-    depth, element, expect, k = 1, 0, True, k + 1
-    while k < len(text) and depth > 0:
-        c = text[k]
-        if c == "#":                                   # a comment runs to the line's end
-            k = text.find("\n", k)
-            if k < 0:
-                return None
-            continue
+    depth, element, expect = 1, 0, True
+    for k, c in _significant(text, k + 1):
         if c in " \t\r\n":
-            k += 1
             continue
         if depth == 1 and expect and c not in ",]":
             if element == index:
                 return k
             expect = False
-        if c in "\"'":                                 # a string: to its closing quote
-            k = _past_string(text, k)
-            continue
         if c in "[{":
             depth += 1
         elif c in "]}":
             depth -= 1
+            if depth == 0:
+                return None
         elif c == "," and depth == 1:
             element, expect = element + 1, True
-        k += 1
     return None
+
+
+def _significant(text: str, k: int = 0) -> Iterator[tuple[int, str]]:
+    """(offset, character) of ``text`` from ``k`` on, comments left out (their line end is
+    kept) and each string given by its opening quote alone."""
+    while k < len(text):
+        c = text[k]
+        if c == "#":                                   # a comment runs to the line's end
+            k = text.find("\n", k)
+            if k < 0:
+                return
+            continue
+        yield k, c
+        k = _past_string(text, k) if c in "\"'" else k + 1
 
 
 def _past_string(text: str, k: int) -> int:
@@ -344,34 +350,23 @@ def _too_deep(text: str, limit: int = MAX_SCENE_NESTING) -> int | None:
     """The offset of the first ``[`` or ``{`` of a value that opens more than ``limit`` arrays
     and inline tables at once (strings, comments and table headers skipped), None where
     none does: where tomllib ran out of stack, the place to name."""
-    depth, k, line_start = 0, 0, True
-    while k < len(text):
-        c = text[k]
-        if c == "#":                                   # a comment runs to the line's end
-            k = text.find("\n", k)
-            if k < 0:
-                return None
-            continue
-        if c in "\"'":
-            k = _past_string(text, k)
-            line_start = False
-            continue
+    depth, line_start, header = 0, True, False
+    for k, c in _significant(text):
         if c == "\n":
-            line_start = True
-        elif c not in " \t\r":
-            if c == "[" and depth == 0 and line_start:     # a [table] or [[array]] header
-                k = text.find("\n", k)
-                if k < 0:
-                    return None
-                continue
-            if c in "[{":
-                depth += 1
-                if depth > limit:
-                    return k
-            elif c in "]}":
-                depth = max(depth - 1, 0)
-            line_start = False
-        k += 1
+            line_start, header = True, False
+            continue
+        if header or c in " \t\r":
+            continue
+        if c == "[" and depth == 0 and line_start:         # a [table] or [[array]] header
+            header = True
+            continue
+        line_start = False
+        if c in "[{":
+            depth += 1
+            if depth > limit:
+                return k
+        elif c in "]}":
+            depth = max(depth - 1, 0)
     return None
 
 
