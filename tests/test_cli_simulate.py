@@ -206,7 +206,7 @@ def test_usage_errors_exit_2(args, fragment):
 def test_stdin_twice_is_a_usage_error():
     result = run_cli("simulate", "-", "--dt", "0.01", "--steps", "3", "--wind-file", "-",
                      input="", exit_code=2)
-    assert "stdin" in result.stderr
+    assert "INPUT and --wind-file both read standard input (-)" in result.stderr
 
 
 @pytest.mark.parametrize("dt, damping, largest", [("250", "0", "200"), ("150", "1", "100")])
