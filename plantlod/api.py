@@ -786,11 +786,16 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
     if path_or_file is None:
         return
     if hasattr(path_or_file, "write"):
-        with _writing(getattr(path_or_file, "name", None) or "the stream"):
-            path_or_file.write(text)          # type: ignore[union-attr]
-            flush = getattr(path_or_file, "flush", None)
-            if flush is not None:
-                flush()                       # (a full disk says so here, not at close)
+        name = getattr(path_or_file, "name", None) or "the stream"
+        with _writing(name):
+            try:
+                path_or_file.write(text)      # type: ignore[union-attr]
+                flush = getattr(path_or_file, "flush", None)
+                if flush is not None:
+                    flush()                   # (a full disk says so here, not at close)
+            except ValueError as exc:         # (the caller's stream: closed since, or an
+                # encoding such as ascii that cannot hold the text: UnicodeEncodeError)
+                raise RunFailure(f"cannot write {name}: {exc}") from None
         return
     from plantlod.formats.atomic import atomic_path, write_whole
 
@@ -812,6 +817,7 @@ def _writing(path: str):
     except OSError as exc:
         raise RunFailure(f"cannot write {exc.filename or path}: "
                          f"{exc.strerror or exc}") from None
+
 
 __all__ = ["Angles", "read_lsystem", "write_lsystem", "derive", "read_tree", "write_tree",
            "simulate", "read_angles", "write_angles", "simplify", "compare",

@@ -60,6 +60,10 @@ def one_run(angles: Any, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     addresses = angles.addresses
     if not isinstance(addresses, (tuple, list)) or not all(isinstance(a, str) for a in addresses):
         raise InputError("the angles' addresses must be a sequence of address strings")
+    if any(np.iscomplexobj(a) for a in (angles.time, angles.bend, angles.rotation)):
+        # (float64 conversion keeps the real part and warns; a tree's arrays are refused so)
+        raise InputError("the angles' time, bend and rotation must be arrays of real numbers, "
+                         "got complex numbers")
     try:
         time = np.asarray(angles.time, dtype=np.float64)
         bend = np.asarray(angles.bend, dtype=np.float64)

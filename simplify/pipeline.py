@@ -102,7 +102,8 @@ class Options:
 
         whole("level", self.level, low=1, high=MAX_LEVEL)    # (no tree has that many levels)
         for name, value, choices in (("method", self.method, METHODS), ("form", self.form, FORMS)):
-            if value not in choices:
+            # (a str first: an array compared with the choices has no single truth value)
+            if not isinstance(value, str) or value not in choices:
                 raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
         if not isinstance(self.calibrate, bool):
             raise InputError(f"calibrate must be True or False, got {self.calibrate!r}")

@@ -144,6 +144,8 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     ({"damping_ratio": "0.1"}, "damping_ratio must be a number"),          # ValueError
     ({"max_evaluations": -1}, "max_evaluations must be a whole number"),   # accepted
     ({"calibrate": "yes"}, "calibrate must be True or False"),             # accepted
+    ({"form": np.array([1, 2])}, "form must be one of"),                   # ValueError (s. 32)
+    ({"method": np.array(["derived", "x"])}, "method must be one of"),     # ValueError (s. 32)
     ({"foo": 1}, "unknown option 'foo'"),                                  # TypeError
     ({"dt": 10}, "duration 20 s at dt 10 s gives fewer than 8 steps to measure the motion in; "
                  "expected a longer duration or a smaller dt"),           # signal shape error
@@ -298,3 +300,33 @@ def test_a_wind_object_that_fails_or_gives_what_no_wind_is_named_so():
                 plantlod.simulate(tree, wind=given, dt=0.01, steps=20)
     with pytest.raises(InputError, match="three finite numbers"):
         ConstantWind("abc")
+
+
+def test_a_callers_stream_that_cannot_take_the_text_and_complex_angles(tmp_path):
+    """A text stream whose encoding cannot hold the text (ascii) raised UnicodeEncodeError,
+    a stream closed after the check a ValueError; complex angles were written with their
+    imaginary part dropped (session 32, a helper's fuzzing of the API)."""
+    import dataclasses
+    import io
+
+    from plantlod.lsys.errors import RunFailure
+
+    system = plantlod.read_lsystem(STALK)
+    with pytest.raises(RunFailure, match="cannot write the stream: 'ascii' codec can't encode"):
+        plantlod.write_lsystem(dataclasses.replace(system, comment="\u03b6"),
+                               io.TextIOWrapper(io.BytesIO(), encoding="ascii"))
+
+    class ClosesWhenWritten(io.StringIO):
+        def write(self, text):
+            self.close()
+            return super().write(text)
+
+    with pytest.raises(RunFailure, match="I/O operation on closed file"):
+        plantlod.write_lsystem(system, ClosesWhenWritten())
+    tree, angles = _angles()
+    complex_angles = dataclasses.replace(angles, bend=angles.bend * 1j)
+    for call in (lambda: plantlod.write_angles(complex_angles, tmp_path / "a.csv"),
+                 lambda: plantlod.export_animation(tree, complex_angles, tmp_path / "a.glb")):
+        with pytest.raises(InputError, match="got complex numbers"):
+            call()
+    assert os.listdir(tmp_path) == []
