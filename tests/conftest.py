@@ -13,14 +13,16 @@ EXAMPLES = ROOT / "examples"
 
 
 def _signals_as_a_terminal_has_them() -> None:
-    """SIGHUP, SIGINT and SIGTERM back to their defaults where the shell that started the tests
-    ignored them (``nohup make test &``: nohup ignores SIGHUP, and a non-interactive shell's
-    background job SIGINT). An ignored signal stays ignored in every child, and plantlod keeps
-    it ignored, as a command started with nohup should, so the tests that send a command a
-    signal and expect exit 128 + n saw exit 0 instead."""
+    """SIGHUP, SIGINT, SIGQUIT and SIGTERM back to their defaults where the shell that started
+    the tests ignored them (``nohup make test &``: nohup ignores SIGHUP, and a non-interactive
+    shell's background job SIGINT and SIGQUIT). An ignored signal stays ignored in every child,
+    and plantlod keeps it ignored, as a command started with nohup should, so the tests that
+    send a command a signal and expect exit 128 + n saw exit 0 instead, or waited out their
+    timeout for a run that went on (SIGQUIT, session 32: two fresh-clone runs started in the
+    background)."""
     import signal
 
-    for signum in (signal.SIGHUP, signal.SIGINT, signal.SIGTERM):
+    for signum in (signal.SIGHUP, signal.SIGINT, signal.SIGQUIT, signal.SIGTERM):
         if signal.getsignal(signum) == signal.SIG_IGN:
             signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT
                           else signal.SIG_DFL)
