@@ -27,7 +27,7 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
-from .arguments import binary_stream, one_run, output_target, path_of, real, whole
+from .arguments import binary_stream, flag, label, one_run, output_target, path_of, real, whole
 
 PathOrText = Union[str, "os.PathLike[str]"]
 PathOrFile = Union[str, "os.PathLike[str]", IO[str]]
@@ -86,6 +86,7 @@ def read_lsystem(path_or_text: PathOrText, *, name: str | None = None) -> LSyste
     """
     from plantlod.formats.lsys_file import parse_lsys_text
 
+    name = label("name", name)
     if isinstance(path_or_text, os.PathLike) or (
             isinstance(path_or_text, str) and not _is_text(path_or_text)):
         from plantlod.formats.lsys_file import read_lsys
@@ -269,6 +270,7 @@ def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
     (`plantlod simulate -o A.npz`, radians)."""
     from plantlod.formats.angles_csv import read_angles_file, read_angles_text
 
+    degrees = flag("degrees", degrees)
     archive = _npz_path(path_or_file)
     if archive is not None:
         time, addresses, bend, rot = read_angles_file(archive, degrees)
@@ -294,6 +296,7 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
     """The angle CSV of a single run (``bend`` of shape (T, B)); written when a target is given."""
     from plantlod.formats.angles_csv import AnglesCsvWriter
 
+    degrees = flag("degrees", degrees)
     time, bend, rot, addresses = one_run(angles, "write_angles")
     bad = next((a for a in addresses if "," in a or "\n" in a or "\r" in a), None)
     if bad is not None:

@@ -14,6 +14,21 @@ from plantlod.lsys.checks import real, whole  # noqa: F401  (the API's number ch
 from plantlod.lsys.errors import InputError
 
 
+def flag(name: str, value: Any) -> bool:
+    """``value`` where it is True or False (numpy's bool too); any other value, which Python
+    would read as true or false ("yes", None, 0), is an `InputError` naming ``name``."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def label(name: str, value: Any) -> str | None:
+    """``value`` where it is None or a string (a name messages give a text or a stream)."""
+    if value is not None and not isinstance(value, str):
+        raise InputError(f"{name} must be a string, got {type(value).__name__}")
+    return value
+
+
 def binary_stream(value: Any) -> bool:
     """Whether a stream (an object with read or write) reads or writes bytes, not text."""
     return isinstance(value, (io.RawIOBase, io.BufferedIOBase)) or "b" in getattr(value, "mode", "")

@@ -330,3 +330,21 @@ def test_a_callers_stream_that_cannot_take_the_text_and_complex_angles(tmp_path)
         with pytest.raises(InputError, match="got complex numbers"):
             call()
     assert os.listdir(tmp_path) == []
+
+
+def test_a_flag_is_true_or_false_and_a_name_a_string(tmp_path):
+    """read_angles(degrees="yes") and write_angles(degrees=None) were read as true and false,
+    and read_lsystem(text, name=5) named the text "5" (session 32, a helper's fuzzing of the
+    API); calibrate was already held to True or False."""
+    import io
+
+    tree, angles = _angles()
+    path = tmp_path / "a.csv"
+    plantlod.write_angles(angles, path)
+    for call in (lambda: plantlod.read_angles(path, degrees="yes"),
+                 lambda: plantlod.write_angles(angles, degrees=None)):
+        with pytest.raises(InputError, match="degrees must be True or False, got"):
+            call()
+    assert plantlod.read_angles(path, degrees=np.bool_(False)).bend.shape == angles.bend.shape
+    with pytest.raises(InputError, match="name must be a string, got int"):
+        plantlod.read_lsystem(io.StringIO("x: 1\n"), name=5)
