@@ -57,8 +57,10 @@ class Angles:
         lanes = np.shape(self.bend)[0]
         if isinstance(lane, slice):
             return Angles(self.time, self.bend[lane], self.rotation[lane], self.addresses)
-        if not isinstance(lane, (int, np.integer)) or isinstance(lane, bool) \
-                or not -lanes <= lane < lanes:
+        if not isinstance(lane, (int, np.integer)) or isinstance(lane, bool):
+            # (as a list says it: a run is chosen by a whole number or a slice)
+            raise TypeError(f"runs are chosen by a whole number or a slice, got {lane!r}")
+        if not -lanes <= lane < lanes:
             raise IndexError(f"run {lane!r} of {lanes}; expected 0..{lanes - 1}")
         return Angles(self.time, self.bend[lane], self.rotation[lane], self.addresses)
 

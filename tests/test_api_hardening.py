@@ -60,6 +60,9 @@ def test_one_run_of_a_lanes_result_by_index(tmp_path):
     assert (tmp_path / "a.glb").stat().st_size > 0
     with pytest.raises(IndexError, match="run 2 of 2"):
         many[2]
+    for key in ("a", 1.0, None, True):   # (IndexError before session 32; a list says TypeError)
+        with pytest.raises(TypeError, match="runs are chosen by a whole number or a slice"):
+            many[key]
     with pytest.raises(InputError, match="these angles are one run"):
         single[0]
 
