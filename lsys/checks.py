@@ -49,6 +49,14 @@ def real(name: str, value: Any, *, low: float | None = None, low_open: bool = Fa
     return x
 
 
+def flag(name: str, value: Any) -> bool:
+    """``value`` where it is True or False (numpy's bool too); any other value, which Python
+    would read as true or false ("yes", None, 0), is an `InputError` naming ``name``."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
 def whole(name: str, value: Any, *, low: int = 0, high: int | None = None) -> int:
     """``value`` as an int in [low, high]."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \

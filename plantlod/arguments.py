@@ -10,16 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from plantlod.lsys.checks import real, whole  # noqa: F401  (the API's number checks)
+from plantlod.lsys.checks import flag, real, whole  # noqa: F401  (the API's argument checks)
 from plantlod.lsys.errors import InputError
-
-
-def flag(name: str, value: Any) -> bool:
-    """``value`` where it is True or False (numpy's bool too); any other value, which Python
-    would read as true or false ("yes", None, 0), is an `InputError` naming ``name``."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise InputError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
 
 
 def label(name: str, value: Any) -> str | None:

@@ -322,6 +322,11 @@ def _element_offset(text: str, start: int, index: int) -> int | None:
     return None
 
 
+def _line_col(text: str, offset: int) -> tuple[int, int]:
+    """The line and column (both from 1) of ``offset`` in ``text``."""
+    return text.count("\n", 0, offset) + 1, offset - text.rfind("\n", 0, offset)
+
+
 def _significant(text: str, k: int = 0) -> Iterator[tuple[int, str]]:
     """(offset, character) of ``text`` from ``k`` on, comments left out (their line end is
     kept) and each string given by its opening quote alone."""
@@ -417,9 +422,7 @@ class _Reader:
         offset = _element_offset(self.text, found.start(1), index) if found is not None else None
         if offset is None:
             return self.error(message, key)
-        line_start = self.text.rfind("\n", 0, offset) + 1
-        return InputError(message, self.source, self.text.count("\n", 0, offset) + 1,
-                          offset - line_start + 1)
+        return InputError(message, self.source, *_line_col(self.text, offset))
 
     def keys(self, table: dict, allowed: set[str], where: str) -> None:
         for key in table:
@@ -515,11 +518,9 @@ def read_scene(path: str) -> Scene:
                          int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None
     except RecursionError:              # arrays or tables nested thousands deep
         at = _too_deep(text)
-        line, col = (None, None) if at is None else (
-            text.count("\n", 0, at) + 1, at - text.rfind("\n", 0, at))
         raise InputError(f"not valid here: TOML nested too deeply for a scene (more than "
                          f"{MAX_SCENE_NESTING} arrays or inline tables inside each other)",
-                         path, line, col) from None
+                         path, *((None, None) if at is None else _line_col(text, at))) from None
     except ValueError:                  # an integer past Python's digit limit (tomllib's int())
         raise _long_integer(text, path) from None
     r = _Reader(text, path)

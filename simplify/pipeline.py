@@ -19,7 +19,7 @@ import numpy as np
 
 from plantlod.formats.lsys_file import with_header_comment, write_lsys
 from plantlod.lsys.build import build
-from plantlod.lsys.checks import real, whole
+from plantlod.lsys.checks import flag, real, whole
 from .constants import CALIBRATION_EVALUATIONS
 from .constants import SIMPLIFY_DT
 from .constants import SIMPLIFY_DURATION
@@ -105,8 +105,7 @@ class Options:
             # (a str first: an array compared with the choices has no single truth value)
             if not isinstance(value, str) or value not in choices:
                 raise InputError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
-        if not isinstance(self.calibrate, bool):
-            raise InputError(f"calibrate must be True or False, got {self.calibrate!r}")
+        flag("calibrate", self.calibrate)
         if not isinstance(self.wind_range, (tuple, list)) or len(self.wind_range) != 2:
             raise InputError(f"wind_range must be (low, high) in m/s, got {self.wind_range!r}")
         for value in self.wind_range:           # (its own bounds, not a measurement wind's)
