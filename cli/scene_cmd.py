@@ -132,9 +132,9 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         + f", {report['wall_s']:.1f} s")
     if verify and report["max_error_px"] is not None and report["max_error_px"] > spec.budget_px:
         warn(f"the verified max error {report['max_error_px']:.3f} px is above the budget of "
-             f"{spec.budget_px:g} px: a level's tip error was measured in steady winds, and "
-             "this scene's gusts or its switches back to finer levels (a predicted state) cost "
-             "more (docs/scene.md, \"Where the budget does not hold\")")
+             f"{spec.budget_px:g} px: a level's tip error was measured over eight headings "
+             "from rest, and this scene's trees or its switches back to finer levels (a "
+             "predicted state) cost more (docs/scene.md, \"Where the budget does not hold\")")
 
 
 def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float) -> None:

@@ -3,11 +3,11 @@
 For a scene, every distinct tree file (and seed it is grown from) gets its explicit-form levels (model.md 5,
 `plantlod.simplify.explicit`): level 0 the original, each next one <= 60 % of the
 branches, down to one branch. Each level's **tip error (max)** (model.md 6, metres)
-is measured against the original in the scene's wind speed, the worst over
-`TIP_ERROR_DIRECTIONS` (so it holds for any heading). The level files and the errors
-are kept in the cache folder under a key of the tree file's bytes, the seed where one is
-given, the program version and the wind and time settings, so a second run of a scene
-simplifies nothing.
+is measured against the original in the scene's wind: its speed, steady or in the scene's
+own gusts (`Gusts`), the worst over `TIP_ERROR_DIRECTIONS` (so it holds for any heading).
+The level files and the errors are kept in the cache folder under a key of the tree
+file's bytes, the seed where one is given, the program version and the wind (gusts
+included) and time settings, so a second run of a scene simplifies nothing.
 
 Beside each entry's JSON (the level texts, the source of truth) the levels' trees are kept
 built, one `.npz` tree archive a level in an uncompressed zip (`KEY.trees.zip`,
@@ -72,6 +72,15 @@ class Chain:
         return self._lane_models[level]
 
 
+@dataclass(frozen=True)
+class Gusts:
+    """A gusty scene's gusts (`plantlod.sim.wind.GustyWind`): strength (RMS relative
+    fluctuation of the speed, > 0) and seed."""
+
+    strength: float
+    seed: int
+
+
 def default_cache() -> pathlib.Path:
     env = os.environ.get(CACHE_ENV)
     if env:
@@ -101,7 +110,8 @@ def fit_code_digest() -> bytes:
 
 
 def cache_key(data: bytes, speed: float, dt: float, duration: float,
-              damping_ratio: float = 0.0, seed: int | None = None) -> str:
+              damping_ratio: float = 0.0, seed: int | None = None,
+              gusts: Gusts | None = None) -> str:
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -113,6 +123,8 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
     settings = (speed, dt, duration, damping_ratio) + (() if seed is None else (int(seed),))
     # (and the directions the tip errors are the worst over: a cached chain's errors are theirs)
     settings += (TIP_ERROR_DIRECTIONS,)
+    # (and the gusts they were measured in, where there are any: steady keys are unchanged)
+    settings += () if gusts is None else (("gusts", float(gusts.strength), int(gusts.seed)),)
     for part in (data, program.encode(), fit_code_digest(), repr(settings).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
@@ -121,21 +133,23 @@ def cache_key(data: bytes, speed: float, dt: float, duration: float,
 
 def level_chain(path: pathlib.Path, speed: float, dt: float, duration: float,
                 cache: pathlib.Path | None, damping_ratio: float = 0.0,
-                progress=None, seed: int | None = None) -> tuple[Chain, bool]:
+                progress=None, seed: int | None = None,
+                gusts: Gusts | None = None) -> tuple[Chain, bool]:
     """The chain of ``path`` grown from ``seed`` (None: its own) and whether it came from the
-    cache (one per damping ratio ζ).
+    cache (one per damping ratio ζ), its tip errors measured at ``speed`` m/s, in ``gusts``
+    where given (`_simplify_all`).
 
     progress: called as progress(level k, of n levels) while levels are fitted, if given.
     """
     done = None if progress is None else (lambda k, n, _name: progress(k, n))
     (_source, chain, hit), = level_chains([(path, seed)], speed, dt, duration, cache,
-                                          damping_ratio, done)
+                                          damping_ratio, done, gusts=gusts)
     return chain, hit
 
 
 def level_chains(sources: list[Source], speed: float, dt: float,
                  duration: float, cache: pathlib.Path | None, damping_ratio: float = 0.0,
-                 progress=None, jobs: int = 1
+                 progress=None, jobs: int = 1, gusts: Gusts | None = None
                  ) -> Iterator[tuple[Source, Chain, bool]]:
     """(source, chain, from the cache) of every (tree file, seed) in ``sources``, in order:
     the chains not cached are fitted in ``jobs`` processes, this one and jobs - 1 workers
@@ -149,7 +163,7 @@ def level_chains(sources: list[Source], speed: float, dt: float,
     paths = [p for p, _seed in sources]
     seeds = [seed for _p, seed in sources]
     data = [p.read_bytes() for p in paths]
-    known = [_cached_chain(p, d, speed, dt, duration, cache, damping_ratio, s)
+    known = [_cached_chain(p, d, speed, dt, duration, cache, damping_ratio, s, gusts)
              for p, d, s in zip(paths, data, seeds)]
     missing = [k for k, chain in enumerate(known) if chain is None]
 
@@ -157,40 +171,42 @@ def level_chains(sources: list[Source], speed: float, dt: float,
         k = missing[j]
         done = None if progress is None else (lambda i, n, name=source_name(sources[k]):
                                               progress(i, n, name))
-        return _simplify_all(paths[k], data[k], speed, dt, duration, damping_ratio, done, seeds[k])
+        return _simplify_all(paths[k], data[k], speed, dt, duration, damping_ratio, done, seeds[k],
+                             gusts)
 
     fitted = {}
     payload = ([paths[k] for k in missing], [data[k] for k in missing], speed, dt, duration,
-               damping_ratio, [seeds[k] for k in missing])
+               damping_ratio, [seeds[k] for k in missing], gusts)
     for j, (texts, errors) in run_jobs(0, len(missing) - 1, fit_here, jobs - 1,
                                        _worker_simplify, payload):
         k = missing[j]
         if progress is not None:
             progress(len(texts), len(texts), source_name(sources[k]))
         fitted[k] = _new_chain(paths[k], data[k], texts, errors, speed, dt, duration, cache,
-                               damping_ratio, seeds[k])
+                               damping_ratio, seeds[k], gusts)
     for k, source in enumerate(sources):
         yield source, known[k] or fitted[k], known[k] is not None
 
 
 def _worker_simplify(payload: tuple, _ask):
     """In a worker (`sim.workers`): fit(j), the texts and tip errors of the j-th source's chain."""
-    paths, data, speed, dt, duration, damping_ratio, seeds = payload
+    paths, data, speed, dt, duration, damping_ratio, seeds, gusts = payload
 
     def fit(j: int):
-        return _simplify_all(paths[j], data[j], speed, dt, duration, damping_ratio, seed=seeds[j])
+        return _simplify_all(paths[j], data[j], speed, dt, duration, damping_ratio, seed=seeds[j],
+                             gusts=gusts)
 
     return fit
 
 
 def _cached_chain(path: pathlib.Path, data: bytes, speed: float, dt: float, duration: float,
                   cache: pathlib.Path | None, damping_ratio: float,
-                  seed: int | None = None) -> Chain | None:
+                  seed: int | None = None, gusts: Gusts | None = None) -> Chain | None:
     """The chain of ``path`` (its bytes ``data``) grown from ``seed``, from the cache; None
     where it is not there."""
     if cache is None:
         return None
-    entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio, seed)}.json"
+    entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio, seed, gusts)}.json"
     stored = _stored_entry(entry)
     if stored is None:
         return None
@@ -238,11 +254,11 @@ def _stored_entry(entry: pathlib.Path) -> tuple[list[str], np.ndarray] | None:
 
 def _new_chain(path: pathlib.Path, data: bytes, texts: list[str], errors, speed: float,
                dt: float, duration: float, cache: pathlib.Path | None,
-               damping_ratio: float, seed: int | None = None) -> Chain:
+               damping_ratio: float, seed: int | None = None, gusts: Gusts | None = None) -> Chain:
     """The chain of fitted ``texts`` and tip ``errors``, stored in the cache where there is one."""
     chain = _chain(path, data, texts, np.asarray(errors), damping_ratio, seed=seed)
     if cache is not None:
-        entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio, seed)}.json"
+        entry = cache / f"{cache_key(data, speed, dt, duration, damping_ratio, seed, gusts)}.json"
         entry.parent.mkdir(parents=True, exist_ok=True)
         _store(entry, json.dumps({"file": str(path), "seed": seed, "levels": texts,
                                   "tip_error_m": [float(e) for e in errors]}).encode("utf-8"))
@@ -357,10 +373,14 @@ def _chain(path, data: bytes, texts: list[str], errors: np.ndarray,
 
 
 def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
-                  damping_ratio: float = 0.0, progress=None, seed: int | None = None):
+                  damping_ratio: float = 0.0, progress=None, seed: int | None = None,
+                  gusts: Gusts | None = None):
     """Every explicit level's text and tip error (max, m) in the scene's wind, of the file's
     tree grown from ``seed``; the original is simulated once for the whole chain (its runs
-    serve every level's measure)."""
+    serve every level's measure). The wind: ``speed`` m/s toward each of
+    TIP_ERROR_DIRECTIONS, steady, or with ``gusts`` the scene's own gusts on it, from rest
+    for the scene's duration (every tree of a gusty scene sees that series from the moment
+    its wind arrives, a front only delaying it)."""
     from plantlod.sim.damping import Damping
     from plantlod.simplify.targets import group_map
     from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
@@ -376,7 +396,8 @@ def _simplify_all(path, data: bytes, speed: float, dt: float, duration: float,
         return [], np.zeros(1)
     header = level_header(system)
     levels = merge_levels(original)
-    winds = [WindCase(speed, d) for d in TIP_ERROR_DIRECTIONS]
+    winds = [WindCase(speed, d) if gusts is None else WindCase(speed, d, gusts.strength, gusts.seed)
+             for d in TIP_ERROR_DIRECTIONS]
     steps = int(round(duration / dt))
     texts, errors = [], [0.0]
     damping = Damping(ratio=damping_ratio)

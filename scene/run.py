@@ -34,7 +34,7 @@ from .constants import (
     FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
 )
 from .file import Scene, Source, seed_named, source_name, sources
-from .levels import Chain, chain_from_texts, level_chains
+from .levels import Chain, Gusts, chain_from_texts, level_chains
 from .schedule import distances, frame_times, schedules
 from .switch import Transfer, switch_errors
 
@@ -274,10 +274,15 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     chains, cached = {}, 0
     steps = scene.steps
     winds = tree_winds(scene, steps)
-    # levels are measured at the strongest wind any tree sees (gusts included), so that a
-    # gust does not carry a far tree past its budget
+    # switches are measured at the strongest wind any tree sees (gusts included), so that a
+    # gust does not carry a far tree past its budget; the levels' tip errors likewise in a
+    # steady scene, and in a gusty one in its own gusts on the scene's speed (`Gusts`):
+    # steady at the strongest gust, a tree's error was 0.8-1.2x of what the gusts gave
     speed = float(np.linalg.norm(winds, axis=-1).max()) if winds.size else 0.0
     speed = round(speed, 6)
+    gusts = (Gusts(scene.wind.gust_strength, scene.wind.gust_seed)
+             if scene.wind.gust_strength > 0 and speed > 0 else None)
+    level_speed = speed if gusts is None else round(float(scene.wind.speed), 6)
     def levels_done(k: int, n: int, name: str) -> None:
         if progress:
             progress("levels", k, n, name)
@@ -285,9 +290,9 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     # the tree files' chains not cached are fitted in up to CHAIN_JOBS processes at once
     # (`level_chains`): a new forest's first run waits for them
     jobs = min(CHAIN_JOBS, os.cpu_count() or 1)
-    for source, chain, hit in level_chains(sources(scene.trees), speed, scene.dt,
+    for source, chain, hit in level_chains(sources(scene.trees), level_speed, scene.dt,
                                            scene.duration, cache, scene.damping_ratio,
-                                           levels_done, jobs):
+                                           levels_done, jobs, gusts):
         chains[source] = chain
         cached += hit
     every = frame_steps(scene, frame_rate)
@@ -358,7 +363,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         "chains": len(chains),             # one per (file, seed): a seed grows a tree of its own
         "chains_from_cache": cached,
         "budget_px": scene.budget_px,
-        "level_wind_speed": speed,
+        "level_wind_speed": level_speed,
+        # the gusts the levels' tip errors were measured in (the scene's), null: steady
+        "level_wind_gusts": (None if gusts is None
+                             else {"strength": gusts.strength, "seed": gusts.seed}),
         "dt": scene.dt,
         "damping_ratio": scene.damping_ratio,
         "duration": scene.duration,

@@ -31,13 +31,27 @@ from plantlod.compare.measures import Report, compare_groups, component_figures,
 
 @dataclass(frozen=True)
 class WindCase:
-    """A steady horizontal wind: speed m/s toward azimuth direction deg (0 = +x)."""
+    """A horizontal wind: speed m/s toward azimuth direction deg (0 = +x), steady, or with
+    gust_strength > 0 the seeded gusts of `plantlod.sim.wind.GustyWind` on it (a scene's
+    wind: `scene.levels` measures its levels' tip errors in the gusts the trees see)."""
 
     speed: float
     direction: float
+    gust_strength: float = 0.0
+    gust_seed: int = 0
 
     def label(self) -> str:
-        return f"{self.speed:g} m/s toward {self.direction:g} deg"
+        gusts = f" with gusts of {self.gust_strength:g}" if self.gust_strength > 0 else ""
+        return f"the wind of {self.speed:g} m/s toward {self.direction:g}°{gusts}"
+
+    def wind(self):
+        """The `plantlod.sim.wind` object of this case."""
+        from plantlod.sim.wind import GustyWind
+
+        base = wind_from_speed(self.speed, self.direction)
+        if self.gust_strength > 0:
+            return GustyWind(base, seed=self.gust_seed, strength=self.gust_strength)
+        return base
 
 
 
@@ -231,11 +245,13 @@ def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, ever
     batch = max(BLOCK, RUNS_BATCH_BYTES // per_lane // BLOCK * BLOCK)   # no padding lanes
     for lo in range(0, len(winds), batch):
         chunk = winds[lo:lo + batch]
-        vectors = np.array([wind_from_speed(w.speed, w.direction).sample(np.zeros(1))[0]
-                            for w in chunk])
+        if any(w.gust_strength > 0 for w in chunk):     # the wind at the start of each step
+            start = np.arange(steps, dtype=np.float64) * dt
+            vectors = np.array([w.wind().sample(start) for w in chunk])      # (W, steps, 3)
+        else:
+            vectors = np.array([w.wind().sample(np.zeros(1))[0] for w in chunk])   # (W, 3)
         bend, rot = run_lanes(model, vectors, dt, steps, every=every, addresses=tree.address,
-                              lane_names=[f"the wind of {w.speed:g} m/s toward {w.direction:g}°"
-                                          for w in chunk])
+                              lane_names=[w.label() for w in chunk])
         rest = np.zeros((1, tree.n_branches))
         for k, wind in enumerate(chunk):
             yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])

@@ -671,6 +671,65 @@ def test_the_tip_error_directions_are_part_of_a_chains_cache_key(monkeypatch):
     assert levels.cache_key(b"tree", 5.0, 0.01, 20.0) != before
 
 
+def test_the_gusts_are_part_of_a_chains_cache_key():
+    """A gusty scene's chain is measured in its gusts (`levels.Gusts`): another strength or
+    seed, another key; a steady scene's key is the one it had before gusts were measured."""
+    from plantlod.scene import levels
+
+    steady = levels.cache_key(b"tree", 5.0, 0.01, 20.0)
+    keys = {steady, levels.cache_key(b"tree", 5.0, 0.01, 20.0, gusts=levels.Gusts(0.3, 1)),
+            levels.cache_key(b"tree", 5.0, 0.01, 20.0, gusts=levels.Gusts(0.5, 1)),
+            levels.cache_key(b"tree", 5.0, 0.01, 20.0, gusts=levels.Gusts(0.3, 2))}
+    assert len(keys) == 4
+    assert levels.cache_key(b"tree", 5.0, 0.01, 20.0, gusts=None) == steady
+
+
+def test_a_gusty_chains_tip_errors_are_measured_in_its_gusts(tmp_path, chains):
+    """`level_chain(..., gusts=)`: each level's tip error (max) against a literal
+    recomputation: the original and the level stepped by the single-run kernel from rest in
+    `GustyWind` on the base speed (the wind at the start of each step, as `tree_winds` gives
+    a scene's trees), toward each of TIP_ERROR_DIRECTIONS, every step posed, the level's
+    tips against its groups' tips (`Chain.tips`); made non-decreasing along the chain. And
+    what it changes: the errors are not the steady ones at the same speed."""
+    from plantlod.scene.constants import TIP_ERROR_DIRECTIONS
+    from plantlod.scene.levels import Gusts, level_chain
+    from plantlod.sim.kinematics import pose
+    from plantlod.sim.run import simulate_arrays
+    from plantlod.sim.wind import GustyWind, KeyframeWind, wind_from_speed
+
+    dt, duration, speed = 0.01, 2.0, 8.0
+    gusts = Gusts(0.5, 4)
+    chain, _ = level_chain(pathlib.Path(TWIN), speed, dt, duration, chains, gusts=gusts)
+    steady, _ = level_chain(pathlib.Path(TWIN), speed, dt, duration, chains)
+    steps = int(round(duration / dt))
+    times = np.arange(steps) * dt
+    worst = np.zeros(len(chain.trees))
+    for direction in TIP_ERROR_DIRECTIONS:
+        gusty = GustyWind(wind_from_speed(speed, direction), seed=gusts.seed,
+                          strength=gusts.strength)
+        wind = KeyframeWind(times, gusty.sample(times))
+        runs = [simulate_arrays(tree, dt, steps, wind) for tree in chain.trees]
+        full = pose(chain.trees[0], runs[0].bend, runs[0].rot).tip
+        for level in range(1, len(chain.trees)):
+            tips = pose(chain.trees[level], runs[level].bend, runs[level].rot).tip
+            gap = np.linalg.norm(tips - full[:, chain.tips[level]], axis=-1).max()
+            worst[level] = max(worst[level], gap)
+    # (the original's tips are kept as float32 moves from rest: about 1e-7 m of rounding)
+    np.testing.assert_allclose(chain.tip_error_m, np.maximum.accumulate(worst), rtol=0, atol=1e-7)
+    assert not np.allclose(chain.tip_error_m, steady.tip_error_m, rtol=0.01)
+
+
+def test_a_gusty_scenes_report_names_the_wind_its_levels_were_measured_in(tmp_path, chains):
+    """The report's level wind: a steady scene's strongest wind and no gusts; a gusty one's
+    own speed and gusts (not the strongest gust), so its chains can be looked up again."""
+    steady = json.loads(run_cli("scene", _scene(tmp_path, BASE), "--cache", str(chains)).stdout)
+    assert steady["level_wind_speed"] == 5.0 and steady["level_wind_gusts"] is None
+    body = BASE.replace("speed = 5\n", "speed = 5\ngust_strength = 0.4\ngust_seed = 7\n")
+    gusty = json.loads(run_cli("scene", _scene(tmp_path, body), "--cache", str(chains)).stdout)
+    assert gusty["level_wind_speed"] == 5.0
+    assert gusty["level_wind_gusts"] == {"strength": 0.4, "seed": 7}
+
+
 def test_a_cached_chain_reads_its_built_levels_as_its_texts_give_them(tmp_path):
     """The levels kept built in the cache (KEY.trees.zip) are the trees the level texts
     build, field by field; a damaged archive is read past (the texts again) and rewritten."""
