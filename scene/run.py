@@ -191,15 +191,17 @@ def _first_large(batch: Batch, idx: np.ndarray, tree, bend: np.ndarray, rot: np.
 
 
 def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfers: dict,
-                 speed: float) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
+                 speed: float, gusts: Gusts | None = None
+                 ) -> tuple[list[Batch], np.ndarray, list, np.ndarray]:
     """The batches of every source, the levels (N, F), per source (name, members, trees,
     seed), and the levels (N, F) of `schedule.coarsest_levels` (what the report's
     `speedup_bound` counts).
 
     Where a source's trees switch into a level from a coarser one (`schedule.finer_switches`:
     a camera coming nearer, or turning away and back), the switch error of each such level
-    is measured (`switch.switch_errors`, at ``speed`` m/s, with ``transfers``' `Transfer` of
-    the source) and spent by the schedule (`schedule.schedules`, `schedule.held_levels`)."""
+    is measured (`switch.switch_errors`, at ``speed`` m/s in ``gusts`` where given, as the
+    levels' tip errors are, with ``transfers``' `Transfer` of the source) and spent by the
+    schedule (`schedule.schedules`, `schedule.held_levels`)."""
     times = frame_times(scene, every)
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)
@@ -211,7 +213,7 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfer
         members = members_of[source]
         chain: Chain = chains[source]
         def measured(into: set[int], chain=chain, transfer=transfers[source]) -> np.ndarray:
-            return switch_errors(chain, transfer, into, speed, scene.dt, scene.duration)
+            return switch_errors(chain, transfer, into, speed, scene.dt, scene.duration, gusts)
 
         sched, bound[members] = schedules(scene, members, chain.tip_error_m, times, budget,
                                           measured)
@@ -274,10 +276,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     chains, cached = {}, 0
     steps = scene.steps
     winds = tree_winds(scene, steps)
-    # switches are measured at the strongest wind any tree sees (gusts included), so that a
-    # gust does not carry a far tree past its budget; the levels' tip errors likewise in a
-    # steady scene, and in a gusty one in its own gusts on the scene's speed (`Gusts`):
-    # steady at the strongest gust, a tree's error was 0.8-1.2x of what the gusts gave
+    # levels' tip errors and switch errors are measured in the scene's wind: at the
+    # strongest wind any tree sees in a steady scene, in its own gusts on its speed in a
+    # gusty one (`Gusts`; steady at the strongest gust, a tree's error was 0.5-1.2x of what
+    # the gusts gave)
     speed = float(np.linalg.norm(winds, axis=-1).max()) if winds.size else 0.0
     speed = round(speed, 6)
     gusts = (Gusts(scene.wind.gust_strength, scene.wind.gust_seed)
@@ -299,7 +301,7 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     transfers = {source: Transfer(chain.trees, chain.groups, chain.damping_ratio)
                  for source, chain in chains.items()}
     batches, levels, files, bound_levels = make_batches(scene, chains, every, scene.budget_px,
-                                                        transfers, speed)
+                                                        transfers, level_speed, gusts)
     rows = steps // every
     store = None
     if store_path is not None:

@@ -266,11 +266,12 @@ def _uncarry(back: np.ndarray, bend: np.ndarray, rot: np.ndarray) -> tuple[np.nd
 
 
 def switch_errors(chain, transfer: Transfer, levels, speed: float, dt: float,
-                  duration: float) -> np.ndarray:
+                  duration: float, gusts=None) -> np.ndarray:
     """(L,) metres, 0 for levels not in ``levels``: how far each level in ``levels``, switched
     into, puts its tips from the full tree's (the original's group tips, as a level's tip
-    error is measured), the worst over steady winds of ``speed`` m/s toward
-    TIP_ERROR_DIRECTIONS (relative to the tree), switches every SWITCH_SAMPLE_S of a run of
+    error is measured), the worst over winds of ``speed`` m/s toward TIP_ERROR_DIRECTIONS
+    (relative to the tree), steady or with ``gusts`` (`levels.Gusts`: the scene's own, as
+    the levels' tip errors are measured), switches every SWITCH_SAMPLE_S of a run of
     ``duration`` s (at its end where it is shorter) and SWITCH_FOLLOW_S after each.
 
     A switch to a finer level starts it from `Transfer.predicted`, linear theory, and in the
@@ -286,7 +287,7 @@ def switch_errors(chain, transfer: Transfer, levels, speed: float, dt: float,
     """
     from plantlod.compare.runs import tip_series
     from plantlod.sim.lanes import run_lanes
-    from plantlod.sim.wind import wind_from_speed
+    from plantlod.sim.wind import GustyWind, wind_from_speed
     from plantlod.simplify.targets import group_map
 
     from .constants import (SWITCH_FOLLOW_S, SWITCH_SAMPLE_EVERY_S, SWITCH_SAMPLE_S,
@@ -309,20 +310,24 @@ def switch_errors(chain, transfer: Transfer, levels, speed: float, dt: float,
     column = np.searchsorted(wanted, np.arange(original.n_branches))
     rows_at = [slice(s // every - 1, (s + follow) // every) for s in starts]   # steps s .. s + follow
     for direction in TIP_ERROR_DIRECTIONS:
-        wind = wind_from_speed(speed, direction).vector                 # (3,) m/s
+        # the wind at the start of each step, (steps, 3) m/s
+        wind = wind_from_speed(speed, direction)
+        if gusts is not None:
+            wind = GustyWind(wind, seed=gusts.seed, strength=gusts.strength)
+        history = wind.sample(np.arange(starts[-1] + follow) * dt)
         # the full tree from rest, its angles after every ``every``-th step (row j: step (j+1) every)
-        bend, rot = run_lanes(chain.lane_model(0), wind[None], dt, starts[-1] + follow,
+        bend, rot = run_lanes(chain.lane_model(0), history[None], dt, starts[-1] + follow,
                               every=every)
         full = tip_series(original, bend[0], rot[0], wanted)              # (rows, n, 3)
-        history = np.tile(wind, (starts[-1], 1))
+        after = np.stack([history[s:s + follow] for s in starts])        # (switches, follow, 3)
         for k in levels:
             tree = chain.trees[k]
             if tree.n_branches == 0:
                 continue
             state = np.stack([transfer.predicted(k, history[:s], dt) for s in starts])
             # each switch followed on from its predicted state (rows every ``every`` steps after it)
-            b_on, r_on = run_lanes(chain.lane_model(k), np.tile(wind, (len(starts), 1)), dt,
-                                   follow, every=every, state=state.copy())
+            b_on, r_on = run_lanes(chain.lane_model(k), after, dt, follow, every=every,
+                                   state=state.copy())
             want = full[:, column[tips_of[k]]]
             for j, rows in enumerate(rows_at):
                 got = tip_series(tree, np.concatenate([state[j, :1], b_on[j]]),

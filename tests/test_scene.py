@@ -215,17 +215,18 @@ def test_switch_errors_are_the_predicted_state_run_on_against_the_full_tree(chai
     """switch.switch_errors against a literal recomputation: the full tree stepped from rest
     by the single-run kernel, and level 1 from `Transfer.predicted` at each switch (every
     2 s), both posed at every sample (0.05 s) of the 3 s after it, level 1's tips against
-    the tips of its groups' main paths, in each of the four directions. And what it
-    measures: in a light wind (linear) level 1 switched into is about as near the full tree
-    as its own tip error says, in a strong one (twin_draw at 15 m/s, docs/scene.md)
-    centimetres off."""
+    the tips of its groups' main paths, in each of TIP_ERROR_DIRECTIONS, steady and in
+    gusts. And what it measures: in a light wind (linear) level 1 switched into is about as
+    near the full tree as its own tip error says, in a strong one (twin_draw at 15 m/s,
+    docs/scene.md) centimetres off."""
     from plantlod.compare.groups import assign_stated_groups, main_paths
     from plantlod.scene.levels import level_chain
     from plantlod.scene.constants import TIP_ERROR_DIRECTIONS
     from plantlod.scene.switch import Transfer, switch_errors
     from plantlod.sim.kernel import KernelState, advance, prepare
     from plantlod.sim.kinematics import pose
-    from plantlod.sim.wind import wind_from_speed
+    from plantlod.scene.levels import Gusts
+    from plantlod.sim.wind import GustyWind, wind_from_speed
 
     chain, _ = level_chain(pathlib.Path(TWIN), 5.0, 0.01, 2.0, chains)
     transfer = Transfer(chain.trees, chain.groups)
@@ -235,20 +236,24 @@ def test_switch_errors_are_the_predicted_state_run_on_against_the_full_tree(chai
     group_tips = np.array([p[-1] for p in paths])
 
     def run(t, state, wind, steps):
+        """``wind``: (steps, 3), the wind at the start of each step."""
         b, r = np.empty((steps, t.n_branches)), np.empty((steps, t.n_branches))
-        advance(prepare(t), state, np.tile(wind, (steps, 1)), dt, 1, 1, b, r, 0)
+        advance(prepare(t), state, np.ascontiguousarray(wind), dt, 1, 1, b, r, 0)
         return b, r
 
-    def literal(speed: float) -> float:
+    def literal(speed: float, gusts=None) -> float:
         worst = 0.0
         for direction in TIP_ERROR_DIRECTIONS:
-            wind = wind_from_speed(speed, direction).vector
+            wind = wind_from_speed(speed, direction)
+            if gusts is not None:
+                wind = GustyWind(wind, seed=gusts.seed, strength=gusts.strength)
+            wind = wind.sample(np.arange(700) * dt)                      # (steps, 3)
             bend, rot = run(original, KernelState(original.n_branches), wind, 400 + 300)
             for s_ in (200, 400):
-                p = transfer.predicted(level, np.tile(wind, (s_, 1)), dt)
+                p = transfer.predicted(level, wind[:s_], dt)
                 on = KernelState(tree.n_branches)
                 on.bend[:], on.bend_vel[:], on.rot[:], on.rot_vel[:] = p
-                b2, r2 = run(tree, on, wind, 300)
+                b2, r2 = run(tree, on, wind[s_:s_ + 300], 300)
                 got_b = np.concatenate([p[:1], b2[every - 1::every]])
                 got_r = np.concatenate([p[2:3], r2[every - 1::every]])
                 rows = slice(s_ - 1, s_ + 300, every)             # after steps s_, s_ + 5, ..
@@ -268,6 +273,11 @@ def test_switch_errors_are_the_predicted_state_run_on_against_the_full_tree(chai
             assert got[level] > 0.01                               # metres
     # a scene shorter than the 2 s between switches is measured at its end (it was 0)
     assert switch_errors(chain, transfer, {level}, 15.0, dt, 1.0)[level] > 0.001
+    # a gusty scene's: in its own gusts on its speed (the wind at the start of each step)
+    gusts = Gusts(0.5, 3)
+    got = switch_errors(chain, transfer, {level}, 8.0, dt, 4.0, gusts)
+    assert got[level] == pytest.approx(literal(8.0, gusts), rel=1e-9, abs=1e-12)
+    assert got[level] != pytest.approx(literal(8.0), rel=0.01)
 
 
 def test_a_cheap_switch_back_is_not_held_because_the_tree_comes_nearer_later(tmp_path):
