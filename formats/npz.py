@@ -34,7 +34,8 @@ TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
 ARCHIVE_VERSION = 1          # `version` of both archives (read: exactly this)
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
-_NOT_STORED = ("group_line",)      # where an .lsys wrote each group (messages), not the tree
+# where an .lsys wrote each group, where a tree file held each branch (messages), not the tree
+_NOT_STORED = ("group_line", "first_record_line")
 ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
 # What a damaged member raises while it is decompressed or laid out (zlib's and lzma's own
 # errors escaped as internal errors; bz2 raises OSError), besides zipfile's and numpy's

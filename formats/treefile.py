@@ -440,7 +440,9 @@ def _read(lines: _Lines) -> Tree:
                          f"{real_depth}", "depth")
     if "gain" in extras:
         branches["force_gain"] = branches.pop("gain").reshape(n_branches, 6)
-    tree = Tree(**branches, **leaves, leaf_force_scale=leaf_force_scale, source=origin)
+    # (one record a line after the header: branch i's is the header's line + 1 + i)
+    tree = Tree(**branches, **leaves, leaf_force_scale=leaf_force_scale, source=origin,
+                first_record_line=head.lineno + 1 if n_branches else 0)
     tree.check()
     return tree
 

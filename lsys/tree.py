@@ -113,6 +113,8 @@ class Tree:
       source           : the .lsys it was derived from (for headers)
       read_from        : the tree file (.jsonl, .npz) it was read from, "" for a derived tree
       where            : the file messages about its values name: read_from, else source
+      first_record_line: the line of branch 0's record in the JSON-lines tree file read
+                         (0: none); `record_line` gives branch i's
     """
 
     address: list[str]
@@ -141,12 +143,20 @@ class Tree:
     force_gain: np.ndarray | None = None
     swing_roll: np.ndarray | None = None
     read_from: str = field(default="")
+    # the line of branch 0's record in the JSON-lines tree file it was read from (branch i's:
+    # this + i), 0 for any other tree: for messages only
+    first_record_line: int = field(default=0, compare=False)
 
     @property
     def where(self) -> str:
         """The file a message about this tree's values names: the tree file the user gave
         where it was read from one, else the .lsys it was derived from ("" for neither)."""
         return self.read_from or self.source
+
+    def record_line(self, i: int) -> int | None:
+        """The line of branch ``i``'s record in the JSON-lines tree file this tree was read
+        from, for messages; None for a tree read otherwise."""
+        return self.first_record_line + i if self.first_record_line else None
 
     @property
     def n_branches(self) -> int:

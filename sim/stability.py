@@ -121,4 +121,4 @@ def check_stability(tree: Tree, dt: float, damping: "float | Damping" = 0.0) -> 
             f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit at {d.describe()} "
             f"(dt = {dt:g} s); "
             f"the run would blow up: use dt < {bound:.6g} s (the largest stable dt for this tree)",
-            tree.where or None)
+            tree.where or None, tree.record_line(worst_i) if tree.where else None)

@@ -129,8 +129,9 @@ def test_a_strength_of_zero_is_refused_at_its_line_and_column_of_the_tree_file(t
 @pytest.mark.parametrize("suffix", [".jsonl", ".npz"])
 def test_messages_about_a_tree_files_values_name_the_tree_file(tmp_path, suffix):
     """A time step too large for a tree read from a tree file names that file, not the .lsys
-    its header says it was derived from (which the user may not have); the header's source
-    stays what the file says."""
+    its header says it was derived from (which the user may not have), and in a JSON-lines
+    file the line of the branch whose strength is too large; the header's source stays what
+    the file says."""
     from golden_util import run_cli
 
     from plantlod.formats.npz import tree_bytes
@@ -144,12 +145,16 @@ def test_messages_about_a_tree_files_values_name_the_tree_file(tmp_path, suffix)
     # the largest strength is 50 (branch 1), so s = 50 * 100 / 1000 = 5 >= 4
     result = run_cli("simulate", str(path), "--dt", "100", "--steps", "2", "--wind-speed", "1",
                      exit_code=2)
-    assert result.stderr.startswith(f"{path}: error: time step too large: ")
+    # (the line of the record with the largest strength, 50: an archive has no lines)
+    line = next(n for n, text in enumerate(VALID.splitlines(), 1) if '"rotation_strength": 50' in text)
+    where = f"{path}:{line}" if suffix == ".jsonl" else f"{path}"
+    assert line == 3 and result.stderr.startswith(f"{where}: error: time step too large: ")
     assert "demo.lsys" not in result.stderr and result.stderr.count("\n") == 1
     assert plantlod.read_tree(str(path)).source == "examples/demo.lsys"
     with pytest.raises(InputError) as info:            # the API's read_tree, the same
         plantlod.simulate(plantlod.read_tree(str(path)), dt=100, steps=2, wind_speed=1)
     assert info.value.file == str(path) and "time step too large" in info.value.message
+    assert info.value.line == (line if suffix == ".jsonl" else None)
 
 
 def test_a_strength_of_zero_in_an_archive_names_the_archive(tmp_path):
