@@ -107,7 +107,9 @@ FOREIGN_WORDS = {
     "def": "Python code (L-Py) is not read here; constants are 'define NAME = VALUE'",
 }
 _FOREIGN_LINE = re.compile(r"\s*(" + "|".join(FOREIGN_WORDS) + r")\b")
-_ASSIGNMENT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?!=)")   # L-Py's `c = 1`
+_ASSIGNMENT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?![=>])")   # L-Py's `c = 1`
+# an arrow mistyped as `=>` (or `==>`): not an assignment, a production missing its `->`
+_WRONG_ARROW = re.compile(r"[^=<>!]*?(=+>)")
 _PREPROCESSOR = re.compile(r"\s*#(define|include|ifdef|ifndef|if|else|endif|undef)\b")
 # cpfg's probability after a successor, `A --> B : 0.3`: pointed to plantlod's `A -> (0.3) B`
 _CPFG_PROBABILITY = re.compile(r":\s*[0-9.eE+-]+\s*")
@@ -702,6 +704,11 @@ class _FileParser:
             if foreign:
                 cur.i = foreign.start(1)
                 raise cur.error(FOREIGN_WORDS[foreign.group(1)])
+            wrong = _WRONG_ARROW.match(line)
+            if wrong and not _HEADER_LINE.match(line):
+                cur.i = wrong.start(1)
+                raise cur.error(f"'{wrong.group(1)}' is not a production arrow; expected "
+                                f"'{ARROWS[1]}' (or '{ARROWS[0]}', '{ARROWS[2]}')")
             assignment = None if _ABOP_CAPTION.match(line) else _ASSIGNMENT.match(line)
             if assignment and assignment.group(1) in HEADER_KEYS:
                 cur.i = assignment.start(1)

@@ -44,6 +44,9 @@ def parse_error(text: str) -> InputError:
     (STALK.replace("axiom: F L", "axiom: F ;L"), (29, 10), "colour index"),
     ("from math import *\n" + STALK, (1, 1), "Python code (L-Py) is not read here"),
     (STALK.replace("F -> F F", "F -> F F : 0.3"), (31, 12), "'A -> (0.3) B'"),
+    # an arrow mistyped: not read as an assignment `F = > F F` (a new user's, session 33)
+    (STALK.replace("F -> F F", "F => F F"), (31, 5), "'=>' is not a production arrow; expected '->'"),
+    (STALK.replace("F -> F F", "F(x) ==> F F"), (31, 8), "'==>' is not a production arrow"),
 ])
 def test_lpy_and_cpfg_spellings_get_a_hint(text, where, fragment):
     error = parse_error(text)
