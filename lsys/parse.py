@@ -1078,22 +1078,36 @@ class _FileParser:
         return system
 
 
+# Modules another L-system dialect draws with, which here draw nothing unless declared (or
+# interpreted): what each is there, and what to write here. Said once each, at its first place.
+_UNDRAWN = {
+    "_": ("(L-Py: set the width) is an ordinary module here that draws nothing; a branch's "
+          "radius is its 'radius=' or !(r)"),
+    "F": ("(ABOP: draw a segment) is not declared, so here it draws nothing; declare it, "
+          "e.g. 'branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20'"),
+}
+
+
 def _warn_width_modules(system: LSystem) -> None:
-    """L-Py's ``_(w)`` sets the width; here '_' is an ordinary module that draws nothing
-    (unless declared): said once, at its first place."""
-    if system.branch_symbol("_") is not None or any(leaf.name == "_" for leaf in system.leaves):
-        return
+    """`_UNDRAWN`: L-Py's ``_(w)`` sets the width and ABOP's ``F`` draws a segment; here
+    each is an ordinary module that draws nothing unless declared (a branch or a leaf) or
+    given an interpretation rule: said once each, at its first place."""
+    import warnings
+
+    interpreted = {rule.pred.name for rule in system.interpretation}
+    quiet = {name for name in _UNDRAWN
+             if system.branch_symbol(name) is not None or name in interpreted
+             or any(leaf.name == name for leaf in system.leaves)}
+    if not system.branches:
+        quiet.add("F")          # (build says no branch symbol is declared at all, and how)
     rules = system.productions + system.interpretation
     for module in system.axiom + tuple(m for rule in rules for m in rule.successor):
-        if module.name == "_":
-            import warnings
-
+        if module.name in _UNDRAWN and module.name not in quiet:
+            quiet.add(module.name)
             where = ":".join(str(p) for p in (module.pos.file or system.source, module.pos.line,
                                                module.pos.col) if p is not None)
-            warnings.warn(f"{where}: '_' (L-Py: set the width) is an ordinary module "
-                          "here that draws nothing; a branch's radius is its 'radius=' or !(r)",
+            warnings.warn(f"{where}: '{module.name}' {_UNDRAWN[module.name]}",
                           PlantlodWarning, stacklevel=4)
-            return
 
 
 def _stochastic_errors(rules: tuple[Production, ...], defines: dict[str, float]) -> Iterator[InputError]:

@@ -75,6 +75,28 @@ def test_preprocessor_lines_and_the_width_module_warn_once(tmp_path):
     assert "warning" not in run_cli("derive", str(path), "-o", str(tmp_path / "t.jsonl")).stderr
 
 
+def test_an_undeclared_F_warns_once_where_other_branches_draw(tmp_path):
+    """ABOP's F draws a segment; here an undeclared F is an ordinary module that draws nothing
+    (docs/lsys-format.md): a new user who wrote it in the axiom of a tree of other symbols
+    got one branch fewer and no word (session 33). Said once, at its first place; not where
+    F is declared, interpreted, or no branch symbol is declared at all (that has its own
+    warning, above)."""
+    body = STALK.replace("branch F:", "branch G:").replace("F -> F F", "G -> G G")
+    body = body.replace("axiom: F L", "axiom: F G L F")
+    path = tmp_path / "f.lsys"
+    path.write_text(body)
+    result = run_cli("derive", str(path), "-o", str(tmp_path / "t.jsonl"))
+    line = next(n for n, text in enumerate(body.splitlines(), 1) if text.startswith("axiom:"))
+    assert [w for w in result.stderr.splitlines() if w.startswith("warning:")] == [
+        f"warning: {path}:{line}:8: 'F' (ABOP: draw a segment) is not declared, so here it "
+        "draws nothing; declare it, e.g. 'branch F: length=1 radius=0.02 bend_strength=20 "
+        "rotation_strength=20'"]
+    path.write_text(body + "interpretation:\n  F -> G\n")
+    assert "ABOP" not in run_cli("derive", str(path), "-o", str(tmp_path / "t.jsonl")).stderr
+    path.write_text(STALK)
+    assert "warning" not in run_cli("derive", str(path), "-o", str(tmp_path / "t.jsonl")).stderr
+
+
 @pytest.mark.parametrize("command", [("derive",), ("simulate", *SIM)])
 def test_a_tree_with_no_branches_warns(tmp_path, command):
     path = tmp_path / "nb.lsys"
