@@ -42,11 +42,17 @@ def console():
 
 def progress_bar():
     """A transient rich progress display on the stderr console (`console`), which leaves
-    stdout and stderr alone (a command's data and its one-line messages); use it only
-    where stderr is a terminal."""
+    stdout and stderr alone (a command's data and its one-line messages); for a terminal,
+    or where `--progress` forces it on a stderr that is none (a file, a pipe): there rich
+    would draw nothing, so the bar is drawn as on a terminal, with its control codes."""
     from rich.progress import Progress
 
-    return Progress(console=console(), transient=True, redirect_stdout=False,
+    shown = console()
+    if not is_terminal(sys.stderr):
+        from rich.console import Console
+
+        shown = Console(stderr=True, highlight=False, soft_wrap=True, force_terminal=True)
+    return Progress(console=shown, transient=True, redirect_stdout=False,
                     redirect_stderr=False)
 
 

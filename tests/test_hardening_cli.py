@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -181,6 +182,22 @@ def test_a_reader_of_stderr_that_goes_away_changes_nothing(tmp_path, progress):
     assert done.returncode == 0
     assert sorted(os.listdir(tmp_path)) == ["a.csv"]
     assert len(out.read_text().splitlines()) == 20002             # header, t = 0, 20,000 steps
+
+
+def test_progress_forced_on_a_file_draws_the_bar(tmp_path):
+    """README: `--progress` forces the progress bar, which by default shows only on a
+    terminal. On a file rich drew nothing (a new user saw one blank line, session 33): the
+    bar is drawn as on a terminal; without the option a file gets the one summary line."""
+    for flag, bar in (("--progress", True), ("", False)):
+        err = tmp_path / f"err{bool(flag)}.txt"
+        done = subprocess.run(["bash", "-c", f"{PLANTLOD} simulate {STALK8} --dt 0.01 --steps "
+                               f"200000 --wind-speed 5 -o {tmp_path / 'a.csv'} {flag} 2> {err}"],
+                              cwd=ROOT, capture_output=True, text=True, timeout=300)
+        text = err.read_text()
+        last = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", text.splitlines()[-1])  # (the bar erased)
+        assert done.returncode == 0 and last.startswith("simulate: ")
+        assert ("simulating" in text and "\x1b[" in text) == bar, text[:200]
+        assert bar or len(text.splitlines()) == 1
 
 
 def test_a_reader_of_stdout_that_goes_away_ends_the_command_quietly():
