@@ -203,6 +203,9 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
     where = _command_name(exc, prog)
     if isinstance(exc, click.exceptions.Exit):
         return exc.exit_code, None
+    if isinstance(exc, getattr(click.exceptions, "NoArgsIsHelpError", ())):
+        # `plantlod` (or a group) alone: its help as --help prints it, not one flattened line
+        return 2, exc.format_message().rstrip("\n")
     if isinstance(exc, click.UsageError):
         message = " ".join(exc.format_message().split())
         return 2, f"{where}: error: {message} (see '{where} --help')"

@@ -46,6 +46,20 @@ def test_root_help_lists_every_command():
         assert f"\n  {name} " in commands, f"{name} is missing from `plantlod --help`"
 
 
+def test_plantlod_alone_prints_its_help_as_help_does():
+    """`plantlod` with no command: the help, laid out as `--help` lays it out, on stderr,
+    exit 2 (click's own choice); it was squashed into one `error: Usage: …` line (a new
+    user's report, session 33)."""
+    done = subprocess.run([PLANTLOD], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stdout == ""
+    lines = done.stderr.splitlines()
+    assert lines[0] == "Usage: plantlod [OPTIONS] COMMAND [ARGS]..." and "error" not in lines[0]
+    # (the same text as --help's up to the width the commands' summaries are cut at)
+    assert lines[:10] == run_cli("--help").stdout.splitlines()[:10]
+    for name in _registered_commands():
+        assert any(line.startswith(f"  {name} ") for line in lines), name
+
+
 def test_derive_and_simulate_are_registered():
     assert {"derive", "simulate"} <= set(_registered_commands())
 
