@@ -229,3 +229,27 @@ def test_a_tree_deeper_than_openusd_export_nests_is_refused(tmp_path, monkeypatc
     monkeypatch.setattr(files, "MAX_USD_DEPTH", depth)          # at the limit: written
     plantlod.export_animation(tree, angles, tmp_path / "t.usda")
     assert constants.MAX_USD_DEPTH == 2_000
+
+
+def test_angles_beyond_the_models_range_warn_and_name_degrees(tmp_path):
+    """An angle CSV written with `simulate --degrees` and exported without --degrees swings
+    57 times too far and the file cannot say its unit (docs/angles-csv.md): export warns
+    where a branch tilts beyond 1 rad, as simulate does, and names --degrees (a new user's
+    report, session 33). The same run in radians, or read with --degrees, is quiet."""
+    stalk = str(ROOT / "examples" / "stalk8.lsys")
+    for flag in ("--degrees", ""):
+        run_cli("simulate", stalk, "--dt", "0.01", "--duration", "5", "--wind-speed", "8",
+                *([flag] if flag else []), "-o", str(tmp_path / f"a{flag}.csv"))
+    # the radian run's largest tilt, independently: under 1 rad, above 1/57 of it
+    csv = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)
+    bend, rot = csv[:, 1::2], csv[:, 2::2]
+    assert 1 / 57.3 < np.hypot(bend, rot).max() < 1.0
+    cases = (("a--degrees.csv", [], True), ("a--degrees.csv", ["--degrees"], False),
+             ("a.csv", [], False))
+    for name, extra, warned in cases:
+        result = run_cli("export", stalk, str(tmp_path / name), *extra, "-o", str(tmp_path / "t.glb"))
+        lines = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+        assert len(lines) == warned
+        if warned:
+            assert "beyond 1 rad" in lines[0] and lines[0].endswith(
+                "if the file holds degrees (simulate --degrees), give --degrees")
