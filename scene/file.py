@@ -500,6 +500,10 @@ class _Reader:
         return path
 
 
+# the scene's lists of tables, each entry a [[name]] header (docs/scene.md)
+LISTED_TABLES = ("tree", "camera.key")
+
+
 def read_scene(path: str) -> Scene:
     """Read and check a scene file (see the module doc); trees resolved relative to it."""
     from plantlod.formats.kinds import other_kind
@@ -514,8 +518,18 @@ def read_scene(path: str) -> Scene:
         if other is not None:
             raise other from None
         m = re.search(r"line (\d+), column (\d+)", str(exc))
-        raise InputError(f"not valid TOML: {str(exc).split(' (at')[0]}", path,
-                         int(m.group(1)) if m else None, int(m.group(2)) if m else None) from None
+        line, col = (int(m.group(1)), int(m.group(2))) if m else (None, None)
+        message = f"not valid TOML: {str(exc).split(' (at')[0]}"
+        twice = re.match(r"Cannot declare \(([^)]*)\) twice", str(exc))
+        if twice and line is not None:
+            # `[tree]` where `[[tree]]` was meant: each entry of a list is a [[..]] header
+            name = ".".join(re.findall(r"'([^']*)'", twice.group(1)))
+            start = text.splitlines()[line - 1] if line <= len(text.splitlines()) else ""
+            col = start.find("[") + 1 if "[" in start else col
+            message = (f"the table [{name}] is declared twice; "
+                       + (f"several of them are written [[{name}]] each (double brackets)"
+                          if name in LISTED_TABLES else "expected it once"))
+        raise InputError(message, path, line, col) from None
     except RecursionError:              # arrays or tables nested thousands deep
         at = _too_deep(text)
         raise InputError(f"not valid here: TOML nested too deeply for a scene (more than "

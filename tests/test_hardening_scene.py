@@ -839,3 +839,21 @@ def test_a_time_step_too_small_to_count_its_steps_says_so_in_words(tmp_path, dt,
     line = one_line(run_cli("scene", str(path), "--no-cache", exit_code=None), 2,
                     f"is {count} steps, more than the limit of 1,000,000")
     assert "inf" not in line
+
+
+@pytest.mark.parametrize("body, where, hint", [
+    # two trees written [tree]: the list's entries are [[tree]] (a new user's, session 33)
+    (f'[tree]\nfile = "{STALK}"\nposition = [0, 0, 0]\n  [tree]\nfile = "{STALK}"\n'
+     'position = [3, 0, 0]\n', (11, 3), "the table [tree] is declared twice; several of them are "
+     "written [[tree]] each (double brackets)"),
+    (f'[[tree]]\nfile = "{STALK}"\nposition = [0, 0, 0]\n[camera.key]\nt = 0\n[camera.key]\n',
+     (13, 1), "[[camera.key]] each"),
+    # a table that is one, declared twice: no list to suggest
+    (f'[[tree]]\nfile = "{STALK}"\nposition = [0, 0, 0]\n[wind]\nspeed = 2\n',
+     (11, 1), "the table [wind] is declared twice; expected it once"),
+])
+def test_a_table_declared_twice_names_its_header_and_the_double_brackets(tmp_path, body, where,
+                                                                          hint):
+    path = scene_file(tmp_path, body)
+    line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2, hint)
+    assert line.startswith(f"{path}:{where[0]}:{where[1]}: error: "), line
