@@ -24,6 +24,7 @@ seed at that tree's line, a table's missing key at its header).
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import pathlib
 import re
@@ -497,7 +498,43 @@ class _Reader:
             if path.exists():                    # /dev/null, a FIFO, a socket
                 raise error(f"tree file {name!r} is not a regular file; expected an .lsys file")
             raise error(f"tree file {name!r} not found (looked in {folder})")
+        other = _other_kind_of(path)
+        if other is not None:
+            raise error(f"tree file {name!r} is {other}; expected an .lsys file")
         return path
+
+
+def _other_kind_of(path: pathlib.Path) -> str | None:
+    """What the file at ``path`` is, by its start (`formats.kinds`), where that is another
+    kind than an L-system (an angle CSV, a tree file, a glTF, a scene, ...); None where it
+    looks like one, shows no kind, or cannot be read (its reader says why, later). So a
+    scene's `file = "run.csv"` is named at the scene's line, not in the CSV. Looked at once
+    per file and version (a scatter's files are named by every tree they grow)."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return _sniffed_kind(path, stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _sniffed_kind(path: pathlib.Path, _mtime_ns: int, _size: int) -> str | None:
+    from plantlod.formats.kinds import KINDS, SNIFF_CHARS, text_kinds
+    from plantlod.formats.text_input import BINARY_KINDS
+
+    try:
+        with open(path, "rb") as f:
+            start = f.read(SNIFF_CHARS)
+    except OSError:
+        return None
+    for magic, what in BINARY_KINDS:
+        if start.startswith(magic):
+            return what.split(":")[0]
+    kinds = text_kinds(start.decode("utf-8", errors="replace"))
+    if not kinds or "lsys" in kinds:
+        return None
+    what, who = KINDS[kinds[0]]
+    return f"{what} ({who})"
 
 
 # the scene's lists of tables, each entry a [[name]] header (docs/scene.md)

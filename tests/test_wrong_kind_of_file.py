@@ -213,3 +213,25 @@ def test_compare_plot_to_standard_output_beside_the_table_is_refused(tmp_path):
     refusal names the table, not an -o nobody gave (session 29)."""
     one_line(run_cli("compare", STALK, STALK, "--dt", "0.01", "--duration", "1", "--plot", "-",
                      exit_code=None), 2, "the table (no -o) and --plot both write to standard output")
+
+
+@pytest.mark.parametrize("kind, what", [
+    ("csv", "an angle CSV"), ("tree", "a tree file (JSON Lines)"), ("gltf", "a glTF"),
+    ("glb", "a binary glTF (.glb)"), ("usda", "an OpenUSD file (.usda)"),
+    ("scene", "a scene file (TOML)"), ("report", "a report (JSON)"),
+])
+def test_a_scene_tree_of_another_kind_is_named_at_the_scenes_line(files, tmp_path, kind, what):
+    """A scene's `file =` naming an angle CSV (a new user's, session 33), a tree file, a glTF
+    and so on: refused at the scene's line, saying what the file is; it was the other file's
+    reader's error, naming that file, not the scene."""
+    scene = tmp_path / "s.toml"
+    text = ("duration = 1\n[wind]\nspeed = 5\n[camera]\nposition = [0, -40, 1.7]\n"
+            f'target = [0, 0, 1.7]\n[[tree]]\nposition = [0, 0, 0]\nfile = "{files[kind]}"\n')
+    scene.write_text(text)
+    line = run_cli("scene", str(scene), "--no-cache", exit_code=2).stderr.splitlines()
+    at = next(n for n, t in enumerate(text.splitlines(), 1) if t.startswith("file ="))
+    assert len(line) == 1 and line[0].startswith(f"{scene}:{at}:"), line
+    assert f"is {what}" in line[0] and line[0].endswith("expected an .lsys file")
+    # an L-system is read as before
+    scene.write_text(text.replace(files[kind], files["lsys"]))
+    run_cli("scene", str(scene), "--no-cache", "--budget", "1e9")
