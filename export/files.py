@@ -44,8 +44,9 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
                              f"outside the run's {count} frames (0:{count} at {fps:g} fps)")
     ext = os.path.splitext(path)[1].lower()
     if ext not in FORMATS:
+        obj = " (OBJ frames of a tree: `plantlod compare --obj`)" if ext == ".obj" else ""
         raise InputError(f"cannot tell the format from {ext or 'no extension'!r}; expected one of "
-                         f"{', '.join(FORMATS)}", path)
+                         f"{', '.join(FORMATS)}{obj}", path)
     if ext.startswith(".usd") and tree.depth() > MAX_USD_DEPTH:
         raise InputError(f"the tree is {tree.depth():,} branches deep, more than the "
                          f"{MAX_USD_DEPTH:,} an OpenUSD export nests (a prim per branch inside "

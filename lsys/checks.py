@@ -86,3 +86,12 @@ def digits_past_limit(literal: str) -> int | None:
     digits = len(literal.lstrip("+-").lstrip("0"))
     limit = sys.get_int_max_str_digits()
     return digits if limit and digits > limit else None
+
+
+def did_you_mean(word: str, choices) -> str:
+    """" (did you mean 'X'?)" for the choice closest to a misspelled ``word`` (difflib's
+    ratio >= 0.6), "" where none is close: for the messages that refuse a name."""
+    import difflib
+
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""

@@ -19,14 +19,13 @@ Public API:
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
 import sys
 import unicodedata
-from typing import Iterable, Iterator, NamedTuple
+from typing import Iterator, NamedTuple
 
-from .checks import digits_past_limit, steps_past_limit
+from .checks import did_you_mean, digits_past_limit, steps_past_limit
 from .constants import MAX_EXPRESSION_DEPTH, MAX_LINE_CHARS, PROBABILITY_SUM_TOL
 from .errors import InputError, PlantlodWarning
 from .expr import (
@@ -258,12 +257,7 @@ def continues_axiom(line: str) -> bool:
         return False
     m = _FIRST_WORD.match(line)
     word = m.group(1) if m else ""
-    return not (len(word) > 2 and not _has_arrow(line) and _suggest(word, _STATEMENT_WORDS))
-
-
-def _suggest(word: str, choices: Iterable[str]) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+    return not (len(word) > 2 and not _has_arrow(line) and did_you_mean(word, _STATEMENT_WORDS))
 
 
 # --- expressions ---------------------------------------------------------------------
@@ -351,7 +345,7 @@ def _primary(cur: _Cursor) -> Expr:
         if _token(cur).kind != "(":
             return Name(tok.text, pos)
         if tok.text not in FUNCTIONS:
-            raise _error(pos, f"unknown function '{tok.text}'{_suggest(tok.text, FUNCTIONS)}; "
+            raise _error(pos, f"unknown function '{tok.text}'{did_you_mean(tok.text, FUNCTIONS)}; "
                               f"expected one of {', '.join(FUNCTIONS)}")
         opener = _token(cur)
         cur.i = opener.end
@@ -747,7 +741,7 @@ class _FileParser:
                 raise cur.error(f"'{word}:' before a production looks like ABOP's production "
                                 "label; expected the production alone (delete the label)")
             raise cur.error(f"unknown header key '{word}'"
-                            f"{_suggest(word, HEADER_KEYS + ('axiom',) + SECTIONS)}; "
+                            f"{did_you_mean(word, HEADER_KEYS + ('axiom',) + SECTIONS)}; "
                             f"expected one of {', '.join(HEADER_KEYS)}")
         m = _DECLARATION_LINE.match(line)
         if m:
@@ -758,7 +752,7 @@ class _FileParser:
             return self._declaration(cur, m.group(1))
         m = _FIRST_WORD.match(line)
         word = m.group(1) if m else ""
-        hint = _suggest(word, _STATEMENT_WORDS) if len(word) > 2 and not _has_arrow(line) else ""
+        hint = did_you_mean(word, _STATEMENT_WORDS) if len(word) > 2 and not _has_arrow(line) else ""
         if self.section is not None and not hint:
             if self.section == "overrides":
                 return self._override(cur)
@@ -919,7 +913,7 @@ class _FileParser:
             if tok.kind != "name":
                 raise cur.error(f"expected key=value, found {_describe(tok)}", tok.start)
             if tok.text not in keys and not (pattern and pattern.fullmatch(tok.text)):
-                raise cur.error(f"unknown key '{tok.text}' in {what}{_suggest(tok.text, keys)}; "
+                raise cur.error(f"unknown key '{tok.text}' in {what}{did_you_mean(tok.text, keys)}; "
                                 f"expected one of {', '.join(keys)}"
                                 f"{' or area_K (K = 0, 1, ...)' if pattern else ''}", tok.start)
             if tok.text in out:

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantlod.lsys.checks import finite  # (an integer of 400 digits: not finite)
+from plantlod.lsys.checks import did_you_mean, finite  # (finite: an integer of 400 digits is not)
 from plantlod.lsys.errors import InputError, shown
 from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 from plantlod.sim.wind import gust_peak_factor
@@ -428,7 +428,8 @@ class _Reader:
     def keys(self, table: dict, allowed: set[str], where: str) -> None:
         for key in table:
             if key not in allowed:
-                raise self.error(f"unknown key '{key}' in {where}; expected one of "
+                raise self.error(f"unknown key '{key}' in {where}"
+                                 f"{did_you_mean(str(key), allowed)}; expected one of "
                                  f"{', '.join(sorted(allowed))}", key)
 
     def number(self, table: dict, key: str, default=None, *, low=None, low_open=False,

@@ -19,7 +19,7 @@ import numpy as np
 
 from plantlod.formats.lsys_file import with_header_comment, write_lsys
 from plantlod.lsys.build import build
-from plantlod.lsys.checks import flag, real, whole
+from plantlod.lsys.checks import did_you_mean, flag, real, whole
 from .constants import CALIBRATION_EVALUATIONS
 from .constants import SIMPLIFY_DT
 from .constants import SIMPLIFY_DURATION
@@ -747,7 +747,8 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
     known = {f.name for f in dataclasses.fields(Options)} - {"level", "flags"}
     unknown = sorted(set(options) - known)
     if unknown:
-        raise InputError(f"unknown option {unknown[0]!r}; expected some of {', '.join(sorted(known))}")
+        raise InputError(f"unknown option {unknown[0]!r}{did_you_mean(str(unknown[0]), known)}; "
+                         f"expected some of {', '.join(sorted(known))}")
     level_system_ = simplify(system, Options(level=level, **options)).system
     # (named as the level it is: the original's file name made a warning about the level's
     # branch 3 name a file that has no branch 3)

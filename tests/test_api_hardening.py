@@ -150,6 +150,7 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     ({"form": np.array([1, 2])}, "form must be one of"),                   # ValueError (s. 32)
     ({"method": np.array(["derived", "x"])}, "method must be one of"),     # ValueError (s. 32)
     ({"foo": 1}, "unknown option 'foo'"),                                  # TypeError
+    ({"forms": "explicit"}, "unknown option 'forms' (did you mean 'form'?)"),  # (session 33)
     ({"dt": 10}, "duration 20 s at dt 10 s gives fewer than 8 steps to measure the motion in; "
                  "expected a longer duration or a smaller dt"),           # signal shape error
     ({"duration": -1}, "duration -1 s: expected a duration of at least 0 s"),  # "more than 10^10 steps"

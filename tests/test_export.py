@@ -158,6 +158,11 @@ def test_unknown_extension_is_exit_2(run, tmp_path):
     result = run_cli("export", str(folder / "t.jsonl"), str(folder / "a.csv"), "-o",
                      str(tmp_path / "x.fbx"), exit_code=2)
     assert "cannot tell the format" in result.stderr and not (tmp_path / "x.fbx").exists()
+    assert "compare --obj" not in result.stderr
+    # an OBJ is compare's (a new user's, session 33)
+    result = run_cli("export", str(folder / "t.jsonl"), str(folder / "a.csv"), "-o",
+                     str(tmp_path / "x.obj"), exit_code=2)
+    assert result.stderr.rstrip().endswith("(OBJ frames of a tree: `plantlod compare --obj`)")
 
 
 def test_frames_outside_the_run_and_a_missing_folder_are_exit_2(run, tmp_path):

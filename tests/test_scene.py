@@ -443,6 +443,9 @@ def test_the_bound_uses_each_frames_current_distance(tmp_path):
      + "[[camera.key]]\nt = 1\nposition = [0, 2, 1]\ntarget = [0, 0, 1]\n", "increasing times"),
     (BASE.replace("position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n", "")
      + "[[camera.key]]\nt = 0\nposition = [0, 1, 1]\nlook = [0, 0, 1]\n", "unknown key 'look'"),
+    # a near miss is named (a new user's `fov`, session 33)
+    (BASE + "min_spacng = 3\n", "unknown key 'min_spacng' in [scatter] (did you mean "
+     "'min_spacing'?)"),
     ("budget_px = 0\n" + BASE, "'budget_px' is 0"),
     ("budget_px = -1\n" + BASE, "'budget_px' must be > 0, got -1"),   # (">= 0" while 0 is refused)
     ("budget_px = 0.0\n" + BASE, "'budget_px' is 0"),
