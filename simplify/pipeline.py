@@ -694,7 +694,9 @@ def simplify_grammar(system: LSystem, options: Options,
             # otherwise, the level goes without equivalent leaves)
             skeleton, skeleton_tree, expanded = plain, plain_tree, []
         if expanded:
-            notes.append(f"equivalent leaves at the modules {', '.join(expanded)}")
+            notes.append(f"equivalent leaves at the modules {', '.join(expanded)} (each draws "
+                         "the leaves its next step would grow; docs/simplify.md, \"Equivalent "
+                         "leaves\")")
         # fitted where compare reads it: in each group root's frame W_0 (model.md 6)
         from plantlod.compare.groups import swing_turns
 
