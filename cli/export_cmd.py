@@ -51,10 +51,11 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     tree, _ = load_tree(tree_path)
     times, addresses, bend, rot = read_angles_file(angles_path, degrees)
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
-    _warn_large_angles(times, bend, rot, tree.address, display_name(angles_path), degrees)
     with write_errors(output):                    # (a name the system refuses: bad input, as
         export_animation(output, tree, times, bend, rot, fps, frames,   # every command's -o)
                          display_name(angles_path))
+    # (after the export: an angle file it refuses gets its one error line alone)
+    _warn_large_angles(times, bend, rot, tree.address, display_name(angles_path), degrees)
     span = (f"{times[-1]:g} s at {fps:g} fps" if frames is None else      # (time restarts at 0)
             f"frames {frames[0]}:{frames[1]} ({frames[1] - frames[0]:,} frames, "
             f"{(frames[1] - frames[0] - 1) / fps:g} s) at {fps:g} fps")

@@ -231,6 +231,47 @@ def check_document(doc, blob_length: int, path: str) -> None:
                        f"one of {', '.join(ANIMATION_PATHS)}")
 
 
+def check_animation_data(doc, blob: bytes, path: str) -> None:
+    """Refuse key times that are not finite or not strictly increasing and animated values
+    that are not finite (glTF 2.0, 3.11; a page's loader logged errors or played nothing).
+    Reads each sampler's float accessors from ``blob``, the document's one buffer, after
+    `check_document` found their byte ranges inside it (sparse accessors are not read)."""
+    import numpy as np
+
+    def fail(message: str):
+        raise InputError(message, path)
+
+    # (lists `check_document` checked: read once more from the document, not checked again)
+    accessors, views = doc.accessors or [], doc.bufferViews or []
+
+    def floats(k: int):
+        acc = accessors[k]
+        if acc.componentType != 5126 or acc.bufferView is None or acc.sparse is not None:
+            return None
+        view = views[acc.bufferView]
+        width = TYPE_COMPONENTS[acc.type]
+        start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+        return np.ndarray((acc.count, width), dtype="<f4", buffer=blob, offset=start,
+                          strides=(view.byteStride or 4 * width, 4))
+
+    for i, anim in enumerate(doc.animations or []):
+        for j, sampler in enumerate(anim.samplers):
+            what = f"animations[{i}].samplers[{j}]"
+            times = floats(sampler.input)
+            if times is not None and len(times):
+                t = times[:, 0].astype(np.float64)
+                if not np.all(np.isfinite(t)):
+                    fail(f"{what}: key time {int(np.argmin(np.isfinite(t)))} is not finite")
+                if np.any(np.diff(t) <= 0):
+                    k = int(np.argmax(np.diff(t) <= 0)) + 1
+                    fail(f"{what}: key time {k} ({t[k]:g} s) is not after the one before "
+                           f"({t[k - 1]:g} s); expected strictly increasing times")
+            values = floats(sampler.output)
+            if values is not None and not np.all(np.isfinite(values)):
+                row = int(np.argmin(np.isfinite(values).all(axis=1)))
+                fail(f"{what}: output value {row} is not finite")
+
+
 def _check_references(c: _Checker) -> None:
     """The indices a page's loader follows beyond meshes, nodes and animations: a node's skin
     and camera, a skin's joints and matrices, a texture's image and sampler, an image's
@@ -357,9 +398,18 @@ def _check_nodes(c: _Checker) -> None:
         todo.extend(nodes[i].children or [])
     if reached != len(nodes):
         c.fail("some nodes are their own ancestors; the nodes must form trees")
+    # a scene's nodes are roots, each once: a child listed as a root (drawn twice, once
+    # without its parent's motion) or a root listed twice is no tree
     for i, scene in enumerate(c.items("scenes")):
+        seen = set()
         for node in scene.nodes or []:
             c.index(node, "nodes", f"scenes[{i}].nodes")
+            if node in parent:
+                c.fail(f"scenes[{i}].nodes lists node {node}, which is another node's child; "
+                       "expected the roots of the node trees")
+            if node in seen:
+                c.fail(f"scenes[{i}].nodes lists node {node} twice")
+            seen.add(node)
     c.index(getattr(c.doc, "scene", None), "scenes", "scene", optional=True)
 
 
@@ -411,6 +461,19 @@ def check_raw_json(data: bytes, path: str) -> None:
                 isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)):
             c.fail(f"{what} is {_json(value)}; expected {size} numbers")
 
+    def present(table: dict, key: str, what: str):
+        """``table[key]``, refused where the file writes null (glTF has no null property:
+        the reader took it for an absent one, which a page's loader refuses)."""
+        if key in table and table[key] is None:
+            c.fail(f"{what} is null; expected it left out or a value")
+        return table.get(key)
+
+    asset = doc.get("asset")
+    version = asset.get("version") if isinstance(asset, dict) else None
+    if not (isinstance(version, str) and version.split(".")[0] == "2"):
+        c.fail(f"asset.version is {_json(version)}; expected \"2.0\" (glTF 2.0)"
+               if isinstance(asset, dict) else "the glTF has no asset; expected "
+               "{\"asset\": {\"version\": \"2.0\"}}")
     for i, buffer in enumerate(listed("buffers")):
         whole(buffer.get("byteLength"), f"buffers[{i}].byteLength")
     for i, view in enumerate(listed("bufferViews")):
@@ -419,7 +482,10 @@ def check_raw_json(data: bytes, path: str) -> None:
     accessors = listed("accessors")
     for i, acc in enumerate(accessors):
         for key in ("bufferView", "byteOffset", "componentType", "count"):
-            whole(acc.get(key), f"accessors[{i}].{key}")
+            whole(present(acc, key, f"accessors[{i}].{key}"), f"accessors[{i}].{key}")
+        normalized = acc.get("normalized")
+        if normalized is not None and not isinstance(normalized, bool):
+            c.fail(f"accessors[{i}].normalized is {_json(normalized)}; expected true or false")
     for i, node in enumerate(listed("nodes")):
         for key, size in (("rotation", 4), ("translation", 3), ("scale", 3), ("matrix", 16)):
             numbers(node.get(key), size, f"nodes[{i}].{key}")
@@ -449,3 +515,40 @@ def check_raw_json(data: bytes, path: str) -> None:
                     c.fail(f"{what}.input is accessors[{k}], a {_json(acc.get('type'))} of "
                            f"componentType {_json(acc.get('componentType'))}; expected a "
                            "SCALAR of floats (5126): the key times")
+                if acc.get("count") == 0:
+                    c.fail(f"{what}.input is accessors[{k}], which holds no key times; expected "
+                           "at least one")
+        _check_channel_outputs(c, i, anim, samplers, accessors)
+
+
+def _check_channel_outputs(c: "_Checker", i: int, anim: dict, samplers, accessors: list) -> None:
+    """Each channel's sampler output as its target path needs it (glTF 2.0, 3.11): rotation
+    VEC4, translation and scale VEC3, weights SCALAR; one value a key time (LINEAR, STEP),
+    three with CUBICSPLINE (in-tangent, value, out-tangent), weights a whole multiple of
+    that. A page's loader given fewer values than key times hung (61 times, 30 rotations)."""
+    shape = {"rotation": "VEC4", "translation": "VEC3", "scale": "VEC3", "weights": "SCALAR"}
+    channels = anim.get("channels")
+    for j, channel in enumerate(channels if isinstance(channels, list) else []):
+        target = channel.get("target") if isinstance(channel, dict) else None
+        k = channel.get("sampler") if isinstance(channel, dict) else None
+        if not (isinstance(target, dict) and isinstance(k, int) and isinstance(samplers, list)
+                and 0 <= k < len(samplers) and isinstance(samplers[k], dict)):
+            continue                          # (check_document names what is missing)
+        sampler, path = samplers[k], target.get("path")
+        times, values = sampler.get("input"), sampler.get("output")
+        if path not in shape or not all(isinstance(a, int) and not isinstance(a, bool)
+                                        and 0 <= a < len(accessors) for a in (times, values)):
+            continue
+        out = accessors[values]
+        what = f"animations[{i}].channels[{j}] ({path})"
+        if out.get("type") != shape[path]:
+            c.fail(f"{what}: its output accessors[{values}] is a {_json(out.get('type'))}; "
+                   f"expected a {shape[path]}")
+        keys, count = accessors[times].get("count"), out.get("count")
+        if not (isinstance(keys, int) and isinstance(count, int)) or keys <= 0:
+            continue
+        per = 3 if sampler.get("interpolation") == "CUBICSPLINE" else 1
+        if (count % (per * keys) != 0 or count == 0) if path == "weights" else count != per * keys:
+            c.fail(f"{what}: {keys:,} key times but {count:,} output values; expected "
+                   + (f"{per} x {keys:,}" if per > 1 else f"{keys:,}")
+                   + (" per morph target" if path == "weights" else ""))

@@ -21,8 +21,8 @@ from plantlod.formats.kinds import SNIFF_CHARS, USDC_MAGIC, other_kind, text_kin
 from plantlod.lsys.errors import InputError
 
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
-from .gltf_check import (GLB_MAGIC, buffer_files, check_buffer_uris, check_document,
-                         check_glb_container, check_raw_json)
+from .gltf_check import (GLB_MAGIC, buffer_files, check_animation_data, check_buffer_uris,
+                         check_document, check_glb_container, check_raw_json)
 
 GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
 OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
@@ -75,6 +75,7 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
         raise InputError(f"cannot read the glTF's buffers ({_why(exc)})",
                          path) from None
     check_document(doc, len(blob), path)
+    check_animation_data(doc, blob, path)
     try:
         glb = b"".join(doc.save_to_bytes())
     except Exception as exc:

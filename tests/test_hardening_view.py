@@ -368,3 +368,50 @@ def test_inputs_of_another_kind_are_named(files, tmp_path):
                     "more digits than Python reads")
     assert "sys.set_int_max_str_digits" not in line
     assert not os.path.exists(out)
+
+
+def _set_float(doc: dict, blob: bytes, accessor: int, row: int, value: float) -> bytes:
+    """``blob`` with the first float of element ``row`` of ``accessor`` set to ``value``
+    (located from the JSON alone: its view's offset, its own, a tightly packed element)."""
+    acc = doc["accessors"][accessor]
+    view = doc["bufferViews"][acc["bufferView"]]
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[acc["type"]]
+    at = view.get("byteOffset", 0) + acc.get("byteOffset", 0) + row * (view.get("byteStride") or 4 * width)
+    return blob[:at] + struct.pack("<f", value) + blob[at + 4:]
+
+
+def _sampler(doc: dict) -> dict:
+    return doc["animations"][0]["samplers"][doc["animations"][0]["channels"][0]["sampler"]]
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    # what a page's loader refuses, or hangs on, though every index and length holds (a
+    # helper's fuzzing, session 33): the document ...
+    (lambda d, b: (d.pop("asset"), b)[1], "the glTF has no asset"),
+    (lambda d, b: (d["asset"].update(version="1.0"), b)[1], 'asset.version is "1.0"; expected "2.0"'),
+    (lambda d, b: (d["accessors"][0].update(bufferView=None), b)[1],
+     "accessors[0].bufferView is null"),
+    (lambda d, b: (d["accessors"][0].update(normalized="yes"), b)[1],
+     'accessors[0].normalized is "yes"; expected true or false'),
+    (lambda d, b: (_sampler(d).update(output=_sampler(d)["input"]), b)[1],
+     "(rotation): its output accessors"),
+    (lambda d, b: (d["accessors"][_sampler(d)["output"]].update(
+        count=d["accessors"][_sampler(d)["output"]]["count"] // 2), b)[1],
+     "key times but"),
+    (lambda d, b: (_sampler(d).update(interpolation="CUBICSPLINE"), b)[1], "; expected 3 x "),
+    (lambda d, b: (d["accessors"][_sampler(d)["input"]].update(count=0), b)[1],
+     "which holds no key times"),
+    (lambda d, b: (d["scenes"][0]["nodes"].append(d["nodes"][0]["children"][0]), b)[1],
+     "which is another node's child"),
+    (lambda d, b: (d["scenes"][0]["nodes"].append(d["scenes"][0]["nodes"][0]), b)[1], "twice"),
+    # ... and the animation's numbers
+    (lambda d, b: _set_float(d, b, _sampler(d)["output"], 3, float("nan")),
+     "output value 3 is not finite"),
+    (lambda d, b: _set_float(d, b, _sampler(d)["input"], 2, -1.0),
+     "key time 2 (-1 s) is not after the one before"),
+    (lambda d, b: _set_float(d, b, _sampler(d)["input"], 0, float("inf")), "key time 0 is not finite"),
+])
+def test_what_a_page_cannot_play_is_refused(files, tmp_path, edit, fragment):
+    doc, blob = glb_parts(files / "s.glb")
+    blob = edit(doc, blob)
+    view_refuses(tmp_path, make_glb(doc, blob), fragment)
