@@ -198,6 +198,18 @@ def _command_name(exc: BaseException, fallback: str) -> str:
     return f"{fallback} {name}" if name else fallback
 
 
+# what makes each command's run smaller, in its own options (out of memory)
+_SMALLER = {
+    "derive": "lower --max-modules or --steps",
+    "simulate": "fewer --steps, a larger --every, or fewer branches",
+    "compare": "a shorter --duration, a larger --every, or fewer branches",
+    "export": "fewer --frames, a shorter run, or fewer branches",
+    "simplify": "a shorter --duration or a smaller tree",
+    "scene": "fewer trees, a shorter duration, or a larger dt",
+    "view": "fewer or smaller glTF files",
+}
+
+
 def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, str | None]:
     """The exit code and the one line (None: quiet) for an exception that ended a command."""
     where = _command_name(exc, prog)
@@ -229,8 +241,9 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
         reason = exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
         return 1, f"{where}: error: {target}{reason}"
     if isinstance(exc, MemoryError):
+        command = where.split()[-1]
         return 1, (f"{where}: error: out of memory; expected a smaller run "
-                   "(lower --max-modules, fewer steps or branches)")
+                   f"({_SMALLER.get(command, 'fewer steps or branches')})")
     if isinstance(exc, RecursionError):
         return 2, f"{where}: error: input nested too deeply"
     return 1, (f"{where}: internal error: {type(exc).__name__}: {_one_line(str(exc))} "

@@ -665,3 +665,20 @@ def test_standard_input_is_read_by_one_input_only(tmp_path, args):
     line, = done.stderr.splitlines()
     assert "both read standard input (-), which can be read once" in line
     assert os.listdir(tmp_path) == []
+
+
+def test_out_of_memory_names_what_makes_each_commands_run_smaller():
+    """A MemoryError's line names options of the command that failed: `export` of a 313 MB
+    CSV said "lower --max-modules", an option of `derive` alone (a helper's fuzzing, session
+    33). Every option named is one `CMD --help` lists."""
+    from plantlod.cli.discipline import describe_failure
+    from plantlod.cli.main import cli
+
+    for name, command in cli.commands.items():
+        exc = MemoryError()
+        exc.plantlod_command = name
+        code, line = describe_failure(exc)
+        assert code == 1 and line.startswith(f"plantlod {name}: error: out of memory; "), line
+        options = {opt for param in command.params for opt in param.opts}
+        for named in re.findall(r"--[a-z-]+", line):
+            assert named in options, (name, named)
