@@ -45,6 +45,7 @@ KINDS = {
     "report": ("a report (JSON)", "`plantlod scene` or `plantlod compare --json` wrote it; no "
                                   "command reads it"),
     "lsys": ("an L-system (.lsys)", "derive, simulate, simplify, compare and export read it"),
+    "html": ("a web page (HTML)", "`plantlod view` writes it; a browser opens it"),
 }
 
 
@@ -64,6 +65,8 @@ def text_kinds(text: str) -> list[str]:
         if _REPORT_KEY.search(head):
             return ["report"]
         return []
+    if re.match(r"<(!doctype\s+html|html)\b", stripped[:20], re.IGNORECASE):
+        return ["html"]
     kinds = []
     if re.match(r"t,b:[^,]+,r:", first) or first == "t":
         kinds.append("csv")

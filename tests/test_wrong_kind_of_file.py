@@ -32,6 +32,8 @@ def files(tmp_path_factory):
     for ext in ("gltf", "usda", "usdc", "glb"):
         made[ext] = str(d / f"s.{ext}")
         run_cli("export", STALK, made["csv"], "-o", made[ext])
+    made["html"] = str(d / "page.html")
+    run_cli("view", made["glb"], "-o", made["html"])
     made["report"] = str(d / "c.json")
     run_cli("compare", STALK, STALK, "--dt", "0.01", "--duration", "1", "--json", "-o",
             made["report"])
@@ -40,7 +42,7 @@ def files(tmp_path_factory):
 
 @pytest.mark.parametrize("kind, expected", [
     ("lsys", "lsys"), ("scene", "scene"), ("csv", "csv"), ("tree", "tree"),
-    ("gltf", "gltf"), ("usda", "usd"), ("report", "report"),
+    ("gltf", "gltf"), ("usda", "usd"), ("report", "report"), ("html", "html"),
 ])
 def test_each_kind_is_told_by_its_start(files, kind, expected):
     with open(files[kind], encoding="utf-8") as handle:
@@ -64,6 +66,9 @@ WRONG = [
     ("scene {report} --no-cache", "report", "scene"),         # a report given as the scene
     ("derive {report} -o /dev/null", "report", "lsys"),
     ("simulate {report} --dt 0.01 --duration 1 -o /dev/null", "report", "tree"),
+    # view's own page given back to it, or to derive (a helper's fuzzing, session 33)
+    ("view {html} -o {out}.html", "html", "gltf"),
+    ("derive {html} -o /dev/null", "html", "lsys"),
 ]
 
 
