@@ -61,6 +61,11 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
             doc = g.GLTF2.load(path)
     except Exception as exc:                   # pygltflib raises what its parsers raise
         other = other_kind(head, path, "gltf")
+        if other is None and isinstance(exc, json.JSONDecodeError) and data[:4] != GLB_MAGIC:
+            # a .gltf's JSON: placed in the file as every reader places its errors (a GLB's
+            # JSON chunk has lines of its own, not the file's)
+            other = InputError(f"not a glTF file: its JSON is not valid ({exc.msg})", path,
+                               exc.lineno, exc.colno)
         raise (other or InputError(f"not a glTF file ({_why(exc)})", path)) from None
     if doc is None or not isinstance(doc.nodes, list) or not doc.nodes:
         raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)

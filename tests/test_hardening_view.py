@@ -415,3 +415,16 @@ def test_what_a_page_cannot_play_is_refused(files, tmp_path, edit, fragment):
     doc, blob = glb_parts(files / "s.glb")
     blob = edit(doc, blob)
     view_refuses(tmp_path, make_glb(doc, blob), fragment)
+
+
+def test_a_gltf_whose_json_is_broken_names_the_line_and_column(tmp_path):
+    """A .gltf (JSON text) that is not JSON: the place in the file, as every reader gives it,
+    not inside Python's wording ("(Expecting value: line 2 column 13 (char 42))"; a helper's
+    fuzzing, session 33)."""
+    text = '{"asset": {"version": "2.0"},\n "nodes": [ , ]}\n'
+    path = tmp_path / "x.gltf"
+    path.write_text(text)
+    line, col = 2, text.splitlines()[1].index(",") + 1           # the stray comma
+    result = run_cli("view", str(path), "-o", str(tmp_path / "p.html"), exit_code=2)
+    assert result.stderr == (f"{path}:{line}:{col}: error: not a glTF file: its JSON is not "
+                             "valid (Expecting value)\n")
