@@ -85,6 +85,18 @@ def _named(exc: BaseException, command: str | None) -> BaseException:
     return exc
 
 
+def _done_before_signals() -> None:
+    """The command's work is done and its output in place: a signal from here on is too
+    late to stop it, so it is ignored and the command ends 0 (a helper's fuzzing, session
+    33: one during the interpreter's last 0.2-0.8 s said "interrupted", exit 130, beside a
+    whole output, or, once Python's finalisation had put the default actions back, killed
+    it with no word). Only where this module's handlers are installed (`main`), never in a
+    caller's process (the API, the tests' in-process runs)."""
+    for signum in CAUGHT_SIGNALS:
+        if signal.getsignal(signum) is _end_on_signal:
+            signal.signal(signum, signal.SIG_IGN)
+
+
 def install_signal_handlers() -> None:
     """The signals of CAUGHT_SIGNALS end the command cleanly (unless ignored by the parent).
     SIGPIPE stays ignored (Python's start-up does so): a reader of stdout that goes away
@@ -269,6 +281,7 @@ def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
         flush_pending_warnings()
         end_warnings()
         _flush_stdout()
+        _done_before_signals()
         return result if isinstance(result, int) else 0
     except BaseException as exc:     # noqa: BLE001 -- the one place every failure ends
         if isinstance(exc, SystemExit):
