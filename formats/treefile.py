@@ -417,6 +417,10 @@ def _read(lines: _Lines) -> Tree:
         raise head.error(f"tree file version {json.dumps(version)} is not supported; "
                          f"expected {FORMAT_VERSION} or {LEVEL_FORMAT_VERSION}",
                          "version" if "version" in head.record else None)
+    if version == FORMAT_VERSION and "extras" in head.record:
+        raise head.error(f'"extras" belongs to a version {LEVEL_FORMAT_VERSION} tree file (a '
+                         f'level\'s tree); expected "version": {LEVEL_FORMAT_VERSION} with it, '
+                         'or no "extras"', "extras")
     head.keys(LEVEL_HEADER_KEYS if version == LEVEL_FORMAT_VERSION else HEADER_KEYS)
     extras = _read_extras(head) if version == LEVEL_FORMAT_VERSION else ()
     n_branches = head.integer("branches", 0, None, '"branches" must be a non-negative integer')

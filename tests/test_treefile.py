@@ -220,6 +220,9 @@ ERRORS = [
      r'version "1" is not supported; expected 1 or 2'),
     ("version 2 without extras", edit(1, '"version": 1', '"version": 2'), 1, None,
      r'missing key "extras"'),
+    # (a level's extras under version 1 said "unknown key"; a helper's fuzzing, session 33)
+    ("extras in version 1", edit(1, '"version": 1', '"version": 1, "extras": ["gain"]'), 1,
+     '"extras"', r'"extras" belongs to a version 2 tree file .*expected "version": 2 with it'),
     ("bad extras", edit(1, '"version": 1', '"version": 2, "extras": ["gain", "group_root"]'),
      1, '"extras"', r'"extras" must be a non-empty list'),
     ("gain missing", edit(1, '"version": 1', '"version": 2, "extras": ["gain"]'), 2, None,
