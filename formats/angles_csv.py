@@ -14,7 +14,7 @@ from typing import TextIO
 
 import numpy as np
 
-from .constants import CSV_FLOAT_FORMAT
+from .constants import CSV_BLOCK_VALUES, CSV_FLOAT_FORMAT
 from plantlod.lsys.errors import InputError
 
 BEND_PREFIX = "b:"
@@ -104,7 +104,11 @@ def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = F
         addresses.append(address)
 
     width = len(fields)
+    # rows are gathered in blocks of numpy arrays: a list of Python floats takes about four
+    # times the bytes of the text (a 313 MB CSV peaked at 4.7 GB in export)
+    blocks: list[np.ndarray] = []
     rows: list[list[float]] = []
+    count = 0
     last_t = -math.inf
     for line_no, raw in lines:
         line = raw.rstrip("\r\n")
@@ -126,10 +130,17 @@ def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = F
                              source, line_no, 1)
         last_t = values[0]
         rows.append(values)
-    if not rows:
+        count += 1
+        if len(rows) * width >= CSV_BLOCK_VALUES:
+            blocks.append(np.array(rows, dtype=np.float64))
+            rows = []
+    if not count:
         raise InputError("expected at least one row of angles after the header",
                          source, header_line + 1, 1)
-    table = np.array(rows, dtype=np.float64)
+    if rows:
+        blocks.append(np.array(rows, dtype=np.float64))
+    table = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+    del blocks, rows
     bend, rot = table[:, 1::2].copy(), table[:, 2::2].copy()
     if degrees:
         bend, rot = np.radians(bend), np.radians(rot)

@@ -23,6 +23,7 @@ DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format st
 # Angles and other floats in CSV output: fixed significant digits, so that a
 # last-bit difference in a libm routine on another machine does not change bytes.
 CSV_FLOAT_FORMAT = "%.10g"
+CSV_BLOCK_VALUES = 1 << 20    # an angle CSV is read into numpy blocks of about this many values
 JSON_SIGNIFICANT_DIGITS = 10  # compare --json rounds floats to this many digits
 TABLE_FLOAT_FORMAT = "%.4g"   # compare's table
 # Tree files store floats exactly (shortest repr round-trips), so that

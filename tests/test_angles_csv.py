@@ -88,3 +88,28 @@ def test_reader_accepts_crlf_and_blank_lines():
     times, addresses, bend, rot = read_angles_csv(io.StringIO("t,b:0,r:0\r\n\r\n0,1,2\r\n1,3,4\r\n\n"))
     assert addresses == ["0"] and times.tolist() == [0.0, 1.0]
     assert bend.tolist() == [[1.0], [3.0]] and rot.tolist() == [[2.0], [4.0]]
+
+
+@pytest.mark.parametrize("block", [1, 7, 9, 1 << 20])
+def test_rows_read_in_blocks_are_the_rows_of_the_file(monkeypatch, block):
+    """The reader gathers rows in numpy blocks of about CSV_BLOCK_VALUES values (a list of
+    Python floats took four times the text's bytes); any block size gives the file's
+    numbers, against numpy's own parse of the same text, and an error past a block still
+    names its line."""
+    from plantlod.formats import angles_csv
+
+    monkeypatch.setattr(angles_csv, "CSV_BLOCK_VALUES", block)
+    rng = np.random.default_rng(7)
+    rows = np.column_stack([np.arange(11) * 0.01, rng.normal(size=(11, 4))])
+    text = "t,b:0,r:0,b:1,r:1\n" + "".join(",".join(f"{v:.10g}" for v in row) + "\n" for row in rows)
+    times, addresses, bend, rot = read_angles_csv(io.StringIO(text), "a.csv")
+    table = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1)
+    assert addresses == ["0", "1"]
+    np.testing.assert_array_equal(times, table[:, 0])
+    np.testing.assert_array_equal(bend, table[:, 1::2])
+    np.testing.assert_array_equal(rot, table[:, 2::2])
+    bad = text.splitlines()
+    bad[10] = bad[10].replace(",", ",x", 1)
+    with pytest.raises(InputError) as info:
+        read_angles_csv(io.StringIO("\n".join(bad) + "\n"), "a.csv")
+    assert info.value.line == 11
