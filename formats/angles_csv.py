@@ -108,7 +108,6 @@ def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = F
     # times the bytes of the text (a 313 MB CSV peaked at 4.7 GB in export)
     blocks: list[np.ndarray] = []
     rows: list[list[float]] = []
-    count = 0
     last_t = -math.inf
     for line_no, raw in lines:
         line = raw.rstrip("\r\n")
@@ -130,11 +129,10 @@ def read_angles_csv(stream: TextIO, source: str | None = None, degrees: bool = F
                              source, line_no, 1)
         last_t = values[0]
         rows.append(values)
-        count += 1
         if len(rows) * width >= CSV_BLOCK_VALUES:
             blocks.append(np.array(rows, dtype=np.float64))
             rows = []
-    if not count:
+    if not blocks and not rows:
         raise InputError("expected at least one row of angles after the header",
                          source, header_line + 1, 1)
     if rows:

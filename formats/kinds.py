@@ -95,12 +95,21 @@ def named_by_kind(text: str, name: str | None, own: str) -> Iterator[None]:
         raise other_kind(text, name, own) or exc from None
 
 
+def other_kind_of_text(text: str, own: str) -> tuple[str, str] | None:
+    """(what it is, which commands read it) of the kind the start of ``text`` shows, where that
+    is another than ``own``; None where it shows none, or its own kind too."""
+    kinds = text_kinds(text)
+    if not kinds or own in kinds:
+        return None
+    return KINDS[kinds[0]]
+
+
 def other_kind(text: str, name: str | None, own: str) -> InputError | None:
     """The error for ``text`` (named ``name``) that its reader of kind ``own`` could not parse,
     where its start shows it is a file of another kind; None where it does not, or where it
     shows its own kind too (a broken file of the reader's kind keeps the reader's error)."""
-    kinds = text_kinds(text)
-    if not kinds or own in kinds:
+    other = other_kind_of_text(text, own)
+    if other is None:
         return None
-    what, who = KINDS[kinds[0]]
+    what, who = other
     return InputError(f"{what}, not {KINDS[own][0]} ({who})", name)

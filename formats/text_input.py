@@ -20,15 +20,22 @@ from .kinds import USDC_MAGIC
 
 _BOM = b"\xef\xbb\xbf"
 _LINE_BREAK = re.compile(rb"\r\n?|\n")     # where a line ends (lsys.parse.LINE_BREAK, in bytes)
-# Binary files a user may hand to a text reader, and what to say of them.
+# Binary files a user may hand to a text reader: (magic, what it is, what to do instead).
 BINARY_KINDS = (
-    (b"PK\x03\x04", "a zip archive (an .npz?): archives are read by their .npz extension, so "
-                    "give the file a name ending in .npz"),
-    (b"glTF", "a binary glTF (.glb): `plantlod view` reads those; a tree comes from an .lsys "
-              "file, a tree file or a tree .npz"),
-    (USDC_MAGIC, "a binary OpenUSD file (.usdc): `plantlod export` writes those for other "
-                 "programs; plantlod reads none"),
+    (b"PK\x03\x04", "a zip archive (an .npz?)", "archives are read by their .npz extension, so "
+                                               "give the file a name ending in .npz"),
+    (b"glTF", "a binary glTF (.glb)", "`plantlod view` reads those; a tree comes from an .lsys "
+                                      "file, a tree file or a tree .npz"),
+    (USDC_MAGIC, "a binary OpenUSD file (.usdc)", "`plantlod export` writes those for other "
+                                                 "programs; plantlod reads none"),
 )
+
+
+def binary_kind(data: bytes) -> tuple[str, str] | None:
+    """(what it is, what to do instead) where ``data`` starts as a binary kind of
+    BINARY_KINDS does, else None."""
+    return next(((what, hint) for magic, what, hint in BINARY_KINDS if data.startswith(magic)),
+                None)
 
 
 def source_name(path: str) -> str:
@@ -60,9 +67,9 @@ def _not_utf8(data: bytes, offset: int, name: str) -> InputError:
         return InputError("an .npz archive (a tree or angles), which is not read here; expected "
                           "a text file (an .lsys file: simulate, compare and export also read "
                           "tree archives)", name)
-    for magic, what in BINARY_KINDS:
-        if data.startswith(magic):
-            return InputError(f"not text but {what}", name)
+    binary = binary_kind(data)
+    if binary is not None:
+        return InputError(f"not text but {binary[0]}: {binary[1]}", name)
     bom = len(_BOM) if data.startswith(_BOM) else 0
     breaks = list(_LINE_BREAK.finditer(data, 0, offset))   # (\r\n, a lone \r or \n: as the
     line = len(breaks) + 1                                  # .lsys parser and text mode count)

@@ -1068,7 +1068,7 @@ class _FileParser:
         errors = list(_whole_file_errors(system))
         if errors:
             raise min(errors, key=lambda e: (e.line, e.col))
-        _warn_width_modules(system)
+        _warn_undrawn_modules(system)
         return system
 
 
@@ -1082,7 +1082,7 @@ _UNDRAWN = {
 }
 
 
-def _warn_width_modules(system: LSystem) -> None:
+def _warn_undrawn_modules(system: LSystem) -> None:
     """`_UNDRAWN`: L-Py's ``_(w)`` sets the width and ABOP's ``F`` draws a segment; here
     each is an ordinary module that draws nothing unless declared (a branch or a leaf) or
     given an interpretation rule: said once each, at its first place."""

@@ -520,22 +520,19 @@ def _other_kind_of(path: pathlib.Path) -> str | None:
 
 @functools.lru_cache(maxsize=64)
 def _sniffed_kind(path: pathlib.Path, _mtime_ns: int, _size: int) -> str | None:
-    from plantlod.formats.kinds import KINDS, SNIFF_CHARS, text_kinds
-    from plantlod.formats.text_input import BINARY_KINDS
+    from plantlod.formats.kinds import SNIFF_CHARS, other_kind_of_text
+    from plantlod.formats.text_input import binary_kind
 
     try:
         with open(path, "rb") as f:
             start = f.read(SNIFF_CHARS)
     except OSError:
         return None
-    for magic, what in BINARY_KINDS:
-        if start.startswith(magic):
-            return what.split(":")[0]
-    kinds = text_kinds(start.decode("utf-8", errors="replace"))
-    if not kinds or "lsys" in kinds:
-        return None
-    what, who = KINDS[kinds[0]]
-    return f"{what} ({who})"
+    binary = binary_kind(start)
+    if binary is not None:
+        return binary[0]
+    other = other_kind_of_text(start.decode("utf-8", errors="replace"), "lsys")
+    return None if other is None else f"{other[0]} ({other[1]})"
 
 
 # the scene's lists of tables, each entry a [[name]] header (docs/scene.md)
@@ -562,8 +559,9 @@ def read_scene(path: str) -> Scene:
         if twice and line is not None:
             # `[tree]` where `[[tree]]` was meant: each entry of a list is a [[..]] header
             name = ".".join(re.findall(r"'([^']*)'", twice.group(1)))
-            start = text.splitlines()[line - 1] if line <= len(text.splitlines()) else ""
-            col = start.find("[") + 1 if "[" in start else col
+            lines = text.splitlines()
+            header = lines[line - 1] if line <= len(lines) else ""
+            col = header.find("[") + 1 if "[" in header else col
             message = (f"the table [{name}] is declared twice; "
                        + (f"several of them are written [[{name}]] each (double brackets)"
                           if name in LISTED_TABLES else "expected it once"))
@@ -668,10 +666,8 @@ def _long_integer(text: str, path: str) -> InputError:
         if "#" in before or before.count('"') % 2 or before.count("'") % 2:
             continue                      # (in a comment or a string: not a number)
         if limit and len(digits) > limit:
-            line = text.count("\n", 0, m.start()) + 1
-            col = m.start() - (text.rfind("\n", 0, m.start()) + 1) + 1
             return InputError(f"a whole number of {len(digits)} digits; expected at most {limit}",
-                              path, line, col)
+                              path, *_line_col(text, m.start()))
     return InputError("not valid TOML: a number Python cannot read", path)
 
 
