@@ -159,8 +159,11 @@ def view_page(trees: Sequence[tuple[str, bytes, int | None]], wind_direction_deg
                    "glb": base64.b64encode(glb).decode("ascii")} for name, glb, branches in trees],
     }
     parts = {
-        # "</" may not appear inside a <script> element; JSON allows "<\\/" for it
-        "DATA": json.dumps(data, separators=(",", ":")).replace("</", "<\\/"),
+        # the data block's text must not open or close an element or a comment ("</script",
+        # "<!--<script" kept the page's scripts as data: a helper's fuzzing, session 34):
+        # every <, > and & is written as a JSON \u escape, which only strings can hold
+        "DATA": json.dumps(data, separators=(",", ":")).replace("<", "\\u003c")
+                .replace(">", "\\u003e").replace("&", "\\u0026"),
         "THREE": (folder / "three-bundle.js").read_text(encoding="utf-8"),
         "VIEWER": (folder / "viewer.js").read_text(encoding="utf-8"),
         "TITLE": _html_text(title),

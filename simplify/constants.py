@@ -35,6 +35,10 @@ SIMPLIFY_DT = 0.01            # s, measurement runs (periods are 2.5 to 4.5 s)
 SIMPLIFY_DURATION = 20.0      # s, at least four periods
 SIMPLIFY_WIND_RANGE = (0.5, 20.0)   # m/s
 SIMPLIFY_EVERY = 4            # keep every 4th step when measuring
+# Steps of one measurement run at most (500 x the default's 2,000): the fit steps each
+# group's swing from rest in numpy, a step at a time, and holds every wind's run at once,
+# so --dt 1e-9 asked 37 GB and --dt 1e-7 ran for minutes before (a helper, session 34)
+MAX_SIMPLIFY_STEPS = 1_000_000
 MIN_SAMPLES_PER_PERIOD = 8    # a branch period shorter than this many measurement samples is aliased (a warning)
 CALIBRATION_EVALUATIONS = 40  # candidate trees simulated by --calibrate (each at every wind)
 CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_FA, C_d, strengths

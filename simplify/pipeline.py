@@ -26,6 +26,7 @@ from .constants import SIMPLIFY_DURATION
 from .constants import SIMPLIFY_EVERY
 from .constants import SIMPLIFY_WIND_RANGE
 from .constants import MAX_LEVEL
+from .constants import MAX_SIMPLIFY_STEPS
 from .constants import LEVEL_RATIO
 from .constants import MIN_SAMPLES_PER_PERIOD
 from plantlod.lsys.errors import InputError
@@ -117,7 +118,13 @@ class Options:
         whole("every", self.every, low=1, high=MAX_TIME_STEPS)
         whole("max_evaluations", self.max_evaluations, low=1, high=MAX_TIME_STEPS)
         dt, duration = self.spelled("dt"), self.spelled("duration")
-        step_count(self.dt, self.duration, dt, duration)
+        steps = step_count(self.dt, self.duration, dt, duration)
+        if steps > MAX_SIMPLIFY_STEPS:
+            raise InputError(f"{duration} {self.duration:g} s at {dt} {self.dt:g} s gives "
+                             f"{steps:,} steps; simplify measures runs of at most "
+                             f"{MAX_SIMPLIFY_STEPS:,} steps (the default: "
+                             f"{round(SIMPLIFY_DURATION / SIMPLIFY_DT):,}); expected a larger "
+                             f"{dt} or a shorter {duration}")
         if self.duration < 2 * self.every * self.dt:    # (a period needs two kept samples)
             raise InputError(f"{duration} {self.duration:g} s at {dt} {self.dt:g} s gives fewer "
                              f"than {2 * self.every} steps to measure the motion in; expected a "
@@ -161,6 +168,23 @@ class Result:
         if self._system is None:
             self._system = replace(parse_lsys(self.text, self.source), comment=self.comment)
         return self._system
+
+
+def check_measurement_memory(original: Tree, options: Options) -> None:
+    """Refuse (InputError) measurement runs whose angles would pass the memory limit of a
+    held run (`sim.run.check_held_angles`): simplify holds the original's angles in every one
+    of its winds at once, (winds, steps // every + 1, branches), before they are allocated."""
+    from plantlod.sim.run import check_held_angles
+
+    try:
+        check_held_angles(options.steps // options.every + 1, original.n_branches,
+                          lanes=len(options.winds()))
+    except InputError as exc:
+        names = [options.spelled("duration"), options.spelled("dt")] \
+            + ([] if options.flags else [options.spelled("every")])     # (no CLI option)
+        raise InputError(str(exc).split("; expected")[0] + f"; expected another "
+                         f"{', '.join(names[:-1])} or {names[-1]}, or a tree of fewer branches"
+                         ) from None
 
 
 def _check_something_merges(original: Tree, simplified: Tree, gmap: GroupMap, source) -> None:
@@ -428,6 +452,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     original = build(system).tree if built is None else built[0]
     check_moves(original, system.source or None)
     check_stability(original, options.dt, options.damping)
+    check_measurement_memory(original, options)
     last = len(level_counts(original)) - 1
     if last_checked is not None:
         last_checked(last)
@@ -667,6 +692,7 @@ def simplify_grammar(system: LSystem, options: Options,
     original = build(system).tree
     check_moves(original, source)
     check_stability(original, options.dt, options.damping)
+    check_measurement_memory(original, options)
 
     plain, _ = level_system(system, options.level, equivalent_leaves=False)
     plain_tree = build(plain).tree

@@ -154,6 +154,10 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     ({"dt": 10}, "duration 20 s at dt 10 s gives fewer than 8 steps to measure the motion in; "
                  "expected a longer duration or a smaller dt"),           # signal shape error
     ({"duration": -1}, "duration -1 s: expected a duration of at least 0 s"),  # "more than 10^10 steps"
+    # (session 34's fuzzing: a MemoryError of 37 GB after 22 s; dt 1e-6 ran 45 s at 3.4 GB)
+    ({"dt": 1e-9, "duration": 5.0}, "gives 5,000,000,000 steps; simplify measures runs of at "
+                                    "most 1,000,000 steps"),
+    ({"dt": 1e-6, "duration": 5.0}, "expected a larger dt or a shorter duration"),
     # (the options as the API names them; they named the CLI's --duration, --method, ...)
     ({"form": "explicit", "calibrate": True}, "expected method='derived' without calibrate=True "
                                               "(or form='grammar')"),
@@ -168,6 +172,24 @@ def test_simplify_options_are_checked_before_any_work(options, fragment):
     assert "--" not in str(error.value)
     with pytest.raises(InputError, match="expected an LSystem, the path"):
         plantlod.simplify(None, level=1)
+
+
+def test_simplify_refuses_measurement_runs_past_the_memory_limit(monkeypatch):
+    """The original's angles in all of simplify's winds are held at once: past
+    MAX_HELD_ANGLE_BYTES the run is refused before it is simulated, in either form, naming
+    what to change (the API's every included; the command has no --every)."""
+    import plantlod.sim.run as run
+
+    tree = plantlod.derive(STALK)
+    winds = 16                                        # simplify's measurement winds
+    rows = 20.0 / 0.01 // 4 + 1                       # the default run, every 4th step kept
+    monkeypatch.setattr(run, "MAX_HELD_ANGLE_BYTES", int(2 * 8 * winds * rows * tree.n_branches) - 1)
+    for form in ("explicit", "grammar"):
+        with pytest.raises(InputError, match="expected another duration, dt or every, or a tree "
+                                             "of fewer branches"):
+            plantlod.simplify(STALK, level=1, form=form)
+    monkeypatch.setattr(run, "MAX_HELD_ANGLE_BYTES", int(2 * 8 * winds * rows * tree.n_branches))
+    assert plantlod.simplify(STALK, level=1, form="grammar").derivation_length >= 0
 
 
 def _angles():

@@ -82,6 +82,24 @@ def test_the_page_carries_each_tree_and_needs_no_network(glbs, tmp_path):
     assert "MIT License" in licence.read_text(encoding="utf-8")
 
 
+@pytest.mark.parametrize("title", ["<!--<script>", "</script><script>x()</script>", "a&b>c"])
+def test_a_title_or_a_name_never_ends_or_opens_an_element_in_the_data(glbs, tmp_path, title):
+    """The data block holds no "<" at all, so neither "</script" nor "<!--<script" (which
+    made the browser read the viewer's scripts as data: session 34's fuzzing) can act in it,
+    and it still reads back as the title and file name given."""
+    folder, trees = glbs
+    odd = tmp_path / (title.replace("/", "_") + ".glb")
+    odd.write_bytes(trees[0][0].read_bytes())
+    text = plantlod.write_view([odd], title=title)
+    data_text = text.split('id="plantlod-data">', 1)[1].split("</script>", 1)[0]
+    assert "<" not in data_text and ">" not in data_text and "&" not in data_text
+    data = json.loads(data_text)
+    assert data["title"] == title and data["trees"][0]["name"] == odd.name
+    page = _Page()
+    page.feed(text)
+    assert [ident for ident, _ in page.scripts] == ["plantlod-data", "", ""]
+
+
 def test_each_gltf_list_is_checked_once_whatever_refers_to_it(glbs, monkeypatch):
     """`index` asks for the list it indexes at every reference; each list was checked again
     at each, so `view` took time quadratic in the nodes (abop_1_25: 28 s). Counted, not
