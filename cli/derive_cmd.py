@@ -7,6 +7,7 @@ import time
 import click
 
 from plantlod.lsys.constants import DEFAULT_MAX_MODULES
+from plantlod.formats.kinds import OUTPUT_KINDS
 
 from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths,
                  open_output, say, warn_once_running)
@@ -48,8 +49,7 @@ def derive(file, output, fmt, steps, max_modules):
     if fmt == "string":
         check_output_kind(output, "-o", "the derived string (text)", (".txt",))
     else:
-        check_output_kind(output, "-o", "a tree file (JSON Lines, or an .npz archive)",
-                          (".jsonl", ".json", ".npz", ".txt"))
+        check_output_kind(output, "-o", *OUTPUT_KINDS["tree"])
     check_output_path(output)                   # (a missing folder: before the derivation)
     start = time.perf_counter()
     system = load_system(file)

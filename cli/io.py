@@ -151,31 +151,18 @@ def check_output_path(path: str | None, folder: bool = False) -> None:
     special_target(path)
 
 
-# what a file of each extension holds, for refusing an output named for another kind
-# (`simplify -o out.glb` wrote L-system text into a .glb); other extensions are not judged
-EXTENSION_KINDS = {
-    ".lsys": "an L-system", ".jsonl": "a tree file (JSON Lines)", ".npz": "an .npz archive",
-    ".csv": "an angle CSV", ".json": "JSON", ".txt": "text", ".toml": "a scene (TOML)",
-    ".glb": "a glTF", ".gltf": "a glTF", ".usd": "OpenUSD", ".usda": "OpenUSD",
-    ".usdc": "OpenUSD", ".html": "a web page", ".htm": "a web page", ".png": "a PNG picture",
-    ".jpg": "a JPEG picture", ".jpeg": "a JPEG picture", ".svg": "an SVG picture",
-    ".pdf": "a PDF", ".obj": "an OBJ mesh", ".zarr": "a Zarr store",
-}
-
-
 def check_output_kind(path: str | None, option: str, writes: str, accepted: tuple[str, ...]) -> None:
     """Refuse (bad usage, before any work) an output whose extension names a kind of file
     other than what the option writes: ``writes`` says what it writes, ``accepted`` the
     extensions that hold it. Names without a known extension (``out``, ``/dev/null``,
     ``-``) pass."""
+    from plantlod.formats.kinds import output_kind_problem
+
     if path is None or path == "-":
         return
-    ext = os.path.splitext(path)[1].lower()
-    if ext in EXTENSION_KINDS and ext not in accepted:
-        names = ", ".join(accepted[:-1]) + (" or " if len(accepted) > 1 else "") + accepted[-1]
-        raise click.UsageError(f"{option} {display_name(path)}: this writes {writes}, not "
-                               f"{EXTENSION_KINDS[ext]} ({ext}); expected a name ending in "
-                               f"{names}")
+    problem = output_kind_problem(path, writes, accepted)
+    if problem is not None:
+        raise click.UsageError(f"{option} {display_name(path)}: {problem}")
 
 
 def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None] | None = None) -> None:

@@ -14,6 +14,7 @@ from plantlod.simplify.constants import (
 )
 
 from plantlod.lsys.words import counted
+from plantlod.formats.kinds import OUTPUT_KINDS
 
 from .discipline import require_together
 from .io import (check_merge_targets, check_output_kind, check_output_path, display_name,
@@ -105,7 +106,7 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
              "derive, simulate and compare")
         level = level_n
     distinct_paths({"-o": output, "--levels": levels_dir}, {"FILE": input_path})
-    check_output_kind(output, "-o", "an L-system", (".lsys", ".txt"))
+    check_output_kind(output, "-o", *OUTPUT_KINDS["lsystem"])
     check_output_path(output)                   # (a missing folder: before the fit, not after)
     if level is not None and levels_dir is not None:
         raise click.UsageError("give --level N or --levels DIR, not both")

@@ -7,6 +7,8 @@ import time
 
 import click
 
+from plantlod.formats.kinds import OUTPUT_KINDS
+
 from .io import (check_output_kind, check_output_path, count, display_name, distinct_paths,
                  is_terminal, open_output, say, warn)
 from .loading import load_tree
@@ -40,7 +42,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     (gusts.csv: rows t,vx,vy,vz in m/s, linearly interpolated; docs/model.md, "Winds")
     """
     distinct_paths({"-o": output}, {"INPUT": input_path, "--wind-file": kwargs.get("wind_file")})
-    check_output_kind(output, "-o", "angles (a CSV, or an .npz archive)", (".csv", ".npz", ".txt"))
+    check_output_kind(output, "-o", *OUTPUT_KINDS["angles"])
     check_output_path(output)                   # (a missing folder: before the run, not after)
     settings = settings_from_kwargs(kwargs)
     tree, _system = load_tree(input_path, steps_n)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from plantlod.lsys.words import counted
+from plantlod.formats.kinds import OUTPUT_KINDS
 
 from .io import check_output_kind, distinct_paths, open_output, say
 
@@ -43,7 +44,7 @@ def view(gltf_paths, output, wind_direction, title):
         for b, name in enumerate(files_read(p)):
             inputs[f"input {k + 1}" + (f"'s buffer {b}" if b else "")] = name
     distinct_paths({"-o": output}, inputs)
-    check_output_kind(output, "-o", "a web page", (".html", ".htm"))
+    check_output_kind(output, "-o", *OUTPUT_KINDS["page"])
     with open_output(output) as out:          # refuses a bad target before any work
         write_view(list(gltf_paths), out, wind_direction=wind_direction, title=title)
     say(f"view: {counted(len(gltf_paths), 'tree')} -> {output}")

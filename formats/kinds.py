@@ -21,6 +21,7 @@ kind has at its start:
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 from typing import Iterator
 
@@ -113,3 +114,38 @@ def other_kind(text: str, name: str | None, own: str) -> InputError | None:
         return None
     what, who = other
     return InputError(f"{what}, not {KINDS[own][0]} ({who})", name)
+
+
+# What a file of each extension holds, for refusing an output named for another kind
+# (`simplify -o out.glb` wrote L-system text into a .glb; the API's `write_tree(tree,
+# "t.npz")` wrote JSON Lines that `read_tree` then refused); other extensions are not judged
+EXTENSION_KINDS = {
+    ".lsys": "an L-system", ".jsonl": "a tree file (JSON Lines)", ".npz": "an .npz archive",
+    ".csv": "an angle CSV", ".json": "JSON", ".txt": "text", ".toml": "a scene (TOML)",
+    ".glb": "a glTF", ".gltf": "a glTF", ".usd": "OpenUSD", ".usda": "OpenUSD",
+    ".usdc": "OpenUSD", ".html": "a web page", ".htm": "a web page", ".png": "a PNG picture",
+    ".jpg": "a JPEG picture", ".jpeg": "a JPEG picture", ".svg": "an SVG picture",
+    ".pdf": "a PDF", ".obj": "an OBJ mesh", ".zarr": "a Zarr store",
+}
+
+
+# What the commands' -o and the API's write_* functions write, and the extensions that hold it
+OUTPUT_KINDS = {
+    "lsystem": ("an L-system", (".lsys", ".txt")),
+    "tree": ("a tree file (JSON Lines, or an .npz archive)", (".jsonl", ".json", ".npz", ".txt")),
+    "angles": ("angles (a CSV, or an .npz archive)", (".csv", ".npz", ".txt")),
+    "page": ("a web page", (".html", ".htm")),
+}
+
+
+def output_kind_problem(path: str, writes: str, accepted: tuple[str, ...]) -> str | None:
+    """Why an output named ``path`` cannot take what is written there (``writes``: what it
+    is; ``accepted``: the extensions that hold it), or None: a name whose extension names
+    another kind of file (`EXTENSION_KINDS`) is refused; names without a known extension
+    (``out``, ``/dev/null``) pass."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSION_KINDS or ext in accepted:
+        return None
+    names = ", ".join(accepted[:-1]) + (" or " if len(accepted) > 1 else "") + accepted[-1]
+    return (f"this writes {writes}, not {EXTENSION_KINDS[ext]} ({ext}); expected a name "
+            f"ending in {names}")

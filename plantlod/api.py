@@ -22,6 +22,7 @@ from typing import IO, Any, Union
 
 import numpy as np
 
+from plantlod.formats.kinds import OUTPUT_KINDS
 from plantlod.lsys.checks import shown_value
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
@@ -111,7 +112,7 @@ def write_lsystem(system: LSystem, path_or_file: PathOrFile | None = None) -> st
     if not isinstance(system, LSystem):
         raise InputError(f"write_lsystem takes an LSystem, got {type(system).__name__}")
     _checked_system(system)
-    output_target(path_or_file)
+    output_target(path_or_file, kind=OUTPUT_KINDS["lsystem"])
     text = write_lsys(system, system.comment or None)
     _write_text(text, path_or_file)
     return text
@@ -163,10 +164,15 @@ def write_tree(tree: Tree, path_or_file: PathOrFile | None = None) -> str:
     if not isinstance(tree, Tree):
         raise InputError(f"write_tree takes a Tree, got {type(tree).__name__}")
     _checked(tree)
-    output_target(path_or_file)
+    output_target(path_or_file, kind=OUTPUT_KINDS["tree"])
     buf = io.StringIO()
     _write(tree, buf)
-    _write_text(buf.getvalue(), path_or_file)
+    if _is_npz_path(path_or_file):             # the archive `plantlod derive -o X.npz` writes
+        from plantlod.formats.npz import tree_bytes
+
+        _write_bytes(tree_bytes(tree), path_or_file)
+    else:
+        _write_text(buf.getvalue(), path_or_file)
     return buf.getvalue()
 
 
@@ -303,10 +309,24 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
     bad = next((a for a in addresses if "," in a or "\n" in a or "\r" in a), None)
     if bad is not None:
         raise InputError(f"the angles' address {bad[:40]!r} holds a comma or a line break")
-    output_target(path_or_file)
+    # (what read_angles refuses is never written: session 34's fuzzing wrote both)
+    if any(not a for a in addresses):
+        raise InputError("the angles hold an empty address; expected each branch's address")
+    twice = _first_repeated(addresses)
+    if twice is not None:
+        raise InputError(f"the angles' address {twice[:40]!r} appears twice; expected each "
+                         "branch's address once")
+    output_target(path_or_file, kind=OUTPUT_KINDS["angles"])
     buf = io.StringIO()
     AnglesCsvWriter(buf, addresses, degrees=degrees).write(time, bend, rot)
-    _write_text(buf.getvalue(), path_or_file)
+    if _is_npz_path(path_or_file):             # the archive `plantlod simulate -o X.npz` writes
+        from plantlod.formats.npz import angles_bytes
+
+        if degrees:
+            raise InputError("degrees applies to CSV output; an .npz holds radians")
+        _write_bytes(angles_bytes(time, addresses, bend, rot), path_or_file)
+    else:
+        _write_text(buf.getvalue(), path_or_file)
     return buf.getvalue()
 
 
@@ -439,7 +459,7 @@ def write_view(gltf_paths: Any, path_or_file: PathOrFile | None = None, *,
     wind_direction = real("wind_direction", wind_direction)
     if title is not None and not isinstance(title, str):
         raise InputError(f"title must be text, got {type(title).__name__}")
-    output_target(path_or_file)
+    output_target(path_or_file, kind=OUTPUT_KINDS["page"])
     if isinstance(path_or_file, (str, os.PathLike)):
         from plantlod.export.view import files_read
         from plantlod.formats.atomic import lands_on
@@ -807,6 +827,30 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
     with _writing(os.fspath(path_or_file)), \
             atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
         write_whole(tmp, text.encode("utf-8", "backslashreplace"))
+
+
+def _write_bytes(data: bytes, path: PathOrFile) -> None:
+    """``data`` to a path `output_target` has checked, whole or not at all."""
+    from plantlod.formats.atomic import atomic_path, write_whole
+
+    with _writing(os.fspath(path)), atomic_path(os.fspath(path)) as tmp:
+        write_whole(tmp, data)
+
+
+def _is_npz_path(target: PathOrFile | None) -> bool:
+    """A path (not a stream) that names an .npz archive (`formats.npz.is_npz`)."""
+    from plantlod.formats.npz import is_npz
+
+    return isinstance(target, (str, os.PathLike)) and is_npz(os.fspath(target))
+
+
+def _first_repeated(names: list[str]) -> str | None:
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            return name
+        seen.add(name)
+    return None
 
 
 @contextlib.contextmanager

@@ -26,8 +26,11 @@ def binary_stream(value: Any) -> bool:
     return isinstance(value, (io.RawIOBase, io.BufferedIOBase)) or "b" in getattr(value, "mode", "")
 
 
-def output_target(value: Any, name: str = "the target") -> None:
-    """None, a writable text stream, or the path of a file whose folder exists."""
+def output_target(value: Any, name: str = "the target",
+                  kind: "tuple[str, tuple[str, ...]] | None" = None) -> None:
+    """None, a writable text stream, or the path of a file whose folder exists; ``kind``
+    (what is written, the extensions that hold it): a path named for another kind of file
+    is refused, as the commands' -o is (`formats.kinds.output_kind_problem`)."""
     if value is None:
         return
     if hasattr(value, "write"):
@@ -38,7 +41,13 @@ def output_target(value: Any, name: str = "the target") -> None:
         if getattr(value, "writable", lambda: True)() is False:
             raise InputError(f"{name} is not open for writing")
         return
-    path_of(value, name, output=True)
+    path = path_of(value, name, output=True)
+    if kind is not None:
+        from plantlod.formats.kinds import output_kind_problem
+
+        problem = output_kind_problem(path, *kind)
+        if problem is not None:
+            raise InputError(problem, path)
 
 
 def path_of(value: Any, name: str = "the path", *, output: bool = False) -> str:

@@ -192,6 +192,72 @@ def test_simplify_refuses_measurement_runs_past_the_memory_limit(monkeypatch):
     assert plantlod.simplify(STALK, level=1, form="grammar").derivation_length >= 0
 
 
+def test_the_writers_write_an_npz_path_as_the_archive_its_reader_reads(tmp_path):
+    """write_tree and write_angles wrote JSON Lines or CSV text into a path named .npz,
+    which read_tree and read_angles then refused ("not a readable archive"; session 34's
+    fuzzing); they write the archives `derive -o X.npz` and `simulate -o X.npz` write."""
+    from plantlod.formats.npz import angles_bytes, tree_bytes
+
+    tree, angles = _angles()
+    text = plantlod.write_tree(tree, tmp_path / "t.npz")
+    assert (tmp_path / "t.npz").read_bytes() == tree_bytes(tree)
+    assert plantlod.read_tree(tmp_path / "t.npz").address == tree.address
+    assert text == plantlod.write_tree(tree)                      # the text is still returned
+    plantlod.write_angles(angles, str(tmp_path / "a.npz"))
+    assert (tmp_path / "a.npz").read_bytes() == angles_bytes(angles.time, angles.addresses,
+                                                              angles.bend, angles.rotation)
+    back = plantlod.read_angles(str(tmp_path / "a.npz"))
+    assert np.array_equal(back.bend, angles.bend) and back.addresses == angles.addresses
+    with pytest.raises(InputError, match="degrees applies to CSV output"):
+        plantlod.write_angles(angles, tmp_path / "d.npz", degrees=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npz", "t.npz"]
+
+
+@pytest.mark.parametrize("call, fragment", [
+    (lambda t, a, s, d: plantlod.write_tree(t, d / "stalk8.lsys"),
+     "this writes a tree file (JSON Lines, or an .npz archive), not an L-system (.lsys)"),
+    (lambda t, a, s, d: plantlod.write_angles(a, d / "x.glb"),
+     "this writes angles (a CSV, or an .npz archive), not a glTF (.glb)"),
+    (lambda t, a, s, d: plantlod.write_lsystem(s, d / "x.jsonl"),
+     "this writes an L-system, not a tree file (JSON Lines) (.jsonl)"),
+    (lambda t, a, s, d: plantlod.write_view(_stalk_glb(d, t, a), d / "p.glb"),
+     "this writes a web page, not a glTF (.glb)"),
+])
+def test_the_writers_refuse_a_name_of_another_kind_of_file(tmp_path, call, fragment):
+    """As the commands' -o does: write_tree(tree, "stalk8.lsys") wrote a tree file over the
+    L-system (session 34's fuzzing). Nothing is written."""
+    tree, angles = _angles()
+    system = plantlod.read_lsystem(STALK)
+    before = set(tmp_path.iterdir())
+    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+        call(tree, angles, system, tmp_path)
+    assert set(tmp_path.iterdir()) - before <= {tmp_path / "s.glb"}
+
+
+def _stalk_glb(folder, tree, angles):
+    plantlod.export_animation(tree, angles, folder / "s.glb")
+    return folder / "s.glb"
+
+
+@pytest.mark.parametrize("addresses, fragment", [
+    (["0", "0.0", "0.0.0", "0.0.0.0", "0.0.0.0.0", "0.0.0.0.0.0", "0.0.0.0.0.0.0", "0"],
+     "the angles' address '0' appears twice"),
+    (["0", "0.0", "0.0.0", "", "0.0.0.0.0", "0.0.0.0.0.0", "0.0.0.0.0.0.0", "0.0.0.0.0.0.0.0"],
+     "the angles hold an empty address"),
+])
+def test_write_angles_writes_nothing_read_angles_refuses(addresses, fragment):
+    """Repeated and empty addresses were written, then refused on reading (session 34)."""
+    _tree, angles = _angles()
+    odd = plantlod.Angles(angles.time, angles.bend, angles.rotation, addresses)
+    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+        plantlod.write_angles(odd)
+    header, rest = plantlod.write_angles(angles).split("\n", 1)
+    columns = header.split(",")
+    renamed = {f"{c}:{a}": f"{c}:{b}" for a, b in zip(angles.addresses, addresses) for c in "br"}
+    with pytest.raises(InputError):                     # (the reader's own refusal)
+        plantlod.read_angles(",".join(renamed.get(c, c) for c in columns) + "\n" + rest)
+
+
 def _angles():
     tree = plantlod.derive(STALK)
     return tree, plantlod.simulate(tree, wind=(2, 0, 0), dt=0.01, steps=30)
@@ -291,7 +357,8 @@ def test_api_writes_that_fail_are_run_failures_and_a_page_never_replaces_its_inp
     glb = tmp_path / "v.glb"
     plantlod.export_animation(tree, angles, glb)
     before = glb.read_bytes()
-    with pytest.raises(InputError, match="the page would be written over its input"):
+    # (since session 34 a page named .glb is refused for its name first, as `view -o` is)
+    with pytest.raises(InputError, match=r"this writes a web page, not a glTF \(\.glb\)"):
         plantlod.write_view(str(glb), str(glb))
     assert glb.read_bytes() == before
     for call in (lambda: plantlod.write_view(str(glb), "/dev/full"),
