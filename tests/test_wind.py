@@ -134,3 +134,19 @@ def test_gust_rejects_bad_parameters():
         GustyWind(base, seed=-1)
     with pytest.raises(InputError, match="strength"):
         GustyWind(base, seed=0, strength=-0.5)
+
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda b: KeyframeWind("a", "b"), "keyframe times and wind vectors must be numbers"),
+    (lambda b: GustyWind(b, strength="x"), "gust strength must be a number, got str"),
+    (lambda b: GustyWind(b, strength=None), "gust strength must be a number, got NoneType"),
+    (lambda b: GustyWind(b, components="x"), "gust components must be a whole number"),
+    (lambda b: GustyWind(b, components=2.5), "gust components must be a whole number"),
+    (lambda b: GustyWind(b, seed=True), "gust seed must be an integer >= 0, got True"),
+    (lambda b: GustyWind(b, max_frequency=None), "gust max_frequency must be a number"),
+])
+def test_wind_objects_name_arguments_of_the_wrong_kind(make, fragment):
+    """The documented wind classes raised numpy's ValueError or float's TypeError, and took
+    seed=True as seed 1 (session 34's fuzzing of the API)."""
+    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+        make(ConstantWind((1.0, 0.0, 0.0)))
