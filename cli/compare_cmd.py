@@ -162,6 +162,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
+    if obj_dir is not None and not os.path.exists(obj_dir):   # DIR is made, not its folder
+        check_output_path(obj_dir, folder=True)
     for path in (output, plot_path):
         check_output_path(path)
 

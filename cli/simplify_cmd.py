@@ -173,6 +173,8 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
         raise InputError(f"cannot write: {getattr(exc, 'strerror', None) or exc}", folder) from None
     if mode is not None and not stat.S_ISDIR(mode):
         raise InputError("--levels needs a directory; this is a file", folder)
+    if mode is None:                         # DIR is made, its folder must be there (as -o's)
+        check_output_path(folder, folder=True)
     original = build(system).tree
     check_moves(original, display_name(input_path))  # (no branches, no force: as --level refuses)
     groupings = merge_levels(original)

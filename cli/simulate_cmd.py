@@ -45,6 +45,10 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
     check_output_kind(output, "-o", *OUTPUT_KINDS["angles"])
     check_output_path(output)                   # (a missing folder: before the run, not after)
     settings = settings_from_kwargs(kwargs)
+    if every > max(settings.steps, 1):       # (only row 0 was written; the API refused it)
+        raise click.BadParameter(f"{every:,} is more than the run's {settings.steps:,} steps; "
+                                 f"expected at most {max(settings.steps, 1):,}",
+                                 param_hint="'--every'")
     tree, _system = load_tree(input_path, steps_n)
     from plantlod.formats.angles_csv import AnglesCsvWriter
     from plantlod.sim.run import simulate as run_simulation

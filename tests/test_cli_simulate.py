@@ -97,7 +97,7 @@ def test_output_file(tmp_path):
     assert os.listdir(tmp_path) == ["a.csv"]
 
 
-@pytest.mark.parametrize("every", [1, 3, 7, 40, 41])
+@pytest.mark.parametrize("every", [1, 3, 7, 40])     # (41: refused since session 34)
 def test_every_keeps_every_kth_row(every):
     _h, full = _table(run_cli("simulate", STALK8, *RUN).stdout)
     _h, kept = _table(run_cli("simulate", STALK8, *RUN, "--every", str(every)).stdout)
@@ -281,3 +281,16 @@ def test_pathlib_paths_in_messages_are_as_given(tmp_path):
     name = str(pathlib.Path("no") / "such.lsys")
     result = run_cli("simulate", name, *RUN, exit_code=2)
     assert _one_line_error(result).startswith(f"{name}: error: ")
+
+
+def test_every_past_the_run_is_refused_as_the_api_refuses_it(tmp_path):
+    """--every 11 over 10 steps wrote the row at t = 0 alone, exit 0, where
+    plantlod.simulate(..., steps=10, every=11) refused it (session 34's fuzzing)."""
+    out = tmp_path / "a.csv"
+    result = run_cli("simulate", "examples/stalk8.lsys", "--dt", "0.01", "--steps", "10",
+                     "--every", "11", "--wind-speed", "5", "-o", str(out), exit_code=2)
+    assert "'--every': 11 is more than the run's 10 steps; expected at most 10" in result.stderr
+    assert not out.exists()
+    run_cli("simulate", "examples/stalk8.lsys", "--dt", "0.01", "--steps", "10", "--every", "10",
+            "--wind-speed", "5", "-o", str(out))
+    assert len(out.read_text().splitlines()) == 3          # the header, t = 0 and t = 0.1

@@ -450,6 +450,18 @@ def test_an_output_file_named_as_a_folder_is_refused_before_any_work(tmp_path, a
     assert result.stdout == "" and os.listdir(tmp_path) == []
 
 
+@pytest.mark.parametrize("args", [
+    ["simplify", STALK8, "--levels", "{tmp}/no/levels"],
+    ["compare", STALK8, STALK8, *SIM, "--obj", "{tmp}/no/deep/frames", "--at", "0.01"],
+])
+def test_a_folder_output_in_a_missing_folder_is_refused_as_o_is(tmp_path, args):
+    """--levels and --obj made every missing folder on the way (a helper's fuzzing, session
+    34) where every -o refuses one: DIR itself is made, the folder it sits in must exist."""
+    result = run_cli(*[a.format(tmp=tmp_path) for a in args], exit_code=None)
+    one_line(result, 2, "output directory does not exist")
+    assert result.stdout == "" and os.listdir(tmp_path) == []
+
+
 def test_many_warnings_are_capped(tmp_path):
     head = open(ROOT / STALK8, encoding="utf-8").read()
     lines = "\n".join(f"  {i}.0.0.0: length=2" for i in range(1, 200))   # 1.0.0.0 is the leaf
