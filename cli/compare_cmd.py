@@ -229,7 +229,13 @@ def _settings_if_needed(ctx, sides, sim_kwargs):
     if sim_kwargs.get("dt") is None:
         raise click.UsageError(f"--dt is required to simulate {display_name(needed[0])} "
                                f"(or give its angle CSV)")
-    return settings_from_kwargs(dict(sim_kwargs))
+    settings = settings_from_kwargs(dict(sim_kwargs))
+    if settings.steps < 1:                   # (it said "window [-, -] s holds 1 sample(s)")
+        given_as = ("--steps 0" if sim_kwargs.get("steps") is not None
+                    else f"--duration {sim_kwargs.get('duration'):g} s at --dt {settings.dt:g} s")
+        raise click.UsageError(f"compare needs a run of at least one step (two samples); "
+                               f"{given_as} gives none")
+    return settings
 
 
 def _check_angles_mode(ctx, simplified) -> None:

@@ -56,13 +56,13 @@ def as_damping(damping: "float | Damping | None" = 0.0, ratio: float | None = No
         z = float(ratio)
         if not (math.isfinite(z) and 0.0 <= z <= MAX_DAMPING_RATIO):
             raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
-                             f"got {z:g}")
+                             f"got {z:.12g}")
         if base.c != 0.0 or (base.ratio and base.ratio != z):
             raise InputError("give either the damping c or the damping ratio ζ, not both")
         base = Damping(c=0.0, ratio=z)
     if base.ratio and not (math.isfinite(base.ratio) and 0.0 <= base.ratio <= MAX_DAMPING_RATIO):
         raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
-                         f"got {base.ratio:g}")
+                         f"got {base.ratio:.12g}")
     return base
 
 

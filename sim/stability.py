@@ -118,7 +118,8 @@ def check_stability(tree: Tree, dt: float, damping: "float | Damping" = 0.0) -> 
         bound = _round_down(largest_stable_dt(tree, d))
         raise InputError(
             f"time step too large: {_where(tree, worst_i, worst_field)} has {worst_label} {worst_k:g}, "
-            f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit at {d.describe()} "
+            f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit "
+            f"{'without damping' if d.describe() == 'undamped' else 'at ' + d.describe()} "
             f"(dt = {dt:g} s); "
             f"the run would blow up: use dt < {bound:.6g} s (the largest stable dt for this tree)",
             tree.where or None, tree.record_line(worst_i) if tree.where else None)

@@ -87,7 +87,7 @@ def check_speed(speed: float, what: str, *where) -> None:
     """InputError where ``what`` blows faster than MAX_WIND_SPEED m/s (every wind of a run:
     a vector, a keyframe, a gust's peak); ``where``: its file, line and column, if any."""
     if speed > MAX_WIND_SPEED * (1.0 + SPEED_ROUNDING):   # (|(v cos a, v sin a)| may round up)
-        raise InputError(f"{what} of {speed:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s",
+        raise InputError(f"{what} of {speed:.12g} m/s; expected at most {MAX_WIND_SPEED:g} m/s",
                          *where)
 
 

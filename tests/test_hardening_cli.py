@@ -462,6 +462,24 @@ def test_a_folder_output_in_a_missing_folder_is_refused_as_o_is(tmp_path, args):
     assert result.stdout == "" and os.listdir(tmp_path) == []
 
 
+@pytest.mark.parametrize("args, fragment", [
+    (["compare", STALK8, STALK8, "--dt", "0.01", "--steps", "0", "--wind-speed", "5"],
+     "compare needs a run of at least one step (two samples); --steps 0 gives none"),
+    (["compare", STALK8, STALK8, "--dt", "0.01", "--duration", "0.001", "--wind-speed", "5"],
+     "--duration 0.001 s at --dt 0.01 s gives none"),
+    (["simulate", STALK8, "--dt", "0.01", "--steps", "5", "--wind-speed", "5",
+      "--damping-ratio", "100.0001"], "must be a number in [0, 100], got 100.0001"),
+    (["simulate", STALK8, "--dt", "0.01", "--steps", "5", "--wind", "1000,1,0"],
+     "a wind of 1000.0005 m/s; expected at most 1000 m/s"),
+    (["simulate", STALK8, "--dt", "300", "--steps", "5", "--wind", "1,0,0"],
+     ">= 4, the limit without damping (dt = 300 s)"),
+])
+def test_messages_say_what_was_given(args, fragment):
+    """Session 34's fuzzing: compare --steps 0 spoke of a window nobody gave; a value just
+    past a limit was rounded onto it ("in [0, 100], got 100"); "the limit at undamped"."""
+    one_line(run_cli(*args, exit_code=None), 2, fragment)
+
+
 def test_many_warnings_are_capped(tmp_path):
     head = open(ROOT / STALK8, encoding="utf-8").read()
     lines = "\n".join(f"  {i}.0.0.0: length=2" for i in range(1, 200))   # 1.0.0.0 is the leaf
