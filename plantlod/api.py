@@ -317,13 +317,13 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
         raise InputError(f"the angles' address {twice[:40]!r} appears twice; expected each "
                          "branch's address once")
     output_target(path_or_file, kind=OUTPUT_KINDS["angles"])
+    if degrees and _is_npz_path(path_or_file):
+        raise InputError("degrees applies to CSV output; an .npz holds radians")
     buf = io.StringIO()
     AnglesCsvWriter(buf, addresses, degrees=degrees).write(time, bend, rot)
     if _is_npz_path(path_or_file):             # the archive `plantlod simulate -o X.npz` writes
         from plantlod.formats.npz import angles_bytes
 
-        if degrees:
-            raise InputError("degrees applies to CSV output; an .npz holds radians")
         _write_bytes(angles_bytes(time, addresses, bend, rot), path_or_file)
     else:
         _write_text(buf.getvalue(), path_or_file)
@@ -845,6 +845,7 @@ def _is_npz_path(target: PathOrFile | None) -> bool:
 
 
 def _first_repeated(names: list[str]) -> str | None:
+    """The first name that appears a second time in ``names``, or None."""
     seen: set[str] = set()
     for name in names:
         if name in seen:
