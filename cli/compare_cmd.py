@@ -18,8 +18,8 @@ import click
 from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
-from .io import (check_output_kind, check_output_path, display_name, distinct_paths,
-                 is_terminal, open_output, say, warn, warn_once_running)
+from .io import (check_output_folder, check_output_kind, check_output_path, display_name,
+                 distinct_paths, is_terminal, open_output, say, warn, warn_once_running)
 from .compare_exports import is_frame_in, prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
@@ -162,8 +162,8 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
         require_matplotlib()                 # fail before any simulation runs
     if obj_dir is not None and os.path.exists(obj_dir) and not os.path.isdir(obj_dir):
         raise InputError("--obj needs a directory; this is a file", obj_dir)
-    if obj_dir is not None and not os.path.exists(obj_dir):   # DIR is made, not its folder
-        check_output_path(obj_dir, folder=True)
+    if obj_dir is not None:
+        check_output_folder(obj_dir, "--obj", "frame_*.obj files")
     for path in (output, plot_path):
         check_output_path(path)
 
@@ -188,7 +188,7 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
 
     # Everything that can still refuse the run (times outside it, the picture) comes
     # before the first output is written.
-    pictures = (prepare_pictures(runs, at_times, plot_path, plot_at, comparisons)
+    pictures = (prepare_pictures(runs, at_times, plot_path, plot_at, comparisons, every)
                 if obj_dir is not None or plot_path is not None else None)
     # the report file, the OBJ frames and the picture land together, when all are written: a
     # picture that cannot be written (or a signal) left the report replaced before (session 29)

@@ -40,8 +40,9 @@ def _sample_index(times, t: float, option: str) -> int:
     return k
 
 
-def prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
-    """Check every picture time against the run and render the PNG, before anything is written.
+def prepare_pictures(runs, at_times, plot_path, plot_at, comparisons, every=None):
+    """Check every picture time (and --every) against the run and render the PNG, before
+    anything is written.
 
     Returns (offsets, [(t, sample index)] for --at, the PNG bytes or None).
     """
@@ -52,6 +53,10 @@ def prepare_pictures(runs, at_times, plot_path, plot_at, comparisons):
     offsets = rest_layout(trees, [rest_height(t) for t in trees])
     times = runs[0].times
     at_frames = [(t, _sample_index(times, t, "--at")) for t in at_times]
+    after = len(times) - 1                 # (--every past them wrote frame 0 alone: session 34)
+    if every is not None and every > max(after, 1):
+        raise InputError(f"--every {every:,} is more than the run's {after:,} samples after "
+                         f"t = 0; expected at most {max(after, 1):,}")
     png = None
     if plot_path is not None:
         from plantlod.compare.plot import plot_comparison

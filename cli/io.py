@@ -151,6 +151,19 @@ def check_output_path(path: str | None, folder: bool = False) -> None:
     special_target(path)
 
 
+def check_output_folder(path: str, option: str, writes: str, parents: bool = True) -> None:
+    """Refuse (before any work) a folder output (``option`` writes ``writes`` into it) named
+    "" or "-", which name no folder (`--levels ""` was told of an empty *file* name,
+    `--levels -` made a folder named "-": session 34); with ``parents`` False also one whose
+    folder does not exist (else the folders on its way are made with it, `output_folder`)."""
+    if path in ("", "-"):
+        raise click.UsageError(f"{option} writes {writes}, a folder: "
+                               f"{'standard output' if path else 'an empty name'} cannot hold "
+                               "one; expected the name of a folder")
+    if not parents and not os.path.lexists(path):
+        check_output_path(path, folder=True)
+
+
 def check_output_kind(path: str | None, option: str, writes: str, accepted: tuple[str, ...]) -> None:
     """Refuse (bad usage, before any work) an output whose extension names a kind of file
     other than what the option writes: ``writes`` says what it writes, ``accepted`` the

@@ -10,8 +10,8 @@ import click
 from plantlod.lsys.words import counted
 
 from .discipline import given
-from .io import (check_output_kind, check_output_path, distinct_paths, is_terminal, open_output,
-                 output_folder, say, warn, warn_once_running)
+from .io import (check_output_folder, check_output_kind, check_output_path, distinct_paths,
+                 is_terminal, open_output, output_folder, say, warn, warn_once_running)
 
 
 @click.command()
@@ -82,13 +82,9 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     if angles_path is not None:
         import os
 
-        if angles_path in ("", "-"):
-            raise click.UsageError(f"--angles writes a Zarr store, a folder: "
-                                   f"{'standard output' if angles_path else 'an empty name'} "
-                                   "cannot hold one; expected the name of a new folder")
+        check_output_folder(angles_path, "--angles", "a Zarr store", parents=False)
         if os.path.lexists(angles_path):
             raise click.UsageError(f"--angles {angles_path} exists; expected a new path")
-        check_output_path(angles_path, folder=True)
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)

@@ -17,8 +17,8 @@ from plantlod.lsys.words import counted
 from plantlod.formats.kinds import OUTPUT_KINDS
 
 from .discipline import require_together
-from .io import (check_merge_targets, check_output_kind, check_output_path, display_name,
-                 distinct_paths, is_terminal, open_output, output_folder, say)
+from .io import (check_merge_targets, check_output_folder, check_output_kind, check_output_path,
+                 display_name, distinct_paths, is_terminal, open_output, output_folder, say)
 
 
 def _wind_range(ctx, param, value):
@@ -173,8 +173,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
         raise InputError(f"cannot write: {getattr(exc, 'strerror', None) or exc}", folder) from None
     if mode is not None and not stat.S_ISDIR(mode):
         raise InputError("--levels needs a directory; this is a file", folder)
-    if mode is None:                         # DIR is made, its folder must be there (as -o's)
-        check_output_path(folder, folder=True)
+    check_output_folder(folder, "--levels", "level<k>.lsys files")
     original = build(system).tree
     check_moves(original, display_name(input_path))  # (no branches, no force: as --level refuses)
     groupings = merge_levels(original)

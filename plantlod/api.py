@@ -822,15 +822,12 @@ def _write_text(text: str, path_or_file: PathOrFile | None) -> None:
                 # encoding such as ascii that cannot hold the text: UnicodeEncodeError)
                 raise RunFailure(f"cannot write {name}: {exc}") from None
         return
-    from plantlod.formats.atomic import atomic_path, write_whole
-
-    with _writing(os.fspath(path_or_file)), \
-            atomic_path(os.fspath(path_or_file)) as tmp:   # all or nothing: no partial file
-        write_whole(tmp, text.encode("utf-8", "backslashreplace"))
+    _write_bytes(text.encode("utf-8", "backslashreplace"), path_or_file)
 
 
 def _write_bytes(data: bytes, path: PathOrFile) -> None:
-    """``data`` to a path `output_target` has checked, whole or not at all."""
+    """``data`` to a path `output_target` has checked, whole or not at all (a temporary
+    beside it, renamed over it: no partial file)."""
     from plantlod.formats.atomic import atomic_path, write_whole
 
     with _writing(os.fspath(path)), atomic_path(os.fspath(path)) as tmp:

@@ -33,6 +33,11 @@ class Damping:
     c: float = 0.0
     ratio: float = 0.0
 
+    @property
+    def undamped(self) -> bool:
+        """No damping at all (the thesis' model)."""
+        return not self.ratio and not self.c
+
     def describe(self) -> str:
         """``damping ratio 0.05`` / ``damping c = 0.01`` / ``undamped``, for messages and headers."""
         if self.ratio:

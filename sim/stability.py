@@ -119,7 +119,7 @@ def check_stability(tree: Tree, dt: float, damping: "float | Damping" = 0.0) -> 
         raise InputError(
             f"time step too large: {_where(tree, worst_i, worst_field)} has {worst_label} {worst_k:g}, "
             f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit "
-            f"{'without damping' if d.describe() == 'undamped' else 'at ' + d.describe()} "
+            f"{'without damping' if d.undamped else 'at ' + d.describe()} "
             f"(dt = {dt:g} s); "
             f"the run would blow up: use dt < {bound:.6g} s (the largest stable dt for this tree)",
             tree.where or None, tree.record_line(worst_i) if tree.where else None)

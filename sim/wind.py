@@ -24,6 +24,7 @@ import numpy as np
 
 from .constants import (GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY, MAX_WIND_SPEED,
                         SPEED_ROUNDING)
+from plantlod.lsys.checks import real, shown_value, whole
 from plantlod.lsys.errors import InputError, RunFailure
 
 
@@ -127,9 +128,9 @@ class KeyframeWind:
         try:
             t = np.asarray(times, dtype=np.float64).reshape(-1)
             v = np.asarray(vectors, dtype=np.float64)
-        except (TypeError, ValueError):              # KeyframeWind("a", "b"): numpy's own error
-            raise InputError(f"keyframe times and wind vectors must be numbers, got "
-                             f"{type(times).__name__} and {type(vectors).__name__}") from None
+        except (TypeError, ValueError):    # KeyframeWind("a", "b"), ragged rows: numpy's own error
+            raise InputError("keyframe wind needs numbers: K times and one (vx, vy, vz) per "
+                             f"time, got {shown_value(times)} and {shown_value(vectors)}") from None
         if v.shape != (len(t), 3):
             raise InputError(f"keyframe wind needs one (vx, vy, vz) per time, got shape {v.shape}")
         if len(t) == 0:
@@ -225,13 +226,6 @@ def gust_peak_factor(strength: float, components: int = GUST_COMPONENTS) -> floa
     return 1.0 + float(strength) * math.sqrt(2.0 * components)
 
 
-def _number(what: str, value) -> float:
-    """``value`` as a float where it is a real number (not a bool), else InputError."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"{what} must be a number, got {type(value).__name__}")
-    return float(value)
-
-
 class GustyWind:
     """A base wind scaled by a seeded gust factor: V(t) = base(t) * max(0, 1 + strength * g(t)).
 
@@ -255,16 +249,11 @@ class GustyWind:
             raise InputError(f"a gust's base must be a wind object (one with .sample(times)), "
                              f"got {type(base).__name__}")
         # (bool is an int: seed=True was taken as 1; a str or None gave numpy's or float's error)
-        if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
-            raise InputError(f"gust seed must be an integer >= 0, got {seed!r}")
-        strength = _number("gust strength", strength)
-        if not (math.isfinite(strength) and strength >= 0):
-            raise InputError(f"gust strength must be a finite number >= 0, got {strength:g}")
-        if not (isinstance(components, (int, np.integer)) and not isinstance(components, bool)
-                and components >= 1):
-            raise InputError(f"gust components must be a whole number >= 1, got {components!r}")
-        min_frequency = _number("gust min_frequency", min_frequency)
-        max_frequency = _number("gust max_frequency", max_frequency)
+        seed = whole("gust seed", seed)
+        strength = real("gust strength", strength, low=0)
+        components = whole("gust components", components, low=1)
+        min_frequency = real("gust min_frequency", min_frequency)
+        max_frequency = real("gust max_frequency", max_frequency)
         if not (0 < min_frequency <= max_frequency and math.isfinite(max_frequency)):
             raise InputError("gust frequencies must satisfy 0 < min_frequency <= max_frequency")
         if isinstance(base, (ConstantWind, KeyframeWind)):   # (any other wind is its own)

@@ -245,12 +245,14 @@ def _stalk_glb(folder, tree, angles):
     (["0", "0.0", "0.0.0", "", "0.0.0.0.0", "0.0.0.0.0.0", "0.0.0.0.0.0.0", "0.0.0.0.0.0.0.0"],
      "the angles hold an empty address"),
 ])
-def test_write_angles_writes_nothing_read_angles_refuses(addresses, fragment):
+def test_write_angles_writes_nothing_read_angles_refuses(tmp_path, addresses, fragment):
     """Repeated and empty addresses were written, then refused on reading (session 34)."""
     _tree, angles = _angles()
     odd = plantlod.Angles(angles.time, angles.bend, angles.rotation, addresses)
-    with pytest.raises(InputError, match=__import__("re").escape(fragment)):
-        plantlod.write_angles(odd)
+    for target in (None, tmp_path / "a.csv", tmp_path / "a.npz"):
+        with pytest.raises(InputError, match=__import__("re").escape(fragment)):
+            plantlod.write_angles(odd, target)
+    assert not list(tmp_path.iterdir())
     header, rest = plantlod.write_angles(angles).split("\n", 1)
     columns = header.split(",")
     renamed = {f"{c}:{a}": f"{c}:{b}" for a, b in zip(angles.addresses, addresses) for c in "br"}

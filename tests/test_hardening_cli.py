@@ -411,6 +411,9 @@ def test_random_options_of_a_real_command_follow_the_discipline(command, options
     (("--plot", "{tmp}/p.png", "--plot-at", "99"), "--plot-at 99 s is outside the run"),
     (("--plot", "{tmp}/no/such/p.png"), "output directory does not exist"),
     (("--obj", "{tmp}/frames", "--at", "0.01,99"), "--at 99 s is outside the run"),
+    # (session 34: frame 0 alone was written, exit 0)
+    (("--obj", "{tmp}/frames", "--every", "4"), "--every 4 is more than the run's 3 samples "
+                                                "after t = 0; expected at most 3"),
 ])
 def test_compare_validates_everything_before_writing(tmp_path, extra, fragment):
     pytest.importorskip("matplotlib")
@@ -450,15 +453,17 @@ def test_an_output_file_named_as_a_folder_is_refused_before_any_work(tmp_path, a
     assert result.stdout == "" and os.listdir(tmp_path) == []
 
 
+@pytest.mark.parametrize("name, said", [("", "an empty name"), ("-", "standard output")])
 @pytest.mark.parametrize("args", [
-    ["simplify", STALK8, "--levels", "{tmp}/no/levels"],
-    ["compare", STALK8, STALK8, *SIM, "--obj", "{tmp}/no/deep/frames", "--at", "0.01"],
+    ["simplify", STALK8, "--levels", "{name}"],
+    ["compare", STALK8, STALK8, *SIM, "--obj", "{name}", "--at", "0.01", "-o", "r.txt"],
 ])
-def test_a_folder_output_in_a_missing_folder_is_refused_as_o_is(tmp_path, args):
-    """--levels and --obj made every missing folder on the way (a helper's fuzzing, session
-    34) where every -o refuses one: DIR itself is made, the folder it sits in must exist."""
-    result = run_cli(*[a.format(tmp=tmp_path) for a in args], exit_code=None)
-    one_line(result, 2, "output directory does not exist")
+def test_a_folder_output_needs_a_folder_name(tmp_path, args, name, said):
+    """`--levels ""` was told of an empty *file* name, and `--levels -` made a folder named
+    "-" (a helper's review, session 34); both name no folder, as for scene --angles."""
+    args = [str(ROOT / a) if a == STALK8 else a.format(name=name) for a in args]
+    result = run_cli(*args, exit_code=None, cwd=tmp_path)
+    one_line(result, 2, f"a folder: {said} cannot hold one; expected the name of a folder")
     assert result.stdout == "" and os.listdir(tmp_path) == []
 
 
