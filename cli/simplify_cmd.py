@@ -199,6 +199,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
                        damping_ratio=damping_ratio, flags=True) for k in range(1, last + 1)]
     # every level into a temporary folder beside DIR, moved into DIR only when all are
     # written: a failure or a signal leaves neither a partial set nor a new empty DIR
+    said: set[str] = set()                   # a note about the original comes with every level
     with output_folder(folder, merge=True) as tmp:
         shared = chain_share(system, options[0], built=(original, groupings)) if options else None
         for level in chain_levels(system, options, shared, jobs):
@@ -208,6 +209,10 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
                 f"{level.branches[0]:,} -> {counted(level.branches[1], 'branch')}; "
                 f"worst amplitude {_pct(level.amplitude)}, tip {_pct(level.tip)} of height, "
                 f"tip error (max) {level.tip_max_m:.4g} m at {wind_range[0]:g}-{wind_range[1]:g} m/s")
+            for note in level.notes:             # as --level says them, each once
+                if note not in said:
+                    said.add(note)
+                    say(f"simplify: {note}")
 
 
 def _pct(x: float) -> str:

@@ -37,7 +37,9 @@ from .pipeline import ChainShare, Options, Result, settle_level_one, simplify_ex
 class LevelOutcome:
     """What `simplify --levels` writes and prints of one level: its text, the branch counts
     (original, level), the worst amplitude and tip errors (relative, NaN where nothing
-    counted) and the largest tip error (max) in metres over the measurement winds."""
+    counted), the largest tip error (max) in metres over the measurement winds, and the
+    notes and warnings its measurement gave (`pipeline.Result.notes`: those about the
+    original, such as aliased or missing periods, come with every level alike)."""
 
     level: int
     text: str
@@ -45,13 +47,15 @@ class LevelOutcome:
     amplitude: float
     tip: float
     tip_max_m: float
+    notes: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, level: int, result: Result) -> "LevelOutcome":
         tip_m = max((r.tip_error_max_m for _w, r in result.reports
                      if math.isfinite(r.tip_error_max_m)), default=math.nan)
         return cls(level, result.text, (result.original.n_branches, result.tree.n_branches),
-                   float(result.summary.amplitude), float(result.summary.tip), float(tip_m))
+                   float(result.summary.amplitude), float(result.summary.tip), float(tip_m),
+                   tuple(result.notes))
 
 
 def chain_levels(system: LSystem, options: list[Options], shared: ChainShare,

@@ -306,6 +306,32 @@ def test_runs_too_short_for_a_period_are_warned_of(tmp_path):
     assert "no period was measured" not in quiet.stderr
 
 
+def test_levels_says_the_warnings_that_level_says_once(tmp_path):
+    """`--levels` printed only its level lines, dropping every warning `--level` gives (a
+    helper's novel trees, session 35: 14 trees, aliased periods of a branch near the
+    stability limit among them). A warning about the original comes with every level's
+    measurement alike and is said once, after the first level's line, in the same words as
+    `--level 1` says it, for any --jobs."""
+    period = 2 * math.pi * 0.01 / math.acos(1 - 20 * 0.01 / 2000)     # stalk8: k = 20 (4.44 s)
+    single = run_cli("simplify", "examples/stalk8.lsys", "--level", "1", "--duration", "3",
+                     "--form", "explicit", "-o", str(tmp_path / "a.lsys"))
+    warning = [line for line in single.stderr.splitlines() if "no period was measured" in line]
+    assert len(warning) == 1 and f"({period:.3g} s at dt = 0.01 s)" in warning[0], single.stderr
+    for jobs in ("1", "2"):
+        chain = run_cli("simplify", "examples/stalk8.lsys", "--levels", str(tmp_path / jobs),
+                        "--duration", "3", "--jobs", jobs)
+        lines = chain.stderr.splitlines()
+        heads = [k for k, x in enumerate(lines) if "stalk8.lsys level " in x]
+        assert [lines[k].split(":")[1].split()[-1] for k in heads] == ["1/3", "2/3", "3/3"]
+        assert lines.count(warning[0]) == 1, chain.stderr
+        assert heads[0] < lines.index(warning[0]) < heads[1]
+        # stalk8 passes 0.1 rad at 15 m/s: that warning too, once
+        assert len([x for x in lines if "pass 0.1 rad at 15 m/s" in x]) == 1, chain.stderr
+    quiet = run_cli("simplify", "examples/stalk8.lsys", "--levels", str(tmp_path / "q"),
+                    "--duration", "14")
+    assert "no period was measured" not in quiet.stderr, quiet.stderr
+
+
 def test_a_chains_period_in_the_opposite_winds_is_noted(tmp_path):
     """simplify's measurement winds blow toward 0-90° only; a chain whose groups sum members of
     several periods crosses its mean at another pace downward, which is the period of the
