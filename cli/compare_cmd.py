@@ -269,8 +269,13 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
         times, addresses, bend, rot = _read_csv(csv, degrees)
         bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(csv))
         return Run(tree, times, bend, rot, name, angles=display_name(csv))
+    from plantlod.sim.aliasing import aliased
     from plantlod.sim.run import simulate_arrays
 
+    fast = aliased(tree, settings.dt)
+    if fast is not None:                     # (simplify says the same of its runs)
+        warn_once_running(f"{name}: " + fast.said(f"the runs (every step of {settings.dt:g} s)",
+                                                  "compare's figures", "--dt"))
     samples = simulate_arrays(tree, settings.dt, settings.steps, settings.wind,
                               damping=settings.damping)
     from plantlod.sim.angle_range import first_large_angle

@@ -17,6 +17,10 @@ MAX_TIME_STEPS = 10**10       # steps of one run, --steps or round(--duration / 
 # Angles a whole run may hold in memory (compare, simplify; simulate streams): 4 GB.
 MAX_HELD_ANGLE_BYTES = 4_000_000_000
 
+# A branch period shorter than this many samples of a run is aliased: its period and amplitude
+# read from the run mean little (a warning in simplify and compare; sim/aliasing.py)
+MIN_SAMPLES_PER_PERIOD = 8
+
 # --- the model's range (docs/model.md) ---------------------------------------------
 # A branch tilted by more than this (hypot of bend and rotation, rad) is far outside the
 # small-angle model: the run goes on, and says so once (the branch and the time).

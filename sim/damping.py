@@ -78,6 +78,12 @@ def step_angle(half_s) -> np.ndarray:
     return np.arccos(np.clip(1.0 - np.asarray(half_s, dtype=np.float64), -1.0, 1.0))
 
 
+def period_of_strength(strength, dt: float) -> np.ndarray:
+    """Model.md 4's undamped period P = 2π Δt / arccos(1 - k Δt / 2000) (s) of a branch of
+    strength k (any shape), `step_angle`'s phase a step."""
+    return 2.0 * math.pi * dt / step_angle(np.asarray(strength) * dt / 2000.0)
+
+
 def ratio_coefficient(velocity_gain: np.ndarray, dt: float, ratio: float) -> np.ndarray:
     """c = 2 ζ arccos(1 - s/2) with s = velocity_gain Δt (velocity_gain = k / 1000), any shape."""
     s = np.asarray(velocity_gain, dtype=np.float64) * float(dt)

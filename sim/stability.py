@@ -68,7 +68,7 @@ def _check_strengths(tree: Tree) -> None:
                              source)
 
 
-def _round_down(x: float, digits: int = 6) -> float:
+def round_down(x: float, digits: int = 6) -> float:
     """``x`` > 0 rounded down to ``digits`` significant digits, for messages (``x`` itself
     where that is 0, not finite, or too small for the unit to be a double)."""
     if not (x > 0 and math.isfinite(x)):
@@ -115,7 +115,7 @@ def check_stability(tree: Tree, dt: float, damping: "float | Damping" = 0.0) -> 
         if s[i] > worst_s:
             worst_s, worst_i, worst_label, worst_k, worst_field = float(s[i]), i, label, float(k[i]), field
     if worst_s >= limit:
-        bound = _round_down(largest_stable_dt(tree, d))
+        bound = round_down(largest_stable_dt(tree, d))
         raise InputError(
             f"time step too large: {_where(tree, worst_i, worst_field)} has {worst_label} {worst_k:g}, "
             f"so s = k*dt/1000 = {worst_s:g} >= {limit:g}, the limit "

@@ -39,7 +39,6 @@ SIMPLIFY_EVERY = 4            # keep every 4th step when measuring
 # group's swing from rest in numpy, a step at a time, and holds every wind's run at once,
 # so --dt 1e-9 asked 37 GB and --dt 1e-7 ran for minutes before (a helper, session 34)
 MAX_SIMPLIFY_STEPS = 1_000_000
-MIN_SAMPLES_PER_PERIOD = 8    # a branch period shorter than this many measurement samples is aliased (a warning)
 CALIBRATION_EVALUATIONS = 40  # candidate trees simulated by --calibrate (each at every wind)
 CALIBRATION_BOUNDS = ((-1.5, 1.5), (-3.0, 3.0), (-0.5, 0.5))   # log-factors: k_FA, C_d, strengths
 CALIBRATION_STABILITY_MARGIN = 0.9  # largest fraction of the stability limit a strength may reach

@@ -38,6 +38,7 @@ import numpy as np
 from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
+from plantlod.sim.damping import period_of_strength  # noqa: F401  (callers import it from here too)
 
 from .constants import (BASIS_LEAF_ALWAYS, BASIS_LEAF_FLOOR, BASIS_LEAF_TRY,
                         GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, LEVEL_NAME_CHARS,
@@ -431,13 +432,6 @@ def level_radii(original: Tree, grouping: "Grouping") -> np.ndarray:
         np.maximum.at(largest, np.asarray(grouping.group), radius)     # each group's largest
         out = np.where(out == 0, largest, out)
     return out
-
-
-def period_of_strength(strength: np.ndarray, dt: float) -> np.ndarray:
-    """Model.md 4's P = 2π dt / arccos(1 - k dt / 2000), s (`sim.damping.step_angle`)."""
-    from plantlod.sim.damping import step_angle
-
-    return 2.0 * math.pi * dt / step_angle(np.asarray(strength) * dt / 2000.0)
 
 
 def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: float,

@@ -28,7 +28,7 @@ from .constants import SIMPLIFY_WIND_RANGE
 from .constants import MAX_LEVEL
 from .constants import MAX_SIMPLIFY_STEPS
 from .constants import LEVEL_RATIO
-from .constants import MIN_SAMPLES_PER_PERIOD
+from plantlod.sim.constants import MIN_SAMPLES_PER_PERIOD
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
@@ -596,30 +596,15 @@ def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],
 
 def _sampling_notes(original: Tree, options: Options) -> list[str]:
     """A warning where the original's stiffest branch swings faster than the measurement
-    runs can read: a period P = 2π dt / arccos(1 - k dt / 2000) (model.md 4) under
-    MIN_SAMPLES_PER_PERIOD of the runs' samples (every ``options.every`` steps), so periods
-    and amplitudes read from them are aliased (a branch of k = 390,000 at dt = 0.01 s swings
-    in 2.2 steps: a level's figures of 46,464 %, no word of why; session 30). The fix it
-    names: the largest dt under which P holds that many samples."""
-    from .explicit import period_of_strength
-    from .levels import round_sig_down
+    runs can read (`sim.aliasing`: its period under MIN_SAMPLES_PER_PERIOD of the runs'
+    samples, every ``options.every`` steps), naming the largest dt that reads it."""
+    from plantlod.sim.aliasing import aliased
 
-    if original.n_branches == 0:
+    found = aliased(original, options.dt, options.every)
+    if found is None:
         return []
-    stiffest = max(float(np.max(original.bend_strength)),
-                   float(np.max(original.rotation_strength)))
-    fastest = float(period_of_strength(stiffest, options.dt))
-    sample = options.every * options.dt
-    if fastest >= MIN_SAMPLES_PER_PERIOD * sample:
-        return []
-    # P >= N every dt  <=>  arccos(1 - k dt / 2000) <= 2π / (N every)
-    wanted = 2000.0 * (1.0 - math.cos(2.0 * math.pi / (MIN_SAMPLES_PER_PERIOD * options.every))) \
-        / stiffest
-    return [f"warning: the stiffest branch (strength {stiffest:g}) swings with a period of "
-            f"{fastest:.3g} s, under {MIN_SAMPLES_PER_PERIOD} samples of the measurement runs "
-            f"(every {options.every} steps of {options.dt:g} s), so the periods and amplitudes "
-            f"read from them are aliased and the level's figures mean little; give a dt of "
-            f"{round_sig_down(wanted, 2):g} s or less"]
+    return ["warning: " + found.said(f"the measurement runs (every {options.every} steps of "
+                                     f"{options.dt:g} s)", "the level's figures")]
 
 
 def _measured(original: Tree, runs: Runs, tree: Tree, options: Options) -> tuple:

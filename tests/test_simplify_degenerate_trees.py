@@ -137,6 +137,28 @@ def test_branches_swinging_faster_than_the_runs_sample_are_warned_of(tmp_path):
     assert "stiffest branch" not in plain.stderr
 
 
+def test_compare_warns_of_a_swing_its_runs_cannot_read(tmp_path):
+    """compare gave a stiff tree's figures (97 % motion where the original's angles stay under
+    0.003 rad, a helper's novel trees, session 35) with no word; simplify warned. Its runs
+    keep every step, so the dt it names holds 8 steps a period: 2000 (1 - cos(2π / 8)) / k,
+    0.00147 s at k = 399,000, cut to 0.0014. At that dt the warning is gone."""
+    stiff = _write(tmp_path, HEAD.replace("bend_strength=30 rotation_strength=30",
+                                          "bend_strength=399000 rotation_strength=399000")
+                   + BUSH.format(turn=""))
+    result = run_cli("compare", stiff, stiff, "--dt", "0.01", "--duration", "1",
+                     "--wind-speed", "2")
+    period = 2 * math.pi * 0.01 / math.acos(1 - 399000 * 0.01 / 2000)
+    warned = [line for line in result.stderr.splitlines() if "stiffest branch" in line]
+    assert len(warned) == 1, result.stderr                    # the same tree twice: once
+    assert (f"(strength 399000) swings with a period of {period:.3g} s, under 8 samples of the "
+            "runs (every step of 0.01 s)") in warned[0]
+    limit = 2000 * (1 - math.cos(2 * math.pi / 8)) / 399000
+    assert "give a --dt of 0.0014 s or less" in warned[0] and 0.0014 <= limit < 0.0015
+    fine = run_cli("compare", stiff, stiff, "--dt", "0.0014", "--duration", "0.2",
+                   "--wind-speed", "2")
+    assert "stiffest branch" not in fine.stderr, fine.stderr
+
+
 @pytest.mark.parametrize("where", ["symbol", "override"])
 def test_branches_that_absorb_no_force_are_simplified_and_held_to_the_bounds(tmp_path, where):
     """A stiff trunk T of force_absorbed = 0 (legal: it never moves) under swaying laterals:
