@@ -66,7 +66,7 @@ class PlantlodGroup(click.Group):
     def resolve_command(self, ctx, args):
         name, command, rest = super().resolve_command(ctx, args)
         set_current_command(name)
-        return name, (harden_params(command) if command is not None else None), rest
+        return name, (_checks_first(harden_params(command)) if command is not None else None), rest
 
     def invoke(self, ctx):
         try:
@@ -89,6 +89,39 @@ class PlantlodGroup(click.Group):
         if standalone_mode:
             sys.exit(code)
         return code
+
+
+def _checks_first(command: click.Command) -> click.Command:
+    """``command`` running `check_environment` once its options are parsed (so that --help
+    still answers), before its own code: every command refuses the same bad settings alike."""
+    if getattr(command, "_plantlod_env_checked", False):
+        return command
+    own = command.invoke
+
+    def invoke(ctx):
+        check_environment()
+        return own(ctx)
+
+    command.invoke = invoke
+    command._plantlod_env_checked = True
+    return command
+
+
+def check_environment() -> None:
+    """The working directory and the engine's environment variables (`sim.engine_env`),
+    before a command starts. A working directory removed under the shell made every
+    relative output fail with a bare "No such file or directory" (a helper, session 35)."""
+    import os
+
+    from plantlod.lsys.errors import RunFailure
+    from plantlod.sim.engine_env import check_environment as check_engine
+
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        raise RunFailure("the working directory no longer exists (it was removed after the "
+                         "shell entered it); cd to an existing folder and run again") from None
+    check_engine()
 
 
 def _named(exc: BaseException, ctx) -> BaseException:

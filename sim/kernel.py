@@ -43,16 +43,13 @@ where the compiled code would give inf or nan, and the divergence check reports 
 from __future__ import annotations
 
 import math
-import os
 import sys
 from dataclasses import dataclass
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
-from .constants import KERNEL_ENV
 from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 from .damping import Damping, as_damping, coefficients
 from .kinematics import rest_rotations
@@ -344,11 +341,11 @@ def engine_for(model: "KernelModel | Tree", steps: int) -> str:
     give the same bits. $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or
     interpreted overrides it. model: anything with ``n_branches`` and ``n_leaves`` (the
     flattened tree, or the tree itself: flattening only to count is not needed)."""
-    forced = os.environ.get(KERNEL_ENV, "").strip().lower()
-    if forced in ("compiled", "interpreted"):
+    from .engine_env import forced_kernel
+
+    forced = forced_kernel()
+    if forced is not None:
         return forced
-    if forced:
-        raise InputError(f"{KERNEL_ENV}={forced!r}: expected compiled or interpreted")
     work = (model.n_branches + model.n_leaves) * steps
     if "numba" not in sys.modules and _interpreted_work + work <= INTERPRET_BRANCH_STEPS:
         return "interpreted"

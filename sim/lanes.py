@@ -15,7 +15,6 @@ what the compiler makes of it: docs/engine.md.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -23,7 +22,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
-from .constants import THREADS_ENV
+from .engine_env import check_jit_enabled, env_threads
 from .damping import Damping
 from .kernel import KernelModel, prepare   # numba: the engine compiles on first use
 from .run import check_held_angles
@@ -85,14 +84,7 @@ def thread_count(threads: int | None = None) -> int:
     import numba
 
     if threads is None:
-        env = os.environ.get(THREADS_ENV, "").strip()
-        if env:
-            try:
-                threads = int(env)
-            except ValueError:
-                raise InputError(f"{THREADS_ENV}={env!r} is not a whole number") from None
-            if threads < 1:
-                raise InputError(f"{THREADS_ENV}={env!r}: the thread count must be >= 1")
+        threads = env_threads()
     limit = numba.config.NUMBA_NUM_THREADS
     if threads is None:
         return limit
@@ -142,6 +134,7 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     lane), step and branch (by address when ``addresses`` is given) where an angle
     stopped being finite. Stability is the caller's check (`sim.stability`).
     """
+    check_jit_enabled()
     from . import lanes_kernel   # numba, compiled on first use
 
     import numba
