@@ -191,15 +191,17 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     pictures = (prepare_pictures(runs, at_times, plot_path, plot_at, comparisons, every)
                 if obj_dir is not None or plot_path is not None else None)
     # the report file, the OBJ frames and the picture land together, when all are written: a
-    # picture that cannot be written (or a signal) left the report replaced before (session 29)
+    # picture that cannot be written (or a signal) left the report replaced before (session
+    # 29). Standard output cannot be held: it is written last, before the rest lands, so a
+    # reader gone or a full disk there leaves no frames or picture either (session 35)
     to_file = output not in (None, "-")
     with contextlib.ExitStack() as landing:
         if to_file:
             _write_report(comparisons, bounds, violations, as_json, output, landing)
         lines = ([] if pictures is None
                  else write_pictures(runs, obj_dir, every, plot_path, pictures, landing))
-    if not to_file:                 # (standard output cannot wait: last, once the rest landed)
-        _write_report(comparisons, bounds, violations, as_json, output)
+        if not to_file:
+            _write_report(comparisons, bounds, violations, as_json, output)
     for line in lines:
         say(line)
     broken = [v.describe(c.simplified.name) for c, vs in zip(comparisons, violations) for v in vs]
@@ -297,9 +299,9 @@ def _write_report(comparisons, bounds, violations, as_json: bool, output: str | 
     if as_json:
         text = fmt.dumps(fmt.comparison_document(comparisons, bounds, violations))
     elif output in (None, "-") and is_terminal(sys.stdout):
-        from rich.console import Console
+        from .io import rich_console
 
-        fmt.print_rich(comparisons, Console(file=sys.stdout))
+        fmt.print_rich(comparisons, rich_console(file=sys.stdout))
         return
     else:
         text = fmt.comparison_text(comparisons)

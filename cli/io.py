@@ -29,14 +29,26 @@ from plantlod.formats.atomic import (atomic_path, hold, landing, lands_on, relea
 from plantlod.lsys.errors import InputError, RunFailure
 
 _console = None
+DEFAULT_CONSOLE_WIDTH = 80    # characters, where COLUMNS=0 would give rich none
+
+
+def rich_console(**options):
+    """A rich Console with ``options``, whose width ignores COLUMNS=0: rich takes any digits
+    there for the width, and a width of 0 drew nothing, not even a command's summary or
+    compare's table (a helper, session 35). COLUMNS of 1 or more is honoured as set."""
+    from rich.console import Console
+
+    columns = os.environ.get("COLUMNS", "")
+    if columns.isdigit() and int(columns) == 0:
+        options.setdefault("width", DEFAULT_CONSOLE_WIDTH)
+    return Console(**options)
 
 
 def console():
     """The rich console on stderr (created on first use; rich honours NO_COLOR, TERM=dumb)."""
     global _console
     if _console is None:
-        from rich.console import Console
-        _console = Console(stderr=True, highlight=False, soft_wrap=True)
+        _console = rich_console(stderr=True, highlight=False, soft_wrap=True)
     return _console
 
 
@@ -49,9 +61,7 @@ def progress_bar():
 
     shown = console()
     if not is_terminal(sys.stderr):
-        from rich.console import Console
-
-        shown = Console(stderr=True, highlight=False, soft_wrap=True, force_terminal=True)
+        shown = rich_console(stderr=True, highlight=False, soft_wrap=True, force_terminal=True)
     return Progress(console=shown, transient=True, redirect_stdout=False,
                     redirect_stderr=False)
 
@@ -251,6 +261,11 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             yield out
             out.flush()
         return
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        # every command checks its outputs' folders before its work (`check_output_path`):
+        # one gone now was removed while it ran, a run-time failure, not bad input (session 35)
+        raise RunFailure(f"cannot write {display_name(path)}: its folder no longer exists "
+                         "(removed while the command ran?)")
     check_output_path(path)
     with write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
         with _open_stream(tmp, binary) as out:

@@ -40,8 +40,11 @@ from .io import (check_output_folder, check_output_kind, check_output_path, dist
               "verified) per frame.")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
+@click.option("--run-info", is_flag=True,
+              help="Add \"run\" to the report: chains from the cache, wall seconds, simulated "
+                   "seconds per wall second (facts of this run, not the same from run to run).")
 def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cache, angles_path,
-          plot_path, scheduler, frame_rate, threads):
+          plot_path, scheduler, frame_rate, threads, run_info):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
@@ -120,12 +123,15 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         finally:
             if bar is not None:
                 bar.stop()
-        _write_outputs(spec, report, plot_path, report_path, frame_rate)
+        facts = {key: report.pop(key) for key in RUN_FACTS}
+        if run_info:
+            report["run"] = facts
+        _write_outputs(spec, report, plot_path, report_path, frame_rate, stack)
     say(f"scene: {counted(report['trees'], 'tree')}, {report['branch_steps_spent']:,} of "
         f"{report['branch_steps_full']:,} branch-steps ("
         + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
-        + f", {report['wall_s']:.1f} s")
+        + f", {facts['wall_s']:.1f} s")
     if verify and report["max_error_px"] is not None and report["max_error_px"] > spec.budget_px:
         warn(f"the verified max error {report['max_error_px']:.3f} px is above the budget of "
              f"{spec.budget_px:g} px: a level's tip error was measured over eight headings "
@@ -133,8 +139,18 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
              "predicted state) cost more (docs/scene.md, \"Where the budget does not hold\")")
 
 
-def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float) -> None:
-    """The picture (with --plot) and the report; takes the private keys out of ``report``."""
+# What the report leaves out unless --run-info asks: facts of one run (the cache's state, the
+# machine's speed), so that the report is the same bytes for the same scene, as every other
+# output is (they were always in it until session 35; a helper's fuzzing)
+RUN_FACTS = ("chains_from_cache", "simulated_seconds_per_wall_second", "wall_s")
+
+
+def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float,
+                   landing) -> None:
+    """The picture (with --plot) and the report; takes the private keys out of ``report``.
+    The picture (and a report file) are held in ``landing`` (an ExitStack, with the
+    --angles store) and land together when it closes; a report on standard output is written
+    before that, so a reader gone or a full disk there leaves no picture (session 35)."""
     levels = report.pop("_levels")
     in_use = report.pop("_branches_in_use")
     if plot_path is not None:
@@ -143,10 +159,13 @@ def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float
 
         png = scene_png(spec, levels, in_use, report["branches_full"],
                         frame_steps(spec, frame_rate) * spec.dt)
-        with open_output(plot_path, binary=True) as out:
-            out.write(png)
-    with open_output(report_path) as out:
-        out.write(json.dumps(report, indent=2, sort_keys=False) + "\n")
+        landing.enter_context(open_output(plot_path, binary=True)).write(png)
+    text = json.dumps(report, indent=2, sort_keys=False) + "\n"
+    if report_path in (None, "-"):
+        with open_output(report_path) as out:
+            out.write(text)
+    else:
+        landing.enter_context(open_output(report_path)).write(text)
 
 
 class _ProgressBar:

@@ -38,7 +38,21 @@ INSTALL_HINT = "pip install 'plantlod[plot]'"
 
 
 def require_matplotlib():
-    """The matplotlib.pyplot module on the Agg backend, or an InputError with the install hint."""
+    """The matplotlib.pyplot module on the Agg backend, or an InputError with the install hint
+    (`compare --plot`, `scene --plot`).
+
+    Before the import: MPLBACKEND is set to Agg, since matplotlib validates it at import and
+    a bogus one ended the run in an internal error after all its work; and matplotlib's own
+    log is held to errors, since a config folder it cannot write ($HOME read-only) printed two
+    unprefixed lines of its own. The temporary config folder it then makes instead (removed
+    at exit by matplotlib) is held for `formats.atomic.remove_pending`, so a signal, which
+    skips matplotlib's exit handler, removes it too (a helper, session 35)."""
+    import logging
+    import os
+    import tempfile
+
+    os.environ["MPLBACKEND"] = "Agg"
+    logging.getLogger("matplotlib").setLevel(logging.ERROR)
     try:
         import matplotlib
     except ImportError:
@@ -47,6 +61,12 @@ def require_matplotlib():
     matplotlib.use("Agg", force=True)
     import matplotlib.pyplot as plt
 
+    from plantlod.formats.atomic import hold
+
+    made = matplotlib.get_configdir()
+    if (os.path.dirname(made) == tempfile.gettempdir()
+            and os.path.basename(made).startswith("matplotlib-")):
+        hold(made)
     return plt
 
 

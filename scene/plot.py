@@ -21,10 +21,9 @@ def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
     frame_s: seconds per frame."""
     levels = np.asarray(levels)
     first = levels[:, 0] if levels.ndim == 2 and levels.shape[1] else np.zeros(len(scene.trees))
-    import matplotlib
+    from plantlod.compare.plot import require_matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = require_matplotlib()
 
     fig, (top, cost) = plt.subplots(1, 2, figsize=(11, 5), gridspec_kw={"width_ratios": [3, 2]})
     xy = np.array([t.position[:2] for t in scene.trees])

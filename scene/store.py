@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from plantlod.formats.atomic import uninterrupted
+from plantlod.lsys.errors import RunFailure
 
 from .constants import STORE_BATCH_TREES, STORE_TIME_CHUNK
 
@@ -73,7 +74,12 @@ def write_block(group, file_index: int, level: int, first: int, row0: int,
     trees that ran at another level then. One write per array, within the batch's chunks."""
     if bend.shape[1] == 0:
         return
-    lv = group[f"file_{file_index}/level_{level}"]
+    try:
+        lv = group[f"file_{file_index}/level_{level}"]
+    except KeyError:                      # (its metadata gone: zarr says KeyError)
+        where = getattr(group.store, "root", None)
+        raise RunFailure(f"cannot write the angle store{f' {where}' if where else ''}: its "
+                         "arrays are gone (its folder removed while the scene ran?)") from None
     n, k = bend.shape[:2]
 
     with uninterrupted():                 # (chunks in flight land before a signal ends it)

@@ -464,14 +464,23 @@ def test_bad_scenes_exit_2_with_the_line(tmp_path, body, message):
 def test_report_cache_threads_and_verified_budget(tmp_path):
     path = _scene(tmp_path, BASE)
     cache = tmp_path / "cache"
-    first = json.loads(run_cli("scene", path, "--verify", "--cache", str(cache)).stdout)
-    assert first["trees"] == 13 and first["chains_from_cache"] == 0
+    first = json.loads(run_cli("scene", path, "--verify", "--cache", str(cache),
+                               "--run-info").stdout)
+    assert first["trees"] == 13 and first["run"]["chains_from_cache"] == 0
     assert first["branch_steps_full"] == 200 * first["branches_full"]
     assert first["speedup"] == pytest.approx(first["branch_steps_full"] / first["branch_steps_spent"])
     assert first["max_error_px"] <= first["budget_px"] + 1e-9           # what --verify measured
     assert sum(first["level_share"].values()) == pytest.approx(1.0)
-    second = json.loads(run_cli("scene", path, "--cache", str(cache), "--threads", "1").stdout)
-    assert second["chains_from_cache"] == 2                              # nothing simplified again
+    second = json.loads(run_cli("scene", path, "--cache", str(cache), "--threads", "1",
+                                "--run-info").stdout)
+    assert second["run"]["chains_from_cache"] == 2                       # nothing simplified again
+    assert second["run"]["wall_s"] > 0
+    # without --run-info the report holds no fact of the run: the same bytes, cold cache or
+    # warm, one thread or two (a helper, session 35: wall seconds made every report differ)
+    plain = [run_cli("scene", path, "--cache", str(tmp_path / f"c{k}"), "--threads", k).stdout
+             for k in ("1", "2")]
+    plain.append(run_cli("scene", path, "--cache", str(tmp_path / "c1")).stdout)
+    assert plain[0] == plain[1] == plain[2] and '"wall_s"' not in plain[0]
     for key in ("branch_steps_spent", "level_share", "branches_spent"):
         assert second[key] == first[key]
 

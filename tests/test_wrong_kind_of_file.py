@@ -140,6 +140,12 @@ def test_empty_input_says_it_is_empty(tmp_path):
     empty = tmp_path / "e.lsys"
     empty.write_text("\n  \n")
     one_line(run_cli("derive", str(empty), exit_code=None), 2, "the file is empty")
+    # a scene said "-: error: missing [camera]" (session 35)
+    one_line(run_cli("scene", "-", input="", exit_code=None), 2,
+             "<stdin>:1:1: error: standard input is empty; expected a scene")
+    blank = tmp_path / "s.toml"
+    blank.write_text("\n \n")
+    one_line(run_cli("scene", str(blank), exit_code=None), 2, "s.toml:1:1: error: the file is empty")
 
 
 def test_a_leaf_symbol_that_never_draws_is_warned_of(tmp_path):
