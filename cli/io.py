@@ -262,10 +262,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             out.flush()
         return
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
-        # every command checks its outputs' folders before its work (`check_output_path`):
-        # one gone now was removed while it ran, a run-time failure, not bad input (session 35)
-        raise RunFailure(f"cannot write {display_name(path)}: its folder no longer exists "
-                         "(removed while the command ran?)")
+        raise _folder_gone(path)
     check_output_path(path)
     with write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
         with _open_stream(tmp, binary) as out:
@@ -385,9 +382,20 @@ def write_errors(name: str) -> Iterator[None]:
         raise
     except OSError as exc:
         reason = exc.strerror or str(exc)
+        if exc.errno == errno.ENOENT and not os.path.isdir(os.path.dirname(os.path.abspath(name))):
+            raise _folder_gone(name) from None
         if exc.errno in _BAD_NAME_ERRORS:      # the name given is wrong: bad input
             raise InputError(f"cannot write: {reason}", name) from None
         raise RunFailure(f"cannot write {name}: {reason}") from None
+
+
+def _folder_gone(path: str) -> RunFailure:
+    """An output whose folder is missing when it is written. Every command checks its
+    outputs' folders before its work (`check_output_path`, exit 2 for a missing one), so a
+    folder gone now was removed while it ran: a run-time failure, not bad input (it was
+    exit 2, session 35)."""
+    return RunFailure(f"cannot write {display_name(path)}: its folder no longer exists "
+                      "(removed while the command ran?)")
 
 
 _BAD_NAME_ERRORS = {errno.ENAMETOOLONG, errno.ENOTDIR, errno.ENOENT, errno.EISDIR}

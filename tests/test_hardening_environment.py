@@ -139,3 +139,15 @@ def test_an_output_folder_removed_while_the_command_ran_is_a_run_failure(tmp_pat
         with open_output(str(gone)):
             pass
     assert not gone.parent.exists()
+    # export's temporary file beside the output met the same as ENOENT: exit 2 before
+    import errno
+
+    from plantlod.cli.io import write_errors
+    from plantlod.lsys.errors import InputError
+
+    with pytest.raises(RunFailure, match="its folder no longer exists"):
+        with write_errors(str(gone)):
+            raise FileNotFoundError(errno.ENOENT, "No such file or directory", str(gone))
+    with pytest.raises(InputError):          # a folder that is there: the name is at fault
+        with write_errors(str(tmp_path / "x.csv")):
+            raise FileNotFoundError(errno.ENOENT, "No such file or directory")
