@@ -19,7 +19,8 @@ from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import given, require_together
 from .io import (check_output_folder, check_output_kind, check_output_path, display_name,
-                 distinct_paths, is_terminal, open_output, say, warn, warn_once_running)
+                 distinct_paths, is_terminal, open_output, reader_gone_after, say, warn,
+                 warn_once_running)
 from .compare_exports import is_frame_in, prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options
@@ -193,15 +194,20 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     # the report file, the OBJ frames and the picture land together, when all are written: a
     # picture that cannot be written (or a signal) left the report replaced before (session
     # 29). Standard output cannot be held: it is written last, before the rest lands, so a
-    # reader gone or a full disk there leaves no frames or picture either (session 35)
+    # full disk there leaves no frames or picture either; a reader gone (`| head`) lets them
+    # land and then ends the command quietly (`reader_gone_after`, session 35)
     to_file = output not in (None, "-")
+    gone = None
     with contextlib.ExitStack() as landing:
         if to_file:
             _write_report(comparisons, bounds, violations, as_json, output, landing)
         lines = ([] if pictures is None
                  else write_pictures(runs, obj_dir, every, plot_path, pictures, landing))
         if not to_file:
-            _write_report(comparisons, bounds, violations, as_json, output)
+            gone = reader_gone_after(
+                lambda: _write_report(comparisons, bounds, violations, as_json, output))
+    if gone is not None:
+        raise gone
     for line in lines:
         say(line)
     broken = [v.describe(c.simplified.name) for c, vs in zip(comparisons, violations) for v in vs]

@@ -248,6 +248,12 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
         return 128 + exc.signum, f"{where}: ended by {signal.Signals(exc.signum).name}"
     if isinstance(exc, (BrokenPipeError, ReaderGone)):
         return 128 + getattr(signal, "SIGPIPE", 13), None
+    if isinstance(exc, FileNotFoundError) and not exc.filename and _working_directory_gone():
+        # a relative path in a working directory removed under the shell: "No such file or
+        # directory" named nothing (a helper, session 35); a command that needs no relative
+        # path still runs there
+        return 1, (f"{where}: error: the working directory no longer exists (it was removed "
+                   "after the shell entered it); cd to an existing folder and run again")
     if isinstance(exc, OSError):
         target = f"{exc.filename}: " if exc.filename else ""
         reason = exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
@@ -262,6 +268,14 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
                f"(set {DEBUG_VARIABLE}=1 for the traceback)")
 
 
+def _working_directory_gone() -> bool:
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        return True
+    return False
+
+
 def _one_line(text: str) -> str:
     """``text`` on one line, control characters (a NUL read from a file) escaped, cut
     to MAX_ERROR_CHARS."""
@@ -272,9 +286,10 @@ def _one_line(text: str) -> str:
 
 def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
     """Run ``call`` (a click main in non-standalone mode); map its end to an exit code."""
-    from .io import drop_pending_warnings, end_warnings, flush_pending_warnings
+    from .io import drop_pending_warnings, end_warnings, flush_pending_warnings, forget_checked_outputs
 
     drop_pending_warnings()
+    forget_checked_outputs()
     try:
         with _library_warnings():
             result = call()

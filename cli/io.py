@@ -16,7 +16,7 @@ import signal
 import sys
 import tempfile
 import threading
-from typing import IO, Iterator
+from typing import IO, Callable, Iterator
 
 import click
 
@@ -159,6 +159,16 @@ def check_output_path(path: str | None, folder: bool = False) -> None:
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
     special_target(path)
+    _checked.add(os.path.abspath(path))
+
+
+# outputs whose folder `check_output_path` found before the command's work: one missing when
+# it is written was removed meanwhile (`_folder_gone`); emptied as each command starts
+_checked: set[str] = set()
+
+
+def forget_checked_outputs() -> None:
+    _checked.clear()
 
 
 def check_output_folder(path: str, option: str, writes: str, parents: bool = True) -> None:
@@ -261,7 +271,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
             yield out
             out.flush()
         return
-    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+    if _gone_since_checked(path):
         raise _folder_gone(path)
     check_output_path(path)
     with write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
@@ -382,18 +392,41 @@ def write_errors(name: str) -> Iterator[None]:
         raise
     except OSError as exc:
         reason = exc.strerror or str(exc)
-        if exc.errno == errno.ENOENT and not os.path.isdir(os.path.dirname(os.path.abspath(name))):
+        if exc.errno == errno.ENOENT and _gone_since_checked(name):
             raise _folder_gone(name) from None
         if exc.errno in _BAD_NAME_ERRORS:      # the name given is wrong: bad input
             raise InputError(f"cannot write: {reason}", name) from None
         raise RunFailure(f"cannot write {name}: {reason}") from None
 
 
+def reader_gone_after(write: Callable[[], None]) -> BrokenPipeError | None:
+    """Run ``write`` (of standard output, inside a block whose side outputs land when it
+    ends) and return the BrokenPipeError of a reader gone (`| head`, quitting a pager) in
+    place of raising it: the caller lets its side outputs land, whole, and then raises it, so
+    the command ends quietly (141) with its pictures and frames written, since the reader cut
+    only the table, by choice. Any other failure (a full disk, a closed standard output)
+    raises at once, and nothing lands (session 35)."""
+    try:
+        write()
+    except BrokenPipeError as exc:
+        return exc
+    return None
+
+
+def _gone_since_checked(path: str) -> bool:
+    """Whether ``path``'s folder, there when `check_output_path` looked, is missing now."""
+    try:
+        full = os.path.abspath(path)
+    except OSError:                          # (the working directory removed)
+        return False
+    return full in _checked and not os.path.isdir(os.path.dirname(full))
+
+
 def _folder_gone(path: str) -> RunFailure:
-    """An output whose folder is missing when it is written. Every command checks its
-    outputs' folders before its work (`check_output_path`, exit 2 for a missing one), so a
-    folder gone now was removed while it ran: a run-time failure, not bad input (it was
-    exit 2, session 35)."""
+    """An output whose folder was there when the command checked its outputs, before its
+    work (`check_output_path`), and is missing when it is written: removed while the command
+    ran, a run-time failure, not bad input (it was exit 2, session 35). An output no check
+    saw keeps check_output_path's exit 2."""
     return RunFailure(f"cannot write {display_name(path)}: its folder no longer exists "
                       "(removed while the command ran?)")
 

@@ -108,19 +108,9 @@ def _checks_first(command: click.Command) -> click.Command:
 
 
 def check_environment() -> None:
-    """The working directory and the engine's environment variables (`sim.engine_env`),
-    before a command starts. A working directory removed under the shell made every
-    relative output fail with a bare "No such file or directory" (a helper, session 35)."""
-    import os
-
-    from plantlod.lsys.errors import RunFailure
+    """The engine's environment variables (`sim.engine_env`), before a command starts."""
     from plantlod.sim.engine_env import check_environment as check_engine
 
-    try:
-        os.getcwd()
-    except FileNotFoundError:
-        raise RunFailure("the working directory no longer exists (it was removed after the "
-                         "shell entered it); cd to an existing folder and run again") from None
     check_engine()
 
 

@@ -11,7 +11,8 @@ from plantlod.lsys.words import counted
 
 from .discipline import given
 from .io import (check_output_folder, check_output_kind, check_output_path, distinct_paths,
-                 is_terminal, open_output, output_folder, say, warn, warn_once_running)
+                 is_terminal, open_output, output_folder, reader_gone_after, say, warn,
+                 warn_once_running)
 
 
 @click.command()
@@ -80,6 +81,10 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     check_output_kind(report_path, "--report", "the report (JSON)", (".json", ".txt"))
     check_output_kind(plot_path, "--plot", "a PNG picture", (".png",))
     check_output_kind(angles_path, "--angles", "a Zarr store (a folder)", (".zarr",))
+    if plot_path is not None:                # (as compare: not after minutes of work)
+        from plantlod.compare.plot import require_matplotlib
+
+        require_matplotlib()
     if sample is not None and not verify:
         raise click.UsageError("--verify-sample N goes with --verify")
     if angles_path is not None:
@@ -126,7 +131,9 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         facts = {key: report.pop(key) for key in RUN_FACTS}
         if run_info:
             report["run"] = facts
-        _write_outputs(spec, report, plot_path, report_path, frame_rate, stack)
+        gone = _write_outputs(spec, report, plot_path, report_path, frame_rate, stack)
+    if gone is not None:                     # (the picture and the store landed: `| head`)
+        raise gone
     say(f"scene: {counted(report['trees'], 'tree')}, {report['branch_steps_spent']:,} of "
         f"{report['branch_steps_full']:,} branch-steps ("
         + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
@@ -146,11 +153,12 @@ RUN_FACTS = ("chains_from_cache", "simulated_seconds_per_wall_second", "wall_s")
 
 
 def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float,
-                   landing) -> None:
+                   landing) -> BrokenPipeError | None:
     """The picture (with --plot) and the report; takes the private keys out of ``report``.
     The picture (and a report file) are held in ``landing`` (an ExitStack, with the
     --angles store) and land together when it closes; a report on standard output is written
-    before that, so a reader gone or a full disk there leaves no picture (session 35)."""
+    before that, so a full disk there leaves no picture (session 35); a reader gone there is
+    returned (`reader_gone_after`), for the caller to raise once the rest has landed."""
     levels = report.pop("_levels")
     in_use = report.pop("_branches_in_use")
     if plot_path is not None:
@@ -161,11 +169,15 @@ def _write_outputs(spec, report: dict, plot_path, report_path, frame_rate: float
                         frame_steps(spec, frame_rate) * spec.dt)
         landing.enter_context(open_output(plot_path, binary=True)).write(png)
     text = json.dumps(report, indent=2, sort_keys=False) + "\n"
-    if report_path in (None, "-"):
+    if report_path not in (None, "-"):
+        landing.enter_context(open_output(report_path)).write(text)
+        return None
+
+    def write() -> None:
         with open_output(report_path) as out:
             out.write(text)
-    else:
-        landing.enter_context(open_output(report_path)).write(text)
+
+    return reader_gone_after(write)
 
 
 class _ProgressBar:

@@ -41,31 +41,40 @@ def require_matplotlib():
     """The matplotlib.pyplot module on the Agg backend, or an InputError with the install hint
     (`compare --plot`, `scene --plot`).
 
-    Before the import: MPLBACKEND is set to Agg, since matplotlib validates it at import and
-    a bogus one ended the run in an internal error after all its work; and matplotlib's own
-    log is held to errors, since a config folder it cannot write ($HOME read-only) printed two
-    unprefixed lines of its own. The temporary config folder it then makes instead (removed
-    at exit by matplotlib) is held for `formats.atomic.remove_pending`, so a signal, which
-    skips matplotlib's exit handler, removes it too (a helper, session 35)."""
+    While matplotlib is first imported: MPLBACKEND is set aside (matplotlib validates it at
+    import, and a bogus one ended the run in an internal error after all its work; the plot
+    is Agg whatever it says) and put back after; and matplotlib's log is held to errors (a
+    config folder it cannot write, $HOME read-only, printed two unprefixed lines of its own).
+    The temporary config folder matplotlib then makes instead (it sets MPLCONFIGDIR to it and
+    removes it at exit) is held for `formats.atomic.remove_pending`, so that a signal, which
+    skips matplotlib's exit handler, removes it too; only a folder made by this import, never
+    one the user or a parent process named (a helper, session 35)."""
     import logging
     import os
-    import tempfile
+    import sys
 
-    os.environ["MPLBACKEND"] = "Agg"
-    logging.getLogger("matplotlib").setLevel(logging.ERROR)
+    first = "matplotlib" not in sys.modules
+    named = os.environ.get("MPLCONFIGDIR")
+    backend = os.environ.pop("MPLBACKEND", None) if first else None
+    log = logging.getLogger("matplotlib")
+    level = log.level
+    log.setLevel(logging.ERROR)
     try:
         import matplotlib
+
+        matplotlib.use("Agg", force=True)
+        import matplotlib.pyplot as plt
     except ImportError:
         raise InputError(f"--plot needs matplotlib, which is not installed; "
                          f"run: {INSTALL_HINT}") from None
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    finally:
+        log.setLevel(level)
+        if backend is not None:
+            os.environ["MPLBACKEND"] = backend
+    made = os.environ.get("MPLCONFIGDIR")
+    if first and named is None and made:
+        from plantlod.formats.atomic import hold
 
-    from plantlod.formats.atomic import hold
-
-    made = matplotlib.get_configdir()
-    if (os.path.dirname(made) == tempfile.gettempdir()
-            and os.path.basename(made).startswith("matplotlib-")):
         hold(made)
     return plt
 

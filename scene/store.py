@@ -77,9 +77,9 @@ def write_block(group, file_index: int, level: int, first: int, row0: int,
     try:
         lv = group[f"file_{file_index}/level_{level}"]
     except KeyError:                      # (its metadata gone: zarr says KeyError)
-        where = getattr(group.store, "root", None)
-        raise RunFailure(f"cannot write the angle store{f' {where}' if where else ''}: its "
-                         "arrays are gone (its folder removed while the scene ran?)") from None
+        # (not named: the store is a temporary folder beside --angles until the scene ends)
+        raise RunFailure("cannot write the --angles store: its arrays are gone (its folder "
+                         "removed while the scene ran?)") from None
     n, k = bend.shape[:2]
 
     with uninterrupted():                 # (chunks in flight land before a signal ends it)

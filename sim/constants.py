@@ -31,6 +31,13 @@ THREADS_ENV = "PLANTLOD_THREADS"  # environment variable: threads of the engine 
 # environment variable: "compiled" or "interpreted" forces the single-run kernel's engine
 # (default: interpreted for short runs while numba is not loaded; the same bits either way)
 KERNEL_ENV = "PLANTLOD_KERNEL"
+# numba's own variables, read when numba is imported; checked before a command starts
+# (sim/engine_env.py): a whole number of threads from 1 to MAX_NUMBA_THREADS (99,999 threads
+# ended in a segmentation fault, 20,000 in "libgomp: Thread creation failed"), and whether
+# its compiler is off
+NUMBA_THREADS_ENV = "NUMBA_NUM_THREADS"
+NUMBA_NO_JIT_ENV = "NUMBA_DISABLE_JIT"
+MAX_NUMBA_THREADS = 1024
 
 # --- workers (sim/workers.py) ----------------------------------------------------------
 # Signals that end a command (cli.discipline: temporaries removed, exit 128 + n); workers

@@ -4,7 +4,8 @@
   >= 1 (default: every core numba sees).
 - PLANTLOD_KERNEL (`constants.KERNEL_ENV`): "compiled" or "interpreted" forces the
   single-run kernel's engine (default: chosen by the run's size; the same bits either way).
-- numba's NUMBA_NUM_THREADS (a whole number >= 1) and NUMBA_DISABLE_JIT (a whole number):
+- numba's NUMBA_NUM_THREADS (a whole number, 1 to MAX_NUMBA_THREADS) and NUMBA_DISABLE_JIT
+  (a whole number):
   numba reads them when it is imported, deep inside a command, and answered 0 with a
   ValueError ("internal error") and "abc" with a multi-line warning holding a traceback
   (a helper's environment fuzzing, session 35). NUMBA_DISABLE_JIT other than 0 leaves the
@@ -21,15 +22,13 @@ import os
 
 from plantlod.lsys.errors import InputError
 
-from .constants import KERNEL_ENV, THREADS_ENV
-
-NUMBA_THREADS_ENV = "NUMBA_NUM_THREADS"
-NUMBA_NO_JIT_ENV = "NUMBA_DISABLE_JIT"
+from .constants import (KERNEL_ENV, MAX_NUMBA_THREADS, NUMBA_NO_JIT_ENV, NUMBA_THREADS_ENV,
+                        THREADS_ENV)
 
 
-def _whole(name: str, low: int | None = None) -> int | None:
+def _whole(name: str, low: int | None = None, high: int | None = None) -> int | None:
     """The variable ``name`` as a whole number (None where it is unset), refused where it is
-    set to anything else or below ``low``."""
+    set to anything else, below ``low`` or above ``high``."""
     raw = os.environ.get(name)
     if raw is None:
         return None
@@ -40,6 +39,8 @@ def _whole(name: str, low: int | None = None) -> int | None:
         raise InputError(f"{name}={raw!r} is not a whole number") from None
     if low is not None and value < low:
         raise InputError(f"{name}={raw!r}: expected a whole number >= {low}")
+    if high is not None and value > high:
+        raise InputError(f"{name}={raw!r}: expected a whole number <= {high:,}")
     return value
 
 
@@ -70,7 +71,7 @@ def check_environment() -> None:
     numba cannot take."""
     env_threads()
     forced_kernel()
-    _whole(NUMBA_THREADS_ENV, 1)
+    _whole(NUMBA_THREADS_ENV, 1, MAX_NUMBA_THREADS)
     jit_disabled()
 
 

@@ -38,7 +38,7 @@ import numpy as np
 from plantlod.formats.lsys_file import axiom_lines
 from plantlod.lsys.expr import format_number
 from plantlod.lsys.tree import Tree
-from plantlod.sim.damping import period_of_strength  # noqa: F401  (callers import it from here too)
+from plantlod.sim.damping import period_of_strength
 
 from .constants import (BASIS_LEAF_ALWAYS, BASIS_LEAF_FLOOR, BASIS_LEAF_TRY,
                         GROUP_SWING_DIRECTIONS, KAPPA_RANGE, LEVEL_BOUNDS, LEVEL_NAME_CHARS,

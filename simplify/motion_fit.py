@@ -342,7 +342,9 @@ def corrected(values: dict[str, np.ndarray], reports, to_group: np.ndarray, carr
     level's runs with ``values`` in the fit winds; ``force`` (`fit_wind_forces`) for a level
     with gain matrices, None for one with k_FA; ``down`` (`evaluate.Runs.downward`) where the
     periods are corrected both ways (`both_ways`, ``bound`` the level's period bound)."""
-    from .explicit import period_of_strength, strength_of_period
+    from plantlod.sim.damping import period_of_strength
+
+    from .explicit import strength_of_period
 
     values = {k: v.copy() for k, v in values.items()}
     ax, ay, px, py, a_max = swing_figures(reports)

@@ -28,7 +28,6 @@ from .constants import SIMPLIFY_WIND_RANGE
 from .constants import MAX_LEVEL
 from .constants import MAX_SIMPLIFY_STEPS
 from .constants import LEVEL_RATIO
-from plantlod.sim.constants import MIN_SAMPLES_PER_PERIOD
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
@@ -583,7 +582,7 @@ def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],
         return [f"warning: no period was measured in any wind: at damping ratio {zeta:g} the "
                 "tree is overdamped and swings back without oscillating, so the level's "
                 "periods are not checked"]
-    from .explicit import period_of_strength
+    from plantlod.sim.damping import period_of_strength
 
     weakest = min(float(np.min(original.bend_strength)), float(np.min(original.rotation_strength)))
     slowest = float(period_of_strength(weakest, options.dt)) / math.sqrt(1.0 - zeta * zeta)

@@ -40,6 +40,7 @@ def one_line(done, code: int, *fragments: str) -> str:
 @pytest.mark.parametrize("name, value, says", [
     ("NUMBA_NUM_THREADS", "0", "expected a whole number >= 1"),     # numba: ValueError
     ("NUMBA_NUM_THREADS", "abc", "is not a whole number"),           # numba: a traceback
+    ("NUMBA_NUM_THREADS", "99999", "expected a whole number <= 1,024"),  # a segmentation fault
     ("NUMBA_DISABLE_JIT", "x", "is not a whole number"),
     ("PLANTLOD_THREADS", "-1", "expected a whole number >= 1"),      # simulate took it
     ("PLANTLOD_KERNEL", "fast", "expected compiled or interpreted"),
@@ -68,6 +69,11 @@ def test_a_removed_working_directory_is_one_line(tmp_path):
                            f'derive "{STALK8}" -o out.jsonl'], capture_output=True, text=True,
                           timeout=120)
     one_line(done, 1, "plantlod derive: error: the working directory no longer exists")
+    # a command that needs no relative path still runs there
+    done = subprocess.run(["sh", "-c", f'mkdir "{gone}" && cd "{gone}" && rmdir "{gone}" && '
+                           f'exec "{PLANTLOD}" derive "{STALK8}"'], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0 and done.stdout.startswith('{"format"'), done.stderr
 
 
 def test_columns_0_keeps_every_line():
@@ -106,6 +112,18 @@ def test_standard_output_that_cannot_be_written_leaves_no_side_outputs(tmp_path)
                    cwd=tmp_path, stdout=full)
         one_line(done, 1, "cannot write standard output")
     assert sorted(os.listdir(tmp_path)) == ["s.toml"]
+    # a reader gone (`| head`) cut only the table: the side outputs land whole, exit 141 quietly
+    for args in (("compare", STALK8, STALK8, "--dt", "0.01", "--steps", "50", "--wind-speed", "2",
+                  "--obj", "O", "--every", "25", "--plot", "P.png"),
+                 ("scene", "s.toml", "--no-cache", "--plot", "Q.png", "--angles", "A.zarr")):
+        reader, writer = os.pipe()
+        os.close(reader)
+        with os.fdopen(writer, "w") as closed:
+            done = run(args, cwd=tmp_path, stdout=closed)
+        assert done.returncode == 141 and done.stderr == "", (done.returncode, done.stderr)
+    assert sorted(os.listdir(tmp_path)) == ["A.zarr", "O", "P.png", "Q.png", "s.toml"]
+    assert len(os.listdir(tmp_path / "O")) == 3 and not [
+        p for p in os.listdir(tmp_path) if p.startswith(".plantlod-")]
 
 
 def test_an_angle_store_whose_folder_is_removed_is_a_run_failure(tmp_path):
@@ -123,7 +141,7 @@ def test_an_angle_store_whose_folder_is_removed_is_a_run_failure(tmp_path):
     block = np.zeros((2, 3, tree.n_branches))
     write_block(group, 0, 0, 0, 0, block, block)
     shutil.rmtree(path)
-    with pytest.raises(RunFailure, match="cannot write the angle store"):
+    with pytest.raises(RunFailure, match="cannot write the --angles store: its arrays are gone"):
         write_block(group, 0, 0, 0, 0, block, block)
 
 
@@ -131,10 +149,17 @@ def test_an_output_folder_removed_while_the_command_ran_is_a_run_failure(tmp_pat
     """Every command checks its outputs' folders before its work (exit 2 where one is
     missing); a folder gone when the output is written was removed meanwhile: exit 1,
     naming the output (it was exit 2, and simplify --levels named its temporary folder)."""
-    from plantlod.cli.io import open_output
-    from plantlod.lsys.errors import RunFailure
+    from plantlod.cli.io import check_output_path, forget_checked_outputs, open_output
+    from plantlod.lsys.errors import InputError, RunFailure
 
     gone = tmp_path / "gone" / "x.csv"
+    forget_checked_outputs()
+    with pytest.raises(InputError, match="output directory does not exist"):
+        with open_output(str(gone)):         # never checked (view, compare --angles): exit 2
+            pass
+    gone.parent.mkdir()
+    check_output_path(str(gone))             # checked before the work, then removed
+    gone.parent.rmdir()
     with pytest.raises(RunFailure, match="cannot write .*x.csv: its folder no longer exists"):
         with open_output(str(gone)):
             pass
@@ -143,7 +168,6 @@ def test_an_output_folder_removed_while_the_command_ran_is_a_run_failure(tmp_pat
     import errno
 
     from plantlod.cli.io import write_errors
-    from plantlod.lsys.errors import InputError
 
     with pytest.raises(RunFailure, match="its folder no longer exists"):
         with write_errors(str(gone)):

@@ -14,8 +14,9 @@ from golden_util import family_tree
 from plantlod.compare.groups import carry_matrix, swing_turns
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
+from plantlod.sim.damping import period_of_strength
 from plantlod.simplify.explicit import (GroupSwing, searched_strengths, explicit_system_text,
-                                        level_header, period_of_strength, strength_of_period)
+                                        level_header, strength_of_period)
 from plantlod.simplify.grouping import merge_levels
 from plantlod.simplify.merge_costs import FrameTurns, _carry_mixing
 from plantlod.simplify.motion_fit import own_corrections
