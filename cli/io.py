@@ -325,7 +325,8 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
     one becomes ``path`` (renamed), or with ``merge`` and an existing folder ``path``, its
     files are moved into that folder; on any exception, and on a signal
     (`formats.atomic.remove_pending`), it is removed with everything in it, so a failed run leaves
-    no folder behind, not even the ones on the way.
+    no folder behind, not even the ones on the way. A failure where the temporary folder itself
+    is gone (its parent removed while the command ran) is `_folder_gone`, naming ``path``.
     """
     if not path:
         raise InputError("the output folder name is empty")
@@ -340,7 +341,12 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
         tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=base)
         hold(tmp)
     try:
-        yield tmp
+        try:
+            yield tmp
+        except (InputError, RunFailure, OSError):
+            if not os.path.isdir(tmp):       # (named as the user named it, not as tmp)
+                raise _folder_gone(path) from None
+            raise
         with write_errors(path):
             if merge and os.path.isdir(path):
                 names = sorted(os.listdir(tmp))
@@ -426,7 +432,8 @@ def _folder_gone(path: str) -> RunFailure:
     """An output whose folder was there when the command checked its outputs, before its
     work (`check_output_path`), and is missing when it is written: removed while the command
     ran, a run-time failure, not bad input (it was exit 2, session 35). An output no check
-    saw keeps check_output_path's exit 2."""
+    saw keeps check_output_path's exit 2. `output_folder` says the same of its folder output
+    where the temporary folder it fills went while the command ran."""
     return RunFailure(f"cannot write {display_name(path)}: its folder no longer exists "
                       "(removed while the command ran?)")
 

@@ -92,26 +92,21 @@ class PlantlodGroup(click.Group):
 
 
 def _checks_first(command: click.Command) -> click.Command:
-    """``command`` running `check_environment` once its options are parsed (so that --help
+    """``command`` running `sim.engine_env.check_environment` once its options are parsed (so that --help
     still answers), before its own code: every command refuses the same bad settings alike."""
     if getattr(command, "_plantlod_env_checked", False):
         return command
     own = command.invoke
 
     def invoke(ctx):
+        from plantlod.sim.engine_env import check_environment
+
         check_environment()
         return own(ctx)
 
     command.invoke = invoke
     command._plantlod_env_checked = True
     return command
-
-
-def check_environment() -> None:
-    """The engine's environment variables (`sim.engine_env`), before a command starts."""
-    from plantlod.sim.engine_env import check_environment as check_engine
-
-    check_engine()
 
 
 def _named(exc: BaseException, ctx) -> BaseException:

@@ -161,7 +161,7 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     from plantlod.simplify.levels import check_moves
     from plantlod.simplify.pipeline import Options, chain_share, explicit_levels_said, roots
 
-    from plantlod.lsys.errors import InputError, RunFailure
+    from plantlod.lsys.errors import InputError
 
     import stat
 
@@ -203,9 +203,6 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     with output_folder(folder, merge=True) as tmp:
         shared = chain_share(system, options[0], built=(original, groupings)) if options else None
         for level in chain_levels(system, options, shared, jobs):
-            if not os.path.isdir(tmp):           # (named as the user named it, not as tmp)
-                raise RunFailure(f"cannot write {display_name(folder)}: the folder it is "
-                                 "written in was removed while the levels were fitted")
             with open_output(os.path.join(tmp, f"level{level.level}.lsys")) as out:
                 out.write(level.text)
             say(f"simplify: {display_name(input_path)} level {level.level}/{last}: "

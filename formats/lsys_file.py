@@ -21,7 +21,7 @@ from plantlod.lsys.system import (
 )
 
 from .kinds import named_by_kind, other_kind, text_kind
-from .text_input import read_text, source_name
+from .text_input import read_text, refuse_empty, source_name
 
 _INDENT = "  "
 
@@ -181,9 +181,7 @@ def read_lsys(path: str) -> LSystem:
 def parse_lsys_text(text: str, name: str) -> LSystem:
     """`parse_lsys` of a file's ``text``; a tree file (JSON Lines, first non-blank character
     ``{``) is refused by what it is, not as an L-system's first bad character."""
-    if not text.strip():
-        where = "standard input is" if name == "<stdin>" else "the file is"
-        raise InputError(f"{where} empty; expected an L-system (docs/lsys-format.md)", name, 1, 1)
+    refuse_empty(text, name, "an L-system (docs/lsys-format.md)")
     if text.lstrip().startswith("{"):            # JSON: a tree file, a glTF, a report
         if text_kind(text) in ("gltf", "report"):
             raise other_kind(text, name, "lsys")

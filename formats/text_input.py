@@ -43,6 +43,14 @@ def source_name(path: str) -> str:
     return "<stdin>" if path == "-" else path
 
 
+def refuse_empty(text: str, name: str, expected: str) -> None:
+    """InputError at ``name``:1:1 where ``text`` holds nothing but white space, saying what was
+    ``expected`` ("an L-system (docs/lsys-format.md)"); ``name`` as `source_name` gives it."""
+    if not text.strip():
+        where = "standard input is" if name == "<stdin>" else "the file is"
+        raise InputError(f"{where} empty; expected {expected}", name, 1, 1)
+
+
 def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
               max_bytes: int = MAX_TEXT_BYTES) -> str:
     """The whole text of ``path`` (``-``: stdin), decoded as UTF-8.

@@ -542,13 +542,11 @@ LISTED_TABLES = ("tree", "camera.key")
 def read_scene(path: str) -> Scene:
     """Read and check a scene file (see the module doc); trees resolved relative to it."""
     from plantlod.formats.kinds import other_kind
-    from plantlod.formats.text_input import read_text, source_name
+    from plantlod.formats.text_input import read_text, refuse_empty, source_name
 
     file = pathlib.Path(path)
     text = read_text(path)          # missing, unreadable, not UTF-8, a line too long: exit 2
-    if not text.strip():            # (as an L-system says it; "missing [camera]" before)
-        where = "standard input is" if path == "-" else "the file is"
-        raise InputError(f"{where} empty; expected a scene (docs/scene.md)", source_name(path), 1, 1)
+    refuse_empty(text, source_name(path), "a scene (docs/scene.md)")   # ("missing [camera]" before)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

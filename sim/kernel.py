@@ -52,6 +52,7 @@ from plantlod.lsys.tree import Tree
 
 from .branch_math import advance_angle, drag_magnitude, gained_forces, swing, times_rest, twist
 from .damping import Damping, as_damping, coefficients
+from .engine_env import forced_kernel
 from .kinematics import rest_rotations
 from .trig import sincos1
 
@@ -341,8 +342,6 @@ def engine_for(model: "KernelModel | Tree", steps: int) -> str:
     give the same bits. $PLANTLOD_KERNEL (`constants.KERNEL_ENV`) = compiled or
     interpreted overrides it. model: anything with ``n_branches`` and ``n_leaves`` (the
     flattened tree, or the tree itself: flattening only to count is not needed)."""
-    from .engine_env import forced_kernel
-
     forced = forced_kernel()
     if forced is not None:
         return forced
