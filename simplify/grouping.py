@@ -78,7 +78,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantlod.compare.groups import pick_main_member, parse_address
+from plantlod.compare.groups import parse_address
 from plantlod.lsys.tree import Tree
 
 from .constants import (CROSSING_SKEW_WEIGHT, FRAME_TURN_WEIGHT, KEPT_APART_COST, LEVEL_BOUNDS,
@@ -86,6 +86,7 @@ from .constants import (CROSSING_SKEW_WEIGHT, FRAME_TURN_WEIGHT, KEPT_APART_COST
                         SHARE_SPREAD_BRANCHING_WEIGHT, SHARE_SPREAD_WEIGHT,
                         STRENGTH_MISMATCH_WEIGHT, TIP_MISS_WEIGHT)
 from .merge_costs import CrossingSkew, FrameTurns, ModeMisfit, PeriodGap, ShareSpread, TipMisses
+from .merged_groups import HangingReach, MainPaths
 from .static import rest_frames
 
 
@@ -178,22 +179,13 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
             return (0.0, 0.0, 1.0)
         return chord_of(find(p))
 
-    def main_end(u: int, extra: int = -1) -> int:
-        """The end of u's main path (its group tip), with group ``extra`` merged into it."""
-        cur = u
-        while True:
-            kids = [c for c in children[cur] if find(c) == u or (extra >= 0 and find(c) == extra)]
-            if not kids:
-                return cur
-            cur = pick_main_member(kids, alpha, keys)
-
     def tip_miss(u: int, extra: int = -1, tip: int = -1) -> float:
         """`TipMisses.miss` of u's group (with ``extra`` merged into it; ``tip``: its main
         path's end where the caller has it), as a fraction of the level's tip bound."""
         key = (u, extra, version[u], version[extra] if extra >= 0 else 0)
         if key not in miss_cache:
-            hang = hanging[u] if extra < 0 else (hanging[u] - {extra}) | hanging[extra]
-            miss_cache[key] = misses.miss(u, main_end(u, extra) if tip < 0 else tip, hang)
+            miss_cache[key] = misses.miss(u, paths.end(u, extra) if tip < 0 else tip,
+                                          hanging_reach.hanging(u, extra))
         return miss_cache[key] / tip_bound
 
     def merge_key(r: int, u: int) -> tuple[float, int]:
@@ -201,7 +193,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
         the merged group's main path."""
         old_u = chord_of(u)
         old_r = chord_of(r)
-        new_end = main_end(u, r)
+        new_end = paths.end(u, r)
         beside = new_end == end[u]               # u's main path stays as it is
         new_u = old_u if beside else turns.chord(u, new_end)
         axis_u = up_axis(u)
@@ -237,6 +229,9 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
     misses = (TipMisses(tree, parent, children, frames)
               if max(TIP_MISS_WEIGHT) > 0 and not stalk else None)
     miss_cache: dict[tuple[int, int, int, int], float] = {}
+    paths = MainPaths(parent, alpha, keys)
+    hanging_reach = HangingReach(children, misses.reach if misses is not None else [0.0] * b,
+                                 owner)
     shares = ShareSpread(tree, parent, frames)
     modes = ModeMisfit(shares, parent)
     skews = CrossingSkew(shares, tree, parent) if stalk and max(CROSSING_SKEW_WEIGHT) > 0 else None
@@ -274,9 +269,11 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
                 heapq.heappush(heap, (now, r))        # dearer than when pushed: wait its turn
                 continue
             owner[r] = u
+            paths.joined(r)
             size[u] += size[r]
             end[u] = new_end
             hanging[u] = (hanging[u] - {r}) | hanging[r]
+            hanging_reach.joined(u, r)
             roots_left.discard(r)
             version[u] += 1
             # the merges into u and of u have new costs: pushed again with them, so that a

@@ -163,7 +163,10 @@ class TipMisses:
 
     def miss(self, root: int, end: int, hanging) -> float:
         """miss(g) in metres times ``scale`` for the group rooted at ``root`` whose main path
-        ends at ``end``, with child groups rooted at ``hanging``. Groups are connected, so the
+        ends at ``end``; ``hanging``: (m, reach) for each member m that child groups hang from,
+        with the largest reach(c) of those groups (the max over c at one m is the max of
+        their terms, exactly: sums and products by a positive number round monotonely, so a
+        fan of hundreds of groups on one member costs one term). Groups are connected, so the
         members from the root to any member m are m's ancestors below the root's parent q:
         ω_P = A_end - A_q, Σ_{j in P} ω_j × base_j = X_end - X_q, and the rotation a group
         hanging from m misses is ω_P - (A_m - A_q) = A_end - A_m."""
@@ -180,14 +183,13 @@ class TipMisses:
             c2 = x_end[k + 2] - x_q[k + 2] - (w0 * b0[1] - w1 * b0[0])
             offset += c0 * c0 + c1 * c1 + c2 * c2
         worst = 0.0
-        for c in hanging:
-            m = self.parent[c]
+        for m, reach in hanging:
             a_m = self.turned[m]
             d0, d1, d2 = a_end[0] - a_m[0], a_end[1] - a_m[1], a_end[2] - a_m[2]
             d3, d4, d5 = a_end[3] - a_m[3], a_end[4] - a_m[4], a_end[5] - a_m[5]
             d = d0 * d0 + d1 * d1 + d2 * d2 + d3 * d3 + d4 * d4 + d5 * d5
             if d > 0.0:
-                worst = max(worst, math.sqrt(d) * (math.dist(self.tip[m], b0) + self.reach[c]))
+                worst = max(worst, math.sqrt(d) * (math.dist(self.tip[m], b0) + reach))
         return self.scale * (math.sqrt(offset) + worst)
 
 

@@ -99,10 +99,12 @@ def test_a_lateral_part_way_up_the_chord_is_bounded_and_one_at_its_end_adds_noth
     on_chord = _chord_moves(rest, frames, bend, rot, trunk, trunk[0], tip)
     in_original = _chord_moves(rest, frames, bend, rot, [trunk[0]], trunk[0], tip)
     actual = np.sqrt(sum(np.sum((on_chord[k] - in_original[k]) ** 2) for k in range(2))) / EPS
-    added = (misses.miss(trunk[0], trunk[-1], {low}) - alone) / misses.scale
+    hanging_low = [(parent[low], misses.reach[low])]         # (member, reach) of the lateral
+    added = (misses.miss(trunk[0], trunk[-1], hanging_low) - alone) / misses.scale
     assert actual > 1e-4
     assert added >= actual * (1 - 1e-6)
-    assert misses.miss(trunk[0], trunk[-1], {high}) == pytest.approx(alone, rel=1e-12)
+    hanging_high = [(parent[high], misses.reach[high])]
+    assert misses.miss(trunk[0], trunk[-1], hanging_high) == pytest.approx(alone, rel=1e-12)
 
 
 def test_a_monopodial_level_keeps_its_tips(tmp_path):
