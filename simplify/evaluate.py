@@ -132,22 +132,61 @@ class Runs:
         self._reports: dict[bytes, dict[int, Report]] = {}    # tree digest -> run id -> report
         self.runs = []
         want = gmap.tips
-        for k, (wind, times, bend, rot) in enumerate(self._simulated(original) if simulated is None
-                                                     else simulated):
-            cb, cr = combined_angles(original, gmap.paths, bend, rot)
-            known = None if tip_cache is None else tip_cache.get(k)
-            if known is not None and np.all(known[0][want] >= 0):
-                column = known[0][want]
-                rest, moves = known[1][column], known[2][:, column]
+        known = [None if tip_cache is None else tip_cache.get(k) for k in range(len(self.winds))]
+        known = [c if c is not None and np.all(c[0][want] >= 0) else None for c in known]
+        read = (self._read_in_pieces(original, known) if simulated is None
+                else self._read(original, simulated, known))
+        for k, (wind, times, cb, cr, tips) in enumerate(read):
+            if known[k] is not None:
+                column = known[k][0][want]
+                rest, moves = known[k][1][column], known[k][2][:, column]
             else:
-                tips = tip_series(original, bend, rot, want)
-                rest, moves = tips[0].copy(), (tips - tips[0]).astype(np.float32)
+                rest, moves = tips
                 if tip_cache is not None:
                     column = np.full(original.n_branches, -1, dtype=np.int64)
                     column[want] = np.arange(len(want))
                     tip_cache[k] = (column, rest, moves)
             self.runs.append(OriginalRun(wind, times, cb, cr, rest, moves,
                                          component_figures(times, cb, cr)))
+
+    def _read(self, original: Tree, simulated, known: list):
+        """(wind, times, Θb, Θr (K, G), (rest tips (n, 3), moves (K, n, 3) float32) or None
+        where ``known`` has them) of every run in ``simulated`` (`simulate_runs`' runs)."""
+        want = self.gmap.tips
+        for k, (wind, times, bend, rot) in enumerate(simulated):
+            cb, cr = combined_angles(original, self.gmap.paths, bend, rot)
+            tips = None
+            if known[k] is None:
+                posed = tip_series(original, bend, rot, want)
+                tips = posed[0].copy(), (posed - posed[0]).astype(np.float32)
+            yield wind, times, cb, cr, tips
+
+    def _read_in_pieces(self, original: Tree, known: list):
+        """What `_read` gives, from the original's runs simulated a piece of time at a time
+        (`simulate_pieces`): the runs themselves are never held whole. Every sample's combined
+        angles and tips are computed from that sample alone, so the bits are `_read`'s."""
+        want, paths, winds = self.gmap.tips, self.gmap.paths, self.winds
+        rows = self.steps // self.every
+        times = np.arange(rows + 1, dtype=np.float64) * self.every * self.dt
+        cb = np.empty((len(winds), rows + 1, len(paths)))
+        cr = np.empty_like(cb)
+        rest = [None] * len(winds)
+        moves = [None if known[k] is not None else np.empty((rows + 1, len(want), 3), np.float32)
+                 for k in range(len(winds))]
+        for first, bend, rot in simulate_pieces(original, winds, self.dt, self.steps,
+                                                self.every, self.damping):
+            span = slice(first, first + bend.shape[1])
+            posed = None
+            for k in range(len(winds)):
+                cb[k, span], cr[k, span] = combined_angles(original, paths, bend[k], rot[k])
+                if moves[k] is not None:
+                    posed = tip_series(original, bend[k], rot[k], want)
+                    if first == 0:
+                        rest[k] = posed[0].copy()
+                    moves[k][span] = (posed - rest[k]).astype(np.float32)
+            del bend, rot, posed          # (not held while the next piece is run)
+        for k, wind in enumerate(winds):
+            yield wind, times, cb[k], cr[k], None if moves[k] is None else (rest[k], moves[k])
 
     def _simulated(self, tree: Tree, winds: list[WindCase] | None = None):
         """(wind, times, bend, rot) of ``tree`` for every wind (`simulate_runs`)."""
@@ -255,6 +294,63 @@ def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, ever
         rest = np.zeros((1, tree.n_branches))
         for k, wind in enumerate(chunk):
             yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])
+
+
+def simulate_pieces(tree: Tree, winds: list[WindCase], dt: float, steps: int, every: int = 1,
+                    damping=0.0):
+    """The runs of `simulate_runs`, every wind at once and a piece of time at a time: yields
+    (first, bend, rot), bend and rot (W, R, B) float64 rad, the sample rows first ..
+    first + R - 1 of every wind (row 0: at rest, the times of `simulate_runs`), in order.
+
+    All winds are lanes of one run (`plantlod.sim.lanes`), so that every core has blocks of
+    lanes, and a piece holds about RUNS_BATCH_BYTES of angles whatever the tree's size. The
+    state is carried from piece to piece (`run_lanes`' first_step), so every sample has the
+    bits of one whole run. A consumer that keeps what it reads of each piece (combined
+    angles, tips) never holds the runs themselves."""
+    from plantlod.sim.lanes import LaneModel, run_lanes, new_state
+    from plantlod.sim.lanes_kernel import BLOCK
+
+    model = LaneModel.from_tree(tree, damping)
+    padded = -(-len(winds) // BLOCK) * BLOCK
+    per_row = 16 * padded * max(tree.n_branches, 1)
+    piece_rows = max(1, RUNS_BATCH_BYTES // per_row)
+    if any(w.gust_strength > 0 for w in winds):         # the wind at the start of each step
+        start = np.arange(steps, dtype=np.float64) * dt
+        vectors = np.array([w.wind().sample(start) for w in winds])          # (W, steps, 3)
+    else:
+        vectors = np.array([w.wind().sample(np.zeros(1))[0] for w in winds])   # (W, 3)
+    state = new_state(model, len(winds))
+    names = [w.label() for w in winds]
+    rest = np.zeros((len(winds), 1, tree.n_branches))
+    yield 0, rest, rest
+    done, first = 0, 1
+    while done < steps:
+        n = min(piece_rows * every, steps - done)
+        wind = vectors if vectors.ndim == 2 else vectors[:, done:done + n]
+        bend, rot = run_lanes(model, wind, dt, n, every=every, state=state,
+                              first_step=done + 1, addresses=tree.address, lane_names=names)
+        rows = bend.shape[1]
+        if rows:
+            yield first, bend, rot
+        del bend, rot                 # (not held while the next piece is run)
+        first += rows
+        done += n
+
+
+def collect_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, every: int = 1,
+                 damping=0.0, dtype=np.float32) -> list:
+    """`simulate_runs`' runs as a list, their angles as ``dtype`` (a chain's shared runs:
+    float32 halves what it holds), filled from `simulate_pieces` (every core, and one piece
+    of float64 at a time). The same bits as `simulate_runs` converted to ``dtype``."""
+    rows = steps // every
+    times = np.arange(rows + 1, dtype=np.float64) * every * dt
+    bend = np.empty((len(winds), rows + 1, tree.n_branches), dtype=dtype)
+    rot = np.empty_like(bend)
+    for first, b, r in simulate_pieces(tree, winds, dt, steps, every, damping):
+        bend[:, first:first + b.shape[1]] = b
+        rot[:, first:first + b.shape[1]] = r
+        del b, r                      # (not held while the next piece is run)
+    return [(wind, times, bend[k], rot[k]) for k, wind in enumerate(winds)]
 
 
 @dataclass

@@ -249,13 +249,15 @@ def test_a_chain_runs_the_original_once_per_wind(tmp_path, monkeypatch):
 
     system, tree = _tree("stalk8.lsys")
     calls = []
-    real = evaluate.simulate_runs
 
-    def counting(run_tree, winds, *args, **kwargs):
-        calls.append((run_tree.n_branches, len(winds)))
-        return real(run_tree, winds, *args, **kwargs)
+    def counting(real):
+        def count(run_tree, winds, *args, **kwargs):
+            calls.append((run_tree.n_branches, len(winds)))
+            return real(run_tree, winds, *args, **kwargs)
+        return count
 
-    monkeypatch.setattr(evaluate, "simulate_runs", counting)
+    for name in ("simulate_runs", "simulate_pieces"):     # whole runs, and runs in pieces
+        monkeypatch.setattr(evaluate, name, counting(getattr(evaluate, name)))
     _write_levels(system, str(tmp_path / "lv"), "stalk8.lsys", (0.5, 20.0), 0.01, 2.0)
     assert len(list((tmp_path / "lv").glob("level*.lsys"))) == 3
     assert [c for c in calls if c[0] == tree.n_branches] == [(tree.n_branches, 16)]
@@ -275,13 +277,16 @@ def test_levels_simplified_in_turn_share_the_original_and_write_what_they_write_
     import plantlod.simplify.regroup as regroup
 
     runs, fits = [], []
-    real_runs, real_regrouped = evaluate.simulate_runs, regroup.regrouped
+    real_regrouped = regroup.regrouped
 
-    def counting(run_tree, winds, *args, **kwargs):
-        runs.append(run_tree.n_branches)
-        return real_runs(run_tree, winds, *args, **kwargs)
+    def counting(real):
+        def count(run_tree, winds, *args, **kwargs):
+            runs.append(run_tree.n_branches)
+            return real(run_tree, winds, *args, **kwargs)
+        return count
 
-    monkeypatch.setattr(evaluate, "simulate_runs", counting)
+    for name in ("simulate_runs", "simulate_pieces"):     # whole runs, and runs in pieces
+        monkeypatch.setattr(evaluate, name, counting(getattr(evaluate, name)))
 
     def counting_fits(*args, **kwargs):
         fits.append(1)
