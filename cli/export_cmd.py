@@ -53,7 +53,7 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
     bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(angles_path))
     with write_errors(output):                    # (a name the system refuses: bad input, as
         export_animation(output, tree, times, bend, rot, fps, frames,   # every command's -o)
-                         display_name(angles_path))
+                         display_name(angles_path), display_name(tree_path))
     # (after the export: an angle file it refuses gets its one error line alone)
     _warn_large_angles(times, bend, rot, tree.address, display_name(angles_path), degrees)
     span = (f"{times[-1]:g} s at {fps:g} fps" if frames is None else      # (time restarts at 0)

@@ -184,15 +184,17 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
     names = [f"level{k}.lsys" for k in range(1, last + 1)]
     if mode is not None:                     # an existing DIR: merged into
         check_merge_targets(folder, names)
+        # any other level<k>.lsys: past this chain's last level, level0, or a number written
+        # with leading zeros (another tree's chain would read as this one's)
         stale = sorted((int(m.group(1)), m.group(0)) for m in
                        (re.fullmatch(r"level([0-9]+)\.lsys", n) for n in os.listdir(folder))
-                       if m and int(m.group(1)) > last)
-        if stale:                            # (another tree's chain would read as this one's)
+                       if m and m.group(0) not in names)
+        if stale:
             shown = ", ".join(name for _, name in stale[:3]) + (", …" if len(stale) > 3 else "")
-            raise InputError(f"the folder holds {shown}, past this tree's last level ({last}): "
-                             "they would stay beside its chain as if part of it; expected a "
-                             "folder without them (remove them, or give another --levels)",
-                             folder)
+            raise InputError(f"the folder holds {shown}, not one of this tree's levels "
+                             f"(level1.lsys to level{last}.lsys): they would stay beside its "
+                             "chain as if part of it; expected a folder without them (remove "
+                             "them, or give another --levels)", folder)
         distinct_paths({f"--levels ({name})": os.path.join(folder, name) for name in names},
                        {"FILE": input_path})     # (simplify DIR/level1.lsys --levels DIR)
     options = [Options(level=k, wind_range=wind_range, dt=dt, duration=duration, form="explicit",

@@ -18,10 +18,16 @@ FORMATS = (".glb", ".gltf", ".usda", ".usdc", ".usd")
 
 def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray, rot: np.ndarray,
                      fps: float = 30.0, frames: tuple[int, int] | None = None,
-                     angles_name: str | None = None) -> None:
+                     angles_name: str | None = None, tree_name: str | None = None) -> None:
     """Write ``tree`` moving by ``bend``/``rot`` (K, B) at ``times`` (K,) to ``path``, atomically.
-    ``angles_name``: the file the angles came from, named by errors about them."""
+    ``angles_name``, ``tree_name``: the files the angles and the tree came from, named by
+    errors about them. A tree reaching past MAX_EXTENT_M is refused, as compare and scene
+    refuse it: its positions (float32 in glTF) were written as infinities (session 36)."""
     import math
+
+    from plantlod.compare.runs import check_extent
+
+    check_extent(tree, tree_name)
 
     span = float(times[-1]) * fps
     if not math.isfinite(span) or span + 1 > MAX_EXPORT_SAMPLES / max(tree.n_branches, 1):

@@ -187,7 +187,8 @@ def read_angles_file(path: str, degrees: bool = False
             raise InputError("--degrees applies to an angle CSV; an .npz archive holds radians",
                              name)
         return read_angles_bytes(read_npz_file(path), name)
-    return read_angles_text(read_text(path, MAX_CSV_LINE_BYTES), name, degrees)
+    return read_angles_text(read_text(path, MAX_CSV_LINE_BYTES, expected="an angle CSV"),
+                            name, degrees)
 
 
 def read_angles_text(text: str, source: str | None, degrees: bool = False

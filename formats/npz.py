@@ -28,7 +28,7 @@ from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, is_symbol
 
 from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL
 from .text_input import reading, source_name, stdin_bytes
-from .treefile import first_bad_address
+from .treefile import ADDRESS_FORM, first_bad_address
 
 TREE_FORMAT = "plantlod-tree-npz"
 ANGLES_FORMAT = "plantlod-angles-npz"
@@ -163,6 +163,15 @@ def _load(data: bytes, source: str, kind: str) -> dict[str, np.ndarray]:
     return arrays
 
 
+def _refuse_unknown(arrays: dict, known: set[str], kind: str, source: str) -> None:
+    """InputError for a member the archive's kind has no place for (as a tree file refuses an
+    unknown key; such members were dropped without a word, session 36)."""
+    unknown = sorted(set(arrays) - known)
+    if unknown:
+        raise InputError(f"the archive holds {unknown[0][:60]!r}, which a {kind} archive has no "
+                         f"place for; expected only {', '.join(sorted(known))}", source)
+
+
 def _need(arrays: dict, name: str, source: str) -> np.ndarray:
     if name not in arrays:
         raise InputError(f"the archive has no {name!r}", source)
@@ -207,7 +216,8 @@ def _strings(arrays: dict, name: str, source: str, pattern=None) -> list[str]:
     if pattern is not None:
         bad = first_bad_address(out, pattern)
         if bad is not None:
-            raise InputError(f"{name!r} in the archive holds {bad[:60]!r}, not an address", source)
+            raise InputError(f"{name!r} in the archive holds {bad[:60]!r}, not an address "
+                             f"({ADDRESS_FORM}, like '0.2.1')", source)
     return out
 
 
@@ -217,6 +227,9 @@ def read_tree_bytes(data: bytes, source: str) -> Tree:
     from .treefile import BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS, POSITIVE_FIELDS
 
     arrays = _load(data, source, TREE_FORMAT)
+    _refuse_unknown(arrays, {"format", "version"} | {f.name for f in dataclasses.fields(Tree)
+                                                     if f.name not in _NOT_STORED},
+                    TREE_FORMAT, source)
     values: dict = {}
     values["parent"] = _numbers(arrays, "parent", source, (None,), integer=True)
     b = len(values["parent"])
@@ -282,6 +295,8 @@ def read_angles_bytes(data: bytes, source: str) -> tuple[np.ndarray, list[str], 
     from .treefile import BRANCH_ADDRESS
 
     arrays = _load(data, source, ANGLES_FORMAT)
+    _refuse_unknown(arrays, {"format", "version", "time", "address", "bend", "rotation"},
+                    ANGLES_FORMAT, source)
     addresses = _strings(arrays, "address", source, BRANCH_ADDRESS)
     t = _numbers(arrays, "time", source, (None,))
     b = _numbers(arrays, "bend", source, (len(t), len(addresses)))

@@ -51,9 +51,13 @@ def refuse_empty(text: str, name: str, expected: str) -> None:
         raise InputError(f"{where} empty; expected {expected}", name, 1, 1)
 
 
+LSYS_TEXT = "an .lsys file: simulate, compare and export also read tree archives"
+
+
 def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
-              max_bytes: int = MAX_TEXT_BYTES) -> str:
-    """The whole text of ``path`` (``-``: stdin), decoded as UTF-8.
+              max_bytes: int = MAX_TEXT_BYTES, expected: str = LSYS_TEXT) -> str:
+    """The whole text of ``path`` (``-``: stdin), decoded as UTF-8; ``expected``: what the
+    caller reads, for the message that an .npz archive is not that.
 
     Read in chunks, each checked as it comes: a line longer than ``max_line_bytes``, more
     than ``max_bytes`` in all, or a byte that is not UTF-8 stops the reading at once
@@ -63,18 +67,17 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
     name = source_name(path)
     with reading(name):
         if path == "-":
-            return _read_capped(stdin_bytes(name), name, max_line_bytes, max_bytes)
+            return _read_capped(stdin_bytes(name), name, max_line_bytes, max_bytes, expected)
         with open(path, "rb") as handle:
-            return _read_capped(handle, name, max_line_bytes, max_bytes)
+            return _read_capped(handle, name, max_line_bytes, max_bytes, expected)
 
 
-def _not_utf8(data: bytes, offset: int, name: str) -> InputError:
+def _not_utf8(data: bytes, offset: int, name: str, expected: str = LSYS_TEXT) -> InputError:
     """The error for the byte at ``offset`` of ``data`` (the file's bytes up to and past it),
     located at its line and column (characters, a leading byte-order mark not counted)."""
     if data.startswith(b"PK\x03\x04") and name.lower().endswith(".npz"):
         return InputError("an .npz archive (a tree or angles), which is not read here; expected "
-                          "a text file (an .lsys file: simulate, compare and export also read "
-                          "tree archives)", name)
+                          f"a text file ({expected})", name)
     binary = binary_kind(data)
     if binary is not None:
         return InputError(f"not text but {binary[0]}: {binary[1]}", name)
@@ -111,7 +114,7 @@ def stdin_bytes(name: str = "<stdin>") -> BinaryIO:
 
 
 def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int,
-                 max_bytes: int = MAX_TEXT_BYTES) -> str:
+                 max_bytes: int = MAX_TEXT_BYTES, expected: str = LSYS_TEXT) -> str:
     """The text of ``handle``: its bytes decoded as UTF-8 (a leading byte-order mark
     dropped), refusing a line longer than ``max_line_bytes``, more than ``max_bytes`` in
     all, and the first byte that is not UTF-8, each as soon as its chunk is read.
@@ -147,10 +150,11 @@ def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int,
             text.append(decoder.decode(fed))
         except UnicodeDecodeError as exc:   # exc.object: the decoder's carried bytes + fed
             raise _not_utf8(b"".join(chunks), total + len(chunk) - len(exc.object) + exc.start,
-                            name) from None
+                            name, expected) from None
         total += len(chunk)
     try:
         text.append(decoder.decode(b"", final=True))
     except UnicodeDecodeError as exc:       # a sequence cut short by the end of the file
-        raise _not_utf8(b"".join(chunks), total - len(exc.object) + exc.start, name) from None
+        raise _not_utf8(b"".join(chunks), total - len(exc.object) + exc.start, name,
+                        expected) from None
     return "".join(text)

@@ -46,15 +46,22 @@ BRANCH_KEYS = ("type", "index", "address", "symbol", "parent", *BRANCH_FLOAT_FIE
                "phi", "alpha", "psi", "offset")
 LEAF_KEYS = ("type", "index", "address", "branch", "area", "normal")
 
-# Addresses a0.a1...ak; a branch's may end in ":j" (a repeat, lsys/tree.py).
+# Addresses a0.a1...ak; a branch's may end in ":j" (a repeat, lsys/tree.py). Numbers are
+# written as derive writes them, without leading zeros: the readers check that addresses are
+# unique as text, and "0.01" is the address "0.1" (as compare reads addresses, by number).
 # Each pattern matches one address; `first_bad_address` checks a block of them at once.
-_ADDRESS = r"[0-9]+(?:\.[0-9]+)*"
-BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::[0-9]+)?\Z")
+_NUMBER = r"(?:0|[1-9][0-9]*)"
+_ADDRESS = rf"{_NUMBER}(?:\.{_NUMBER})*"
+BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::{_NUMBER})?\Z")
 LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
+ADDRESS_FORM = "numbers without leading zeros"    # (for messages)
 # the same patterns for many addresses at once, each followed by a line break (`first_bad_address`)
-# (possessive: nothing is tried again, 7x faster over 390,625 addresses than plain repeats)
-_JOINED = {BRANCH_ADDRESS: re.compile(r"(?:[0-9]++(?:\.[0-9]++)*+(?::[0-9]++)?+\n)*+\Z"),
-           LEAF_ADDRESS: re.compile(r"(?:[0-9]++(?:\.[0-9]++)*+\n)*+\Z")}
+# (possessive and atomic: nothing is tried again, 7x faster over 390,625 addresses than plain
+# repeats)
+_JOINED_NUMBER = r"(?>0|[1-9][0-9]*+)"
+_JOINED = {BRANCH_ADDRESS: re.compile(
+               rf"(?:{_JOINED_NUMBER}(?:\.{_JOINED_NUMBER})*+(?::{_JOINED_NUMBER})?+\n)*+\Z"),
+           LEAF_ADDRESS: re.compile(rf"(?:{_JOINED_NUMBER}(?:\.{_JOINED_NUMBER})*+\n)*+\Z")}
 _LINES_PER_WRITE = 4096
 
 
@@ -222,8 +229,9 @@ class _Line:
     def address(self, pattern: re.Pattern, example: str) -> str:
         v = self.string("address")
         if not pattern.match(v):
-            raise self.error(f'"address" must be an address like {example}, '
-                             f"got {json.dumps(v, ensure_ascii=False)}", "address")
+            raise self.error(f'"address" must be an address like {example} '
+                             f"({ADDRESS_FORM}), got {json.dumps(v, ensure_ascii=False)}",
+                             "address")
         return v
 
 
@@ -641,7 +649,8 @@ class _Branches:
             if "group_root" in self.extras:
                 root = line.string("group_root")
                 if not BRANCH_ADDRESS.match(root):
-                    raise line.error(f'"group_root" must be an address like "0.2.1" or "0.2.1:1", got '
+                    raise line.error(f'"group_root" must be an address like "0.2.1" or "0.2.1:1" '
+                                     f"({ADDRESS_FORM}), got "
                                      f"{json.dumps(root, ensure_ascii=False)}", "group_root")
                 extra["group_root"] = root
             if "gain" in self.extras:

@@ -558,16 +558,19 @@ def _apply_overrides(system, derived, branches, values, leaves, leaf_area) -> No
     matched = np.zeros(len(keys), dtype=bool)
     if keys:
         key_rows = np.array(keys, dtype=np.int64).reshape(len(keys), width)
+        kinds = []                                   # (keys matched, names that apply) per kind
         for idx, targets in ((branches, values), (leaves, {"area": leaf_area})):
             which = _match_rows(derived.address_array(idx), key_rows)
             hit = which >= 0
             matched[which[hit]] = True
+            kinds.append((set(which[hit].tolist()), set(targets)))
             for name, arr in targets.items():
                 col = np.array([merged[a].get(name, np.nan) for a in keys])
                 take = hit & ~np.isnan(col[np.maximum(which, 0)])
                 arr[take] = col[which[take]]
         _apply_leaf_ordinal_overrides(merged, keys, key_rows, derived.address_array(leaves),
                                       leaf_area)
+        _warn_kind_mismatches(merged, keys, kinds)
     unmatched = [a for a in merged if len(a) != width] + [a for a, m in zip(keys, matched) if not m]
     for address in unmatched[:_WARN_LIST]:
         warnings.warn(f"override for address {_short_address(address)} matches no "
@@ -575,6 +578,29 @@ def _apply_overrides(system, derived, branches, values, leaves, leaf_area) -> No
     if len(unmatched) > _WARN_LIST:
         warnings.warn(f"{len(unmatched) - _WARN_LIST:,} more overrides match no branch or leaf "
                       "module", stacklevel=3)
+
+
+def _warn_kind_mismatches(merged, keys, kinds) -> None:
+    """A warning for each value an override line sets at an address that draws only the other
+    kind of module: a branch's key where only leaves attach, a leaf's area where only a branch
+    is drawn (it applies to nothing; such values were dropped without a word, session 36).
+    kinds: ((branch keys matched, branch names), (leaf keys matched, {"area"}))."""
+    (branch_hit, branch_names), (leaf_hit, leaf_names) = kinds
+    said = 0
+    for k, address in enumerate(keys):
+        if (k in branch_hit) == (k in leaf_hit):     # both kinds there, or neither (said)
+            continue
+        names, other = ((leaf_names, "no leaf attaches there, only a branch") if k in branch_hit
+                        else (branch_names, "no branch is drawn there, only leaves"))
+        for name in merged[address]:
+            if name in names:
+                if said < _WARN_LIST:
+                    warnings.warn(f"override {name} for address {_short_address(address)} "
+                                  f"applies to nothing: {other}", stacklevel=4)
+                said += 1
+    if said > _WARN_LIST:
+        warnings.warn(f"{said - _WARN_LIST:,} more override values apply to nothing",
+                      stacklevel=4)
 
 
 def _short_address(address: tuple[int, ...]) -> str:

@@ -698,7 +698,7 @@ def _checked(tree: Tree) -> Tree:
             (a, LEAF_ADDRESS) for a in tree.leaf_address]          # (as the tree files' readers)
         if not all(isinstance(a, str) and pattern.match(a) for a, pattern in addresses):
             raise ValueError("its addresses must be strings like '0.2.1' (a branch's may end "
-                             "in ':K')")
+                             "in ':K'; numbers without leading zeros)")
         if not all(map(is_symbol, tree.symbol)):     # (as the tree files' readers hold them)
             raise ValueError("its symbols must be single characters (not control characters "
                              "nor halves of surrogate pairs)")

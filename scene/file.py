@@ -545,7 +545,8 @@ def read_scene(path: str) -> Scene:
     from plantlod.formats.text_input import read_text, refuse_empty, source_name
 
     file = pathlib.Path(path)
-    text = read_text(path)          # missing, unreadable, not UTF-8, a line too long: exit 2
+    text = read_text(path, expected="a scene file, TOML")   # missing, unreadable, not UTF-8,
+    # a line too long: exit 2
     refuse_empty(text, source_name(path), "a scene (docs/scene.md)")   # ("missing [camera]" before)
     try:
         data = tomllib.loads(text)

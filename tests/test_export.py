@@ -175,6 +175,24 @@ def test_frames_outside_the_run_and_a_missing_folder_are_exit_2(run, tmp_path):
     assert not list(tmp_path.glob(".plantlod-*"))
 
 
+@pytest.mark.parametrize("old, new", [('"length": 0.6', '"length": 1e308'),
+                                      ('"offset": [0.0, 0.0, 0.0]', '"offset": [1e308, 0.0, 0.0]')])
+def test_a_tree_past_the_measured_extent_is_refused_as_compare_refuses_it(run, tmp_path, old,
+                                                                         new):
+    """Lengths or offsets of 1e308 m were written as glTF translations of 1e308 (infinite in
+    its float32), exit 0, where compare and scene refuse the tree (session 36, fuzzing)."""
+    folder, _, _ = run
+    lines = (folder / "t.jsonl").read_text().splitlines(keepends=True)
+    assert old in lines[1]
+    edited = tmp_path / "t.jsonl"
+    edited.write_text("".join([lines[0], lines[1].replace(old, new, 1), *lines[2:]]))
+    result = run_cli("export", str(edited), str(folder / "a.csv"), "-o", str(tmp_path / "x.glb"),
+                     exit_code=2)
+    assert result.stderr.startswith(f"{edited}: error: the tree reaches ")
+    assert "beyond the 1e+09 m" in result.stderr and result.stderr.count("\n") == 1
+    assert not (tmp_path / "x.glb").exists()
+
+
 @pytest.mark.parametrize("edit, message", [
     (lambda t, a: (t * 1e298, a), "frames than the limit of 10,000,000 frames x branches"),
     (lambda t, a: (t, a * 1e300), "the angles give branch frames that are not finite numbers"),

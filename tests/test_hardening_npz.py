@@ -157,6 +157,7 @@ def test_an_object_array_is_bad_input_not_an_internal_error(tmp_path):
     ({"format": npy(np.array(3))}, "not a plantlod-angles-npz archive"),
     ({"bend": npy(np.full((2, 1), np.nan))}, "not finite"),
     ({"bend": b"\x93NUMPY\x09\x00"}, "'bend' in the archive is not a readable array"),
+    ({"note": npy(np.array("x"))}, "holds 'note', which a plantlod-angles-npz archive has no"),
 ])
 def test_bad_angle_archives(change, fragment):
     refused(archive(angles_members(**change)), fragment)
@@ -187,6 +188,12 @@ def test_bad_tree_archives():
         ({"format": npy(np.array(TREE_FORMAT + "x"))}, "not a plantlod-tree-npz archive"),
         # three group roots for eight branches were read (session 23, found by fuzzing)
         ({"group_root": npy(np.array(["0", "0", "0"]))}, "holds 3 addresses for 8 branches"),
+        # a member no tree has was dropped without a word, where a tree file refuses an
+        # unknown key; "0.01" is the address "0.1" as compare reads it (session 36, fuzzing)
+        ({"colour": npy(np.zeros(tree.n_branches))},
+         "the archive holds 'colour', which a plantlod-tree-npz archive has no place for"),
+        ({"address": npy(np.array([a.replace("0.", "00.", 1) for a in tree.address]))},
+         "not an address (numbers without leading zeros"),
     ]:
         refused(archive({**members, **change}), fragment, reader=read_tree_bytes)
 
@@ -272,6 +279,10 @@ def test_binary_files_given_to_a_text_reader_are_named(tmp_path):
     # tree file was refused at its first '{' (session 23, found by fuzzing)
     one_line(run_cli("simplify", str(tmp_path / "t.npz"), "--level", "1", exit_code=None), 2,
              "t.npz: error: an .npz archive (a tree or angles), which is not read here")
+    # (scene said it expected an .lsys file; session 36)
+    one_line(run_cli("scene", str(tmp_path / "t.npz"), exit_code=None), 2,
+             "t.npz: error: an .npz archive (a tree or angles), which is not read here; "
+             "expected a text file (a scene file, TOML)")
     run_cli("derive", STALK, "-o", str(tmp_path / "t.jsonl"))
     one_line(run_cli("simplify", str(tmp_path / "t.jsonl"), "--level", "1", exit_code=None), 2,
              "t.jsonl:1:1: error: a tree file (JSON Lines), not an L-system")

@@ -15,7 +15,7 @@ import pathlib
 
 import pytest
 
-from golden_util import run_cli
+from golden_util import ROOT, run_cli
 from test_hardening_cli import one_line
 from plantlod.formats.lsys_file import read_lsys
 from plantlod.lsys.build import build
@@ -244,8 +244,20 @@ def test_levels_into_a_folder_holding_another_chains_later_levels_are_refused(tm
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     assert len(before) > 1
     one_line(run_cli("simplify", two, "--levels", str(folder), exit_code=None), 2,
-             "past this tree's last level (1)", "level2.lsys")
+             "not one of this tree's levels (level1.lsys to level1.lsys)", "level2.lsys")
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+@pytest.mark.parametrize("name", ["level0.lsys", "level01.lsys"])
+def test_levels_into_a_folder_holding_a_level_no_chain_writes_are_refused(tmp_path, name):
+    """level0.lsys and level01.lsys are no level of any chain (the levels are level1.lsys
+    on, numbered without zeros): they stayed beside the new chain without a word."""
+    folder = tmp_path / "lv"
+    folder.mkdir()
+    (folder / name).write_text("axiom: F\n")
+    one_line(run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--levels",
+                     str(folder), exit_code=None), 2, "not one of this tree's levels", name)
+    assert [p.name for p in folder.iterdir()] == [name]
 
 
 def test_a_scene_runs_a_tree_without_levels_at_full_detail(tmp_path):

@@ -243,6 +243,24 @@ def test_overrides_by_address():
     assert tree.leaf_area.tolist() == [0.5, 0.01]
 
 
+def test_override_values_of_the_other_kind_of_module_warn():
+    """A branch's key where only a leaf attaches, a leaf's area where only a branch is drawn:
+    applied to nothing, they were dropped without a word (session 36, a helper's fuzzing)."""
+    string = make_string("F [ + F(3) L ] F G L",
+                         history=[([0, 0, 0, 0, 0, 0, 0, 1, 1], [0, 1, 2, 3, 4, 5, 6, 0, 1])])
+    system = make_system(overrides=[((0, 4), {"length": 2.5}),     # the leaf L
+                                    ((0, 3), {"area": 0.5}),       # F(3)
+                                    ((1, 0), {"radius": 0.3})])    # G: applies
+    with pytest.warns(UserWarning) as record:
+        tree = build_tree(system, string)
+    messages = sorted(str(w.message) for w in record)
+    assert messages == [
+        "override area for address 0.3 applies to nothing: no leaf attaches there, only a branch",
+        "override length for address 0.4 applies to nothing: no branch is drawn there, only "
+        "leaves"]
+    assert tree.radius.tolist()[-1] == 0.3
+
+
 def test_override_matching_nothing_warns():
     system = make_system(overrides=[((5,), {"length": 2.0}), ((0, 1), {"length": 2.0})])
     with pytest.warns(UserWarning) as record:
