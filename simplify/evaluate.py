@@ -310,6 +310,8 @@ def simulate_pieces(tree: Tree, winds: list[WindCase], dt: float, steps: int, ev
     from plantlod.sim.lanes import LaneModel, run_lanes, new_state
     from plantlod.sim.lanes_kernel import BLOCK
 
+    if not winds:
+        return
     model = LaneModel.from_tree(tree, damping)
     padded = -(-len(winds) // BLOCK) * BLOCK
     per_row = 16 * padded * max(tree.n_branches, 1)
