@@ -55,6 +55,7 @@ LEVEL_RATIO = 0.6             # level n has at most this x the branches of level
 MAX_LEVEL = 1000              # a level number above this is refused at once (0.6^1000 of any tree is one branch;
                               # a level of 1e30 looped over every level number before it)
 RUNS_BATCH_BYTES = 400_000_000  # angles held at once by simplify's measurement runs (lanes batched to this)
+RUNS_PIECE_BYTES = 100_000_000  # angles of every wind in one piece of time of the original's runs (`evaluate.simulate_pieces`)
 # The accuracy each level is held to (issue 12): motion error, period error (major), tip
 # error as a fraction of the height; `simplify --form auto` keeps the grammar form where it
 # meets them. Level 3 and beyond are held to level 2's.

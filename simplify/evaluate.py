@@ -15,7 +15,7 @@ import numpy as np
 
 from .constants import HIGH_SPEED_FRACTION
 from .constants import MEASURE_WIND_DIRECTIONS
-from .constants import REPORTS_KEPT, RUNS_BATCH_BYTES
+from .constants import REPORTS_KEPT, RUNS_BATCH_BYTES, RUNS_PIECE_BYTES
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 from plantlod.sim.kinematics import rest_height
@@ -303,7 +303,7 @@ def simulate_pieces(tree: Tree, winds: list[WindCase], dt: float, steps: int, ev
     first + R - 1 of every wind (row 0: at rest, the times of `simulate_runs`), in order.
 
     All winds are lanes of one run (`plantlod.sim.lanes`), so that every core has blocks of
-    lanes, and a piece holds about RUNS_BATCH_BYTES of angles whatever the tree's size. The
+    lanes, and a piece holds about RUNS_PIECE_BYTES of angles whatever the tree's size. The
     state is carried from piece to piece (`run_lanes`' first_step), so every sample has the
     bits of one whole run. A consumer that keeps what it reads of each piece (combined
     angles, tips) never holds the runs themselves."""
@@ -315,7 +315,7 @@ def simulate_pieces(tree: Tree, winds: list[WindCase], dt: float, steps: int, ev
     model = LaneModel.from_tree(tree, damping)
     padded = -(-len(winds) // BLOCK) * BLOCK
     per_row = 16 * padded * max(tree.n_branches, 1)
-    piece_rows = max(1, RUNS_BATCH_BYTES // per_row)
+    piece_rows = max(1, RUNS_PIECE_BYTES // per_row)
     if any(w.gust_strength > 0 for w in winds):         # the wind at the start of each step
         start = np.arange(steps, dtype=np.float64) * dt
         vectors = np.array([w.wind().sample(start) for w in winds])          # (W, steps, 3)
@@ -337,22 +337,6 @@ def simulate_pieces(tree: Tree, winds: list[WindCase], dt: float, steps: int, ev
         del bend, rot                 # (not held while the next piece is run)
         first += rows
         done += n
-
-
-def collect_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, every: int = 1,
-                 damping=0.0, dtype=np.float32) -> list:
-    """`simulate_runs`' runs as a list, their angles as ``dtype`` (a chain's shared runs:
-    float32 halves what it holds), filled from `simulate_pieces` (every core, and one piece
-    of float64 at a time). The same bits as `simulate_runs` converted to ``dtype``."""
-    rows = steps // every
-    times = np.arange(rows + 1, dtype=np.float64) * every * dt
-    bend = np.empty((len(winds), rows + 1, tree.n_branches), dtype=dtype)
-    rot = np.empty_like(bend)
-    for first, b, r in simulate_pieces(tree, winds, dt, steps, every, damping):
-        bend[:, first:first + b.shape[1]] = b
-        rot[:, first:first + b.shape[1]] = r
-        del b, r                      # (not held while the next piece is run)
-    return [(wind, times, bend[k], rot[k]) for k, wind in enumerate(winds)]
 
 
 @dataclass

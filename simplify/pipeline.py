@@ -445,7 +445,7 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     simulation (a caller's own checks, so that bad input is refused before they are paid for).
     built: (original, groupings) where the caller has them already.
     up_to: the last level to group (one level needs no coarser ones), default all."""
-    from .evaluate import collect_runs
+    from .evaluate import simulate_runs
     from .grouping import level_counts, merge_levels
 
     original = build(system).tree if built is None else built[0]
@@ -458,8 +458,10 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     groupings = merge_levels(original, up_to=up_to) if built is None else built[1]
 
     def runs() -> list:
-        return collect_runs(original, options.winds(), options.dt, options.steps, options.every,
-                            options.damping, np.float32)
+        return [(wind, times, bend.astype(np.float32), rot.astype(np.float32))
+                for wind, times, bend, rot in simulate_runs(
+                    original, options.winds(), options.dt, options.steps, options.every,
+                    options.damping)]
 
     return ChainShare(original, groupings, InBackground(runs))
 

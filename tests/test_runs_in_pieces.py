@@ -14,7 +14,7 @@ import pytest
 import plantlod.simplify.evaluate as evaluate
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
-from plantlod.simplify.evaluate import Runs, WindCase, collect_runs, simulate_runs
+from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
 from plantlod.simplify.grouping import merge_levels
 from plantlod.simplify.targets import GroupMap
 from plantlod.compare.groups import main_paths
@@ -42,7 +42,7 @@ def test_runs_read_in_pieces_are_the_runs_read_whole(monkeypatch, name, piece_by
     dt, steps, every = 0.01, 301, 4
     whole = Runs(tree, gmap, winds, dt, steps, every, damping=damping,
                  simulated=list(simulate_runs(tree, winds, dt, steps, every, damping)))
-    monkeypatch.setattr(evaluate, "RUNS_BATCH_BYTES", piece_bytes)
+    monkeypatch.setattr(evaluate, "RUNS_PIECE_BYTES", piece_bytes)
     pieces = Runs(tree, gmap, winds, dt, steps, every, damping=damping)
     assert len(pieces.runs) == len(whole.runs) == len(winds)
     for a, b in zip(whole.runs, pieces.runs):
@@ -53,16 +53,3 @@ def test_runs_read_in_pieces_are_the_runs_read_whole(monkeypatch, name, piece_by
             assert x.tobytes() == y.tobytes(), field
         assert np.abs(a.combined_b).max() > 0 and np.abs(a.tip_moves).max() > 0
 
-
-def test_a_chains_runs_collected_in_pieces_are_the_whole_runs_in_float32(monkeypatch):
-    """`collect_runs` (a chain's shared runs, float32) gives `simulate_runs`' runs, converted."""
-    tree, _ = _level_one("eval/twin_draw.lsys")
-    winds = [WindCase(2.0, 0.0), WindCase(6.0, 135.0, 0.3, 1), WindCase(4.0, 270.0)]
-    whole = list(simulate_runs(tree, winds, 0.01, 250, 3))
-    monkeypatch.setattr(evaluate, "RUNS_BATCH_BYTES", 50_000)
-    collected = collect_runs(tree, winds, 0.01, 250, 3)
-    for (w1, t1, b1, r1), (w2, t2, b2, r2) in zip(whole, collected, strict=True):
-        assert w1 == w2 and t1.tobytes() == t2.tobytes()
-        assert b2.dtype == r2.dtype == np.float32
-        assert b1.astype(np.float32).tobytes() == b2.tobytes()
-        assert r1.astype(np.float32).tobytes() == r2.tobytes()
