@@ -558,12 +558,16 @@ def settle_level_one(system: LSystem, options: Options, shared: ChainShare) -> N
 
 def _angle_notes(winds: list[WindCase], largest: list[float]) -> list[str]:
     """A warning where the original's combined angles (``largest``, per wind) pass
-    SMALL_ANGLE_LIMIT (the targets hold below)."""
+    SMALL_ANGLE_LIMIT (the targets hold below). They are read over the level's groups (a
+    group sums its main path's angles), so a coarser level can name a lower speed: the
+    warning says so (`--levels` gave two speeds "of the original", a helper's first hour,
+    session 36)."""
     over = [w.speed for w, a in zip(winds, largest) if a > SMALL_ANGLE_LIMIT]
     if not over:
         return []
-    return [f"warning: the original's combined angles pass {SMALL_ANGLE_LIMIT:g} rad at "
-            f"{min(over):g} m/s and above; the accuracy targets hold below that speed"]
+    return [f"warning: the original's combined angles over this level's groups pass "
+            f"{SMALL_ANGLE_LIMIT:g} rad at {min(over):g} m/s and above; the accuracy targets "
+            f"hold below that speed"]
 
 
 def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],

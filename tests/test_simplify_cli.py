@@ -22,7 +22,7 @@ def test_simplify_stalk8_level1_golden():
     assert "level 1 of examples/stalk8.lsys" in result.stdout.splitlines()[0]
     assert "worst: amplitude" in result.stdout
     assert "simplify: examples/stalk8.lsys level 1, grammar form (derived): 8 -> 4 branches" in result.stderr
-    assert "combined angles pass 0.1 rad at 15 m/s" in result.stderr   # the stalk leans far at 15 m/s
+    assert "combined angles over this level's groups pass 0.1 rad at 15 m/s" in result.stderr   # the stalk leans far at 15 m/s
 
 
 def test_same_input_same_bytes(tmp_path):
