@@ -166,8 +166,8 @@ class Runs:
         (`simulate_pieces`): the runs themselves are never held whole. Every sample's combined
         angles and tips are computed from that sample alone, so the bits are `_read`'s."""
         want, paths, winds = self.gmap.tips, self.gmap.paths, self.winds
-        rows = self.steps // self.every
-        times = np.arange(rows + 1, dtype=np.float64) * self.every * self.dt
+        times = run_times(self.dt, self.steps, self.every)
+        rows = len(times) - 1
         cb = np.empty((len(winds), rows + 1, len(paths)))
         cr = np.empty_like(cb)
         rest = [None] * len(winds)
@@ -268,6 +268,20 @@ def tree_digest(tree: Tree) -> bytes:
     return h.digest()
 
 
+def run_times(dt: float, steps: int, every: int) -> np.ndarray:
+    """(steps // every + 1,) s: the sample times of a run from rest (row 0 at rest)."""
+    return np.arange(steps // every + 1, dtype=np.float64) * every * dt
+
+
+def wind_vectors(winds: list[WindCase], dt: float, steps: int) -> np.ndarray:
+    """The lanes' winds for `run_lanes`: (W, 3) m/s where every wind is steady, else
+    (W, steps, 3), each wind at the start of each step."""
+    if any(w.gust_strength > 0 for w in winds):
+        start = np.arange(steps, dtype=np.float64) * dt
+        return np.array([w.wind().sample(start) for w in winds])
+    return np.array([w.wind().sample(np.zeros(1))[0] for w in winds])
+
+
 def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, every: int = 1,
                   damping=0.0):
     """(wind, times (K,), bend (K, B), rot (K, B)) for every wind, the winds stepped
@@ -278,19 +292,13 @@ def simulate_runs(tree: Tree, winds: list[WindCase], dt: float, steps: int, ever
     from plantlod.sim.lanes_kernel import BLOCK     # the engine runs lanes in blocks:
 
     model = LaneModel.from_tree(tree, damping)
-    rows = steps // every
-    times = np.arange(rows + 1, dtype=np.float64) * every * dt
-    per_lane = 16 * (rows + 1) * max(tree.n_branches, 1)
+    times = run_times(dt, steps, every)
+    per_lane = 16 * len(times) * max(tree.n_branches, 1)
     batch = max(BLOCK, RUNS_BATCH_BYTES // per_lane // BLOCK * BLOCK)   # no padding lanes
     for lo in range(0, len(winds), batch):
         chunk = winds[lo:lo + batch]
-        if any(w.gust_strength > 0 for w in chunk):     # the wind at the start of each step
-            start = np.arange(steps, dtype=np.float64) * dt
-            vectors = np.array([w.wind().sample(start) for w in chunk])      # (W, steps, 3)
-        else:
-            vectors = np.array([w.wind().sample(np.zeros(1))[0] for w in chunk])   # (W, 3)
-        bend, rot = run_lanes(model, vectors, dt, steps, every=every, addresses=tree.address,
-                              lane_names=[w.label() for w in chunk])
+        bend, rot = run_lanes(model, wind_vectors(chunk, dt, steps), dt, steps, every=every,
+                              addresses=tree.address, lane_names=[w.label() for w in chunk])
         rest = np.zeros((1, tree.n_branches))
         for k, wind in enumerate(chunk):
             yield wind, times, np.concatenate([rest, bend[k]]), np.concatenate([rest, rot[k]])
@@ -316,11 +324,7 @@ def simulate_pieces(tree: Tree, winds: list[WindCase], dt: float, steps: int, ev
     padded = -(-len(winds) // BLOCK) * BLOCK
     per_row = 16 * padded * max(tree.n_branches, 1)
     piece_rows = max(1, RUNS_PIECE_BYTES // per_row)
-    if any(w.gust_strength > 0 for w in winds):         # the wind at the start of each step
-        start = np.arange(steps, dtype=np.float64) * dt
-        vectors = np.array([w.wind().sample(start) for w in winds])          # (W, steps, 3)
-    else:
-        vectors = np.array([w.wind().sample(np.zeros(1))[0] for w in winds])   # (W, 3)
+    vectors = wind_vectors(winds, dt, steps)
     state = new_state(model, len(winds))
     names = [w.label() for w in winds]
     rest = np.zeros((len(winds), 1, tree.n_branches))

@@ -230,8 +230,7 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
               if max(TIP_MISS_WEIGHT) > 0 and not stalk else None)
     miss_cache: dict[tuple[int, int, int, int], float] = {}
     paths = MainPaths(parent, alpha, keys)
-    hanging_reach = HangingReach(children, misses.reach if misses is not None else [0.0] * b,
-                                 owner)
+    hanging_reach = HangingReach(children, misses.reach, owner) if misses is not None else None
     shares = ShareSpread(tree, parent, frames)
     modes = ModeMisfit(shares, parent)
     skews = CrossingSkew(shares, tree, parent) if stalk and max(CROSSING_SKEW_WEIGHT) > 0 else None
@@ -273,7 +272,8 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
             size[u] += size[r]
             end[u] = new_end
             hanging[u] = (hanging[u] - {r}) | hanging[r]
-            hanging_reach.joined(u, r)
+            if hanging_reach is not None:          # (read by the tip miss alone)
+                hanging_reach.joined(u, r)
             roots_left.discard(r)
             version[u] += 1
             # the merges into u and of u have new costs: pushed again with them, so that a
