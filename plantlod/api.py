@@ -14,6 +14,7 @@ lengths metres, times seconds, winds metres per second (model.md).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import math
 import os
@@ -638,11 +639,20 @@ def _checked_system(system: LSystem) -> LSystem:
     try:
         with warnings.catch_warnings():           # (its own reading warned already)
             warnings.simplefilter("ignore")
-            parse_lsys(write_lsys(system), system.source or "<LSystem>")
+            text = write_lsys(system)
+            again = parse_lsys(text, system.source or "<LSystem>")
     except InputError as exc:
         fail(exc.message)
+    except OverflowError:
+        fail("a number is past a float's range")
     except (TypeError, ValueError, AttributeError) as exc:
         fail(f"{type(exc).__name__}: {exc}")
+    differs = [f.name for f in dataclasses.fields(system)
+               if f.compare and getattr(system, f.name) != getattr(again, f.name)]
+    if differs:             # (an axiom module named "F F" derived nothing, its text 16 branches)
+        fail(f"its {' and '.join(differs)} read(s) back from its own text as something else "
+             f"(a module's name is one symbol; arguments, lengths, strengths and areas are "
+             f"numbers)")
     return system
 
 
@@ -651,6 +661,7 @@ def _checked(tree: Tree) -> Tree:
     before children, leaves on branches that exist, distinct addresses, finite numbers): a
     Tree built or edited by hand (`dataclasses.replace`) is checked before anything runs on
     it (a parent cycle made `write_tree` loop forever, a short array leaked numpy's errors)."""
+    from plantlod.formats.constants import NORMAL_UNIT_TOL
     from plantlod.formats.treefile import (BRANCH_ADDRESS, LEAF_ADDRESS, NON_NEGATIVE_FIELDS,
                                            POSITIVE_FIELDS)
     from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, is_symbol
@@ -663,15 +674,19 @@ def _checked(tree: Tree) -> Tree:
         scale = tree.leaf_force_scale
         if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)):
             raise ValueError(f"leaf_force_scale must be one number, got {type(scale).__name__}")
+        if isinstance(scale, int) and not -2.0 ** 1023 < scale < 2.0 ** 1023:
+            raise ValueError("leaf_force_scale is past a float's range")   # (OverflowError)
         fields = (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal")
-        for name in fields:                      # (a list said "'list' object has no attribute
-            value = getattr(tree, name)          # 'shape'"; strings were read as numbers)
-            if not isinstance(value, np.ndarray) or not np.issubdtype(value.dtype, np.number):
+        optional = [name for name in ("force_gain", "swing_roll") if getattr(tree, name) is not None]
+        # (a list said "'list' object has no attribute 'shape'", strings were read as numbers,
+        # and timedelta64 passed as a number: numpy counts it as an integer kind)
+        for name in (*fields, *optional):
+            value = getattr(tree, name)
+            if not isinstance(value, np.ndarray) or value.dtype.kind not in "iufc":
                 kind = (f"an array of {value.dtype}" if isinstance(value, np.ndarray)
                         else type(value).__name__)
                 raise ValueError(f"{name} must be a numpy array of numbers, got {kind}")
-        optional = [a for a in (tree.force_gain, tree.swing_roll) if a is not None]
-        given = [getattr(tree, name) for name in fields] + optional
+        given = [getattr(tree, name) for name in (*fields, *optional)]
         if any(np.iscomplexobj(a) for a in given):
             raise ValueError("its numbers must be real (a complex array lost its imaginary "
                              "part without a word)")
@@ -683,10 +698,11 @@ def _checked(tree: Tree) -> Tree:
                              "strengths, forces, rest angles, offsets, leaves, gains or rolls)")
         with np.errstate(over="ignore"):
             norms = np.linalg.norm(np.asarray(tree.leaf_normal, dtype=np.float64), axis=-1)
-        if np.any(np.asarray(tree.leaf_area) < 0) or np.any(norms == 0) \
-                or not np.all(np.isfinite(norms)):
-            raise ValueError("its leaves need areas >= 0 and normals that are not zero (nor "
-                             "past a float's range)")
+        # (a normal of length 5 gave its leaf 5 times the force; a tree file refuses it)
+        if np.any(np.asarray(tree.leaf_area) < 0) or not np.all(
+                np.abs(norms - 1.0) <= NORMAL_UNIT_TOL):
+            raise ValueError(f"its leaves need areas >= 0 and unit normals (length within "
+                             f"{NORMAL_UNIT_TOL:g} of 1, as in a tree file)")
         for name in sorted(NON_NEGATIVE_FIELDS):  # (what its tree file could not hold either)
             value = getattr(tree, name, None)
             if value is not None and np.any(np.asarray(value, dtype=np.float64) < 0):

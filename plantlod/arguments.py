@@ -81,10 +81,11 @@ def one_run(angles: Any, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray,
         raise InputError("the angles' time, bend and rotation must be arrays of real numbers, "
                          "got complex numbers")
     try:
-        time = np.asarray(angles.time, dtype=np.float64)
-        bend = np.asarray(angles.bend, dtype=np.float64)
-        rot = np.asarray(angles.rotation, dtype=np.float64)
-    except (TypeError, ValueError):
+        given = [np.asarray(a) for a in (angles.time, angles.bend, angles.rotation)]
+        if any(a.dtype.kind not in "iuf" for a in given):
+            raise TypeError     # (strings were read as numbers, True as 1 rad)
+        time, bend, rot = (np.asarray(a, dtype=np.float64) for a in given)
+    except (TypeError, ValueError, OverflowError):
         raise InputError("the angles' time, bend and rotation must be arrays of real numbers") from None
     shape = (time.shape[0] if time.ndim == 1 else -1, len(addresses))
     if time.ndim != 1 or time.shape[0] < 1 or bend.shape != shape or rot.shape != shape:

@@ -14,11 +14,11 @@ what the compiler makes of it: docs/engine.md.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from plantlod.lsys.checks import real, shown_value, whole
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
@@ -39,7 +39,15 @@ class LaneModel(KernelModel):
 
     @classmethod
     def from_tree(cls, tree: Tree, damping: "float | Damping" = 0.0) -> "LaneModel":
-        """damping: the coefficient c, or a `damping.Damping` (c or a damping ratio)."""
+        """damping: the coefficient c, or a `damping.Damping` (c or a damping ratio).
+        A tree whose arrays break `Tree.check` is an `InputError`, not numpy's."""
+        if not isinstance(tree, Tree):
+            raise InputError(f"expected a Tree (plantlod.derive or read_tree), got "
+                             f"{type(tree).__name__}")
+        try:
+            tree.check()
+        except (ValueError, TypeError, AttributeError) as exc:
+            raise InputError(f"the Tree breaks its invariants: {exc}", tree.where or None) from None
         k = prepare(tree, damping)
         return cls(**{f: getattr(k, f) for f in cls.__dataclass_fields__})
 
@@ -88,13 +96,20 @@ def thread_count(threads: int | None = None) -> int:
     limit = numba.config.NUMBA_NUM_THREADS
     if threads is None:
         return limit
-    if threads < 1:
-        raise InputError(f"the thread count must be >= 1, got {threads}")
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise InputError(f"the thread count must be a whole number >= 1, got "
+                         f"{shown_value(threads)}")
     return min(int(threads), limit)
 
 
 def _winds(winds, lanes: int | None, steps: int) -> np.ndarray:
-    w = np.asarray(winds, dtype=np.float64)
+    try:
+        if np.iscomplexobj(winds):
+            raise TypeError("complex")
+        w = np.asarray(winds, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"winds must be numbers in m/s of shape (W, 3) or (W, {steps}, 3), "
+                         f"got {shown_value(winds)}") from None
     if w.ndim == 1 and w.shape == (3,):
         w = w[None, :]
     if w.ndim == 2 and w.shape[1] == 3:
@@ -139,18 +154,22 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
 
     import numba
 
-    if not isinstance(steps, (int, np.integer)) or steps < 0:
-        raise InputError(f"steps must be an integer >= 0, got {steps!r}")
-    if not isinstance(every, (int, np.integer)) or every < 1:
-        raise InputError(f"every must be an integer >= 1, got {every!r}")
-    if not (math.isfinite(dt) and dt > 0):
-        raise InputError(f"dt must be a positive number, got {dt!r}")
+    if not isinstance(model, LaneModel):
+        raise InputError(f"model must be a LaneModel (LaneModel.from_tree(tree)), got "
+                         f"{type(model).__name__}")
+    steps = whole("steps", steps)
+    every = whole("every", every, low=1)
+    first_step = whole("first_step", first_step, low=1)
+    dt = real("dt", dt, low=0.0, low_open=True)
     w = _winds(winds, model.lanes, steps)
     lanes, b = w.shape[0], model.n_branches
     if state is None:
         state = new_state(model, lanes)
-    if state.shape != (lanes, 4, b) or state.dtype != np.float64:
-        raise InputError(f"state must be float64 of shape ({lanes}, 4, {b}), got {state.shape}")
+    if not isinstance(state, np.ndarray) or state.shape != (lanes, 4, b) \
+            or state.dtype != np.float64:
+        got = (f"{state.dtype} of shape {state.shape}" if isinstance(state, np.ndarray)
+               else shown_value(state))
+        raise InputError(f"state must be a float64 array of shape ({lanes}, 4, {b}), got {got}")
     # lane index last in the kernel: (B, Wp) planes, Wp = W padded to whole blocks;
     # padding lanes repeat the last lane (their results are dropped)
     padded = -(-lanes // lanes_kernel.BLOCK) * lanes_kernel.BLOCK

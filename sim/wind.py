@@ -43,8 +43,8 @@ def wind_samples(wind: Wind, times: np.ndarray) -> np.ndarray:
     as every wind is (`check_speed`)."""
     try:
         raw = np.asarray(wind.sample(times))
-        if np.iscomplexobj(raw):
-            raise TypeError("complex numbers")
+        if raw.dtype.kind not in "iuf":             # (strings were read as numbers)
+            raise TypeError("complex numbers" if raw.dtype.kind == "c" else f"an array of {raw.dtype}")
         out = np.asarray(raw, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise RunFailure(f"the wind gave no array of numbers ({exc})") from None

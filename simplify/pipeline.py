@@ -100,7 +100,9 @@ class Options:
         from plantlod.sim.damping import as_damping
         from plantlod.sim.run import step_count
 
-        whole("level", self.level, low=1, high=MAX_LEVEL)    # (no tree has that many levels)
+        # (no tree has that many levels; a numpy integer is kept as an int, since the level's
+        # derivation length is computed from it)
+        self.level = whole("level", self.level, low=1, high=MAX_LEVEL)
         for name, value, choices in (("method", self.method, METHODS), ("form", self.form, FORMS)):
             # (a str first: an array compared with the choices has no single truth value)
             if not isinstance(value, str) or value not in choices:
@@ -110,6 +112,9 @@ class Options:
             raise InputError(f"wind_range must be (low, high) in m/s, got {self.wind_range!r}")
         for value in self.wind_range:           # (its own bounds, not a measurement wind's)
             real("wind_range", value, low=0, low_open=True, high=MAX_WIND_SPEED)
+        if self.wind_range[0] > self.wind_range[1]:     # (it was blamed on the run's length)
+            raise InputError(f"{self.spelled('wind_range')} must be (low, high) with low <= "
+                             f"high, got {self.wind_range[0]:g} and {self.wind_range[1]:g}")
         for name, value in (("dt", self.dt), ("duration", self.duration),
                             ("damping_ratio", self.damping_ratio)):
             real(name, value)

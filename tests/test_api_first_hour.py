@@ -22,6 +22,7 @@ import pytest
 import plantlod
 from golden_util import ROOT, run_cli
 from plantlod import InputError, RunFailure
+from plantlod.lsys.system import BranchSymbol, Module
 
 STALK = "examples/stalk8.lsys"
 
@@ -208,8 +209,14 @@ def test_a_comparison_of_no_step_says_so():
     (dict(symbol=[1] * 8), "symbols must be single characters"),
     (dict(group_root=["q"] * 3), "addresses must be strings"),
     (dict(parent=np.array([-1, 0.5, 1, 2, 3, 4, 5, 6])), "parent must be a flat array of whole numbers"),
-    (dict(leaf_normal=np.zeros((1, 3))), "normals that are not zero"),
+    (dict(leaf_normal=np.zeros((1, 3))), "unit normals"),
+    (dict(leaf_normal=np.array([[0.0, 0.0, 5.0]])), "unit normals"),      # (5 times the force)
     (dict(leaf_area=np.array([-1.0])), "areas >= 0"),
+    (dict(leaf_force_scale=2 ** 1100), "past a float's range"),            # (OverflowError)
+    (dict(length=np.full(8, np.timedelta64(1, "s"))), "length must be a numpy array of numbers"),
+    (dict(force_gain=[[0.0] * 6] * 8), "force_gain must be a numpy array of numbers"),
+    (dict(swing_roll=np.array(["0"] * 8)), "swing_roll must be a numpy array of numbers"),
+    (dict(swing_roll=np.zeros(8, dtype=object)), "swing_roll must be a numpy array of numbers"),
 ])
 def test_more_hand_edits_are_caught_before_use(edit, fragment):
     """Edits `_checked` let through (a regression fuzz of session 25): raw TypeErrors and
@@ -352,7 +359,7 @@ def test_the_largest_wind_speed_is_taken_in_any_direction(direction):
 @pytest.mark.parametrize("edit, said", [
     (lambda t: {"leaf_branch": t.leaf_branch[:, None]}, "leaf_branch must be a flat array"),
     (lambda t: {"leaf_force_scale": np.ones(3)}, "leaf_force_scale must be one number"),
-    (lambda t: {"leaf_normal": t.leaf_normal * 0 + 1e300}, "nor past a float's range"),
+    (lambda t: {"leaf_normal": t.leaf_normal * 0 + 1e300}, "unit normals"),
     (lambda t: {"length": t.length.astype(complex)}, "its numbers must be real"),
     (lambda t: {"length": -t.length}, "length must not be negative"),
     (lambda t: {"drag_coefficient": -t.drag_coefficient}, "drag_coefficient must not be negative"),
@@ -396,6 +403,13 @@ def test_a_wind_range_is_checked_at_its_own_ends(wind_range, bad):
     ({"name": None}, "name must be a string"),
     ({"leaves": None}, "leaves must be a tuple of LeafSymbols"),
     ({"branching_angle": float("nan")}, "branching_angle must be a finite number"),
+    # (each read back from its own text as another system: the axiom module named "F F"
+    # derived no branch where the text derives 16; a length "1" was read as 1.0)
+    ({"axiom": (Module("F F"),)}, "its axiom read"),
+    ({"branches": (BranchSymbol("F", length="1", radius=0.02, bend_strength=20.0,
+                                rotation_strength=20.0),)}, "its branches read"),
+    ({"branches": (BranchSymbol("F", length=2 ** 2000, radius=0.02, bend_strength=20.0,
+                                rotation_strength=20.0),)}, "a number is past a float's range"),
 ])
 def test_a_hand_edited_lsystem_is_checked_before_use(edit, said):
     # each leaked a TypeError, ValueError or AttributeError from inside (the API fuzzer of

@@ -388,7 +388,9 @@ def test_a_wind_object_that_fails_or_gives_what_no_wind_is_named_so():
              (wind(lambda t: np.tile([2000.0, 0, 0], (len(t), 1))), InputError,
               "a wind object's sample of 2000 m/s; expected at most 1000 m/s"),
              (wind(lambda t: 1 / 0), RunFailure, "sample() failed: ZeroDivisionError"),
-             (wind(lambda t: np.ones((len(t), 3)) * 1j), RunFailure, "complex numbers")]
+             (wind(lambda t: np.ones((len(t), 3)) * 1j), RunFailure, "complex numbers"),
+             (wind(lambda t: np.full((len(t), 3), "1")), RunFailure,   # (read as numbers)
+              "the wind gave no array of numbers (an array of <U1)")]
     for w, kind, message in cases:
         for given in (w, [w, (1, 0, 0)]):
             with pytest.raises(kind, match=__import__("re").escape(message)):
@@ -443,3 +445,29 @@ def test_a_flag_is_true_or_false_and_a_name_a_string(tmp_path):
     assert plantlod.read_angles(path, degrees=np.bool_(False)).bend.shape == angles.bend.shape
     with pytest.raises(InputError, match="name must be a string, got int"):
         plantlod.read_lsystem(io.StringIO("x: 1\n"), name=5)
+
+
+@pytest.mark.parametrize("kind", [str, bool, object, "m8[s]"])
+def test_write_angles_refuses_angles_that_are_not_numbers(tmp_path, kind):
+    """Strings were read as numbers and True written as 1 rad (an API fuzzer, session 36);
+    a list of floats is still taken."""
+    _tree, angles = _angles()
+    odd = plantlod.Angles(angles.time, angles.bend.astype(kind), angles.rotation, angles.addresses)
+    with pytest.raises(InputError, match="must be arrays of real numbers"):
+        plantlod.write_angles(odd, tmp_path / "a.csv")
+    assert not list(tmp_path.iterdir())
+    listed = plantlod.Angles(list(angles.time), angles.bend.tolist(), angles.rotation,
+                             angles.addresses)
+    assert plantlod.write_angles(listed) == plantlod.write_angles(angles)
+
+
+def test_simplify_options_a_numpy_level_and_a_reversed_wind_range():
+    """wind_range=(10, 1) was told to change its duration, dt or every, and a numpy level
+    left a numpy integer as the level's derivation_length (an API fuzzer, session 36)."""
+    from plantlod.simplify.pipeline import Options
+
+    with pytest.raises(InputError, match=r"wind_range must be \(low, high\) with low <= high, "
+                                         r"got 10 and 1"):
+        plantlod.simplify(STALK, level=1, wind_range=(10, 1))
+    options = Options(level=np.int64(2))
+    assert type(options.level) is int and options.level == 2

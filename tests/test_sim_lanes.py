@@ -114,3 +114,24 @@ def test_bad_shapes_are_input_errors():
         run_lanes(model, [[np.nan, 0.0, 0.0]], DT, 5)
     with pytest.raises(InputError):
         model.with_lane_parameters(absorbed=np.ones((model.n_branches + 2, 2)))
+
+
+@pytest.mark.parametrize("call, said", [
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, threads="2"), "thread count must be"),
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, threads=2.5), "thread count must be"),
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], "0.01", 5), "dt must be a number"),
+    (lambda m, t: run_lanes(m, "x", DT, 5), "winds must be numbers"),
+    (lambda m, t: run_lanes(m, [[1j, 0.0, 0.0]], DT, 5), "winds must be numbers"),
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, state="x"), "state must be a float64"),
+    (lambda m, t: run_lanes(t, [[1.0, 0.0, 0.0]], DT, 5), "model must be a LaneModel"),
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5.0), "steps must be a whole number"),
+    (lambda m, t: LaneModel.from_tree(None), "expected a Tree"),
+    (lambda m, t: LaneModel.from_tree(dataclasses.replace(t, length=t.length[:1])),
+     "the Tree breaks its invariants: length must have shape"),
+])
+def test_wrong_argument_types_are_input_errors(call, said):
+    # each leaked TypeError, ValueError or AttributeError from inside (an API fuzzer,
+    # session 36); threads=2.5 ran on 2 threads without a word
+    tree = y_tree()
+    with pytest.raises(InputError, match=said):
+        call(LaneModel.from_tree(tree), tree)
