@@ -66,6 +66,45 @@ def progress_bar():
                     redirect_stderr=False)
 
 
+COMPILING = "compiling the engine (once after an install or upgrade)"
+
+
+@contextlib.contextmanager
+def compiling_shown(bar) -> Iterator[None]:
+    """While numba compiles a kernel, a line of its own in ``bar`` (a rich `Progress`) says
+    so, and goes when the compiling ends: the first run after an install compiles for up
+    to half a minute, during which the stage's bar stood still (a new user's first hour,
+    session 36). Kernels loaded from numba's cache fire no compile event and show nothing.
+    Compile events nest (a kernel compiles what it calls) and may come from any thread."""
+    from numba.core import event
+
+    lock = threading.Lock()
+
+    class Shown(event.Listener):
+        depth = 0
+        task = None
+
+        def on_start(self, _event) -> None:
+            with lock:
+                self.depth += 1
+                if self.depth == 1:
+                    self.task = bar.add_task(COMPILING, total=None)
+
+        def on_end(self, _event) -> None:
+            with lock:
+                self.depth -= 1
+                if self.depth == 0 and self.task is not None:
+                    bar.remove_task(self.task)
+                    self.task = None
+
+    listener = Shown()
+    event.register("numba:compile", listener)
+    try:
+        yield
+    finally:
+        event.unregister("numba:compile", listener)
+
+
 def say(message: str) -> None:
     """One line for people, on stderr (never markup-interpreted). A stderr that cannot be
     written (closed, a full disk) loses the line but never fails the command: it is

@@ -185,10 +185,12 @@ class _ProgressBar:
     fitted ("levels: FILE, level k of n"), then one for the batches."""
 
     def __init__(self):
-        from .io import progress_bar
+        from .io import compiling_shown, progress_bar
 
         self.bar = progress_bar()
         self.bar.start()
+        self.compiling = compiling_shown(self.bar)
+        self.compiling.__enter__()
         self.tasks: dict[str, int] = {}
 
     def show(self, stage: str, done: int, total: int, what: str) -> None:
@@ -200,6 +202,7 @@ class _ProgressBar:
                         completed=done if stage == "batches" else done - 1)
 
     def stop(self) -> None:
+        self.compiling.__exit__(None, None, None)
         self.bar.stop()
 
 

@@ -230,9 +230,9 @@ def _pct(x: float) -> str:
 
 
 def _with_progress(run, system, options):
-    from .io import progress_bar
+    from .io import compiling_shown, progress_bar
 
-    with progress_bar() as bar:
+    with progress_bar() as bar, compiling_shown(bar):
         task = bar.add_task("simplify", total=1.0)
 
         def update(stage: str, fraction: float) -> None:
