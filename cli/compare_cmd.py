@@ -17,7 +17,7 @@ import click
 
 from plantlod.lsys.errors import InputError, RunFailure
 
-from .discipline import given, require_together
+from .discipline import ErrorBound, given, require_together
 from .io import (check_output_folder, check_output_kind, check_output_path, display_name,
                  distinct_paths, is_terminal, open_output, reader_gone_after, say, warn,
                  warn_once_running)
@@ -66,16 +66,20 @@ def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[f
 @click.option("--json", "as_json", is_flag=True, help="Write JSON instead of the table.")
 @click.option("-o", "--output", default=None, metavar="OUT",
               help="Write the table or JSON here (atomically) instead of stdout.")
-@click.option("--max-amplitude-error", type=click.FloatRange(min=0), default=None,
-              help="Exit 1 when the worst amplitude error is above this (a fraction).")
-@click.option("--max-period-error", type=click.FloatRange(min=0), default=None,
-              help="Exit 1 when the worst period error is above this (a fraction).")
-@click.option("--max-tip-error", type=click.FloatRange(min=0), default=None,
-              help="Exit 1 when the worst tip error is above this (a fraction of the rest height).")
-@click.option("--max-motion-error", type=click.FloatRange(min=0), default=None,
-              help="Exit 1 when the motion error (a fraction of the largest motion) is above this.")
-@click.option("--max-period-error-major", type=click.FloatRange(min=0), default=None,
-              help="Exit 1 when the period error of the major components is above this.")
+@click.option("--max-amplitude-error", type=ErrorBound(), default=None,
+              help="Exit 1 when the worst amplitude error is above this (a fraction, 0.05, "
+                   "or a percentage, 5%).")
+@click.option("--max-period-error", type=ErrorBound(), default=None,
+              help="Exit 1 when the worst period error is above this (0.01 or 1%).")
+@click.option("--max-tip-error", type=ErrorBound(), default=None,
+              help="Exit 1 when the worst tip error is above this (a fraction of the rest "
+                   "height, or a percentage of it).")
+@click.option("--max-motion-error", type=ErrorBound(), default=None,
+              help="Exit 1 when the motion error (a fraction of the largest motion, or a "
+                   "percentage) is above this.")
+@click.option("--max-period-error-major", type=ErrorBound(), default=None,
+              help="Exit 1 when the period error of the major components is above this "
+                   "(a fraction or a percentage).")
 @click.option("--max-tip-error-m", type=click.FloatRange(min=0), default=None,
               help="Exit 1 when a group tip strays farther than this many metres.")
 @click.option("--obj", "obj_dir", metavar="DIR", default=None,

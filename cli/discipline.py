@@ -165,6 +165,30 @@ class _Bounded(click.ParamType):
         return repr(self.base)
 
 
+class ErrorBound(click.ParamType):
+    """A relative error bound: a fraction (0.05) or a percentage (5%), finite and >= 0, as a
+    fraction. The summaries print percentages (simplify) and fractions (compare), and a
+    user who read "5.00 %" typed "5%" (a new user's first hour, session 36)."""
+
+    name = "FRACTION"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        text = str(value).strip()
+        percent = text.endswith("%")
+        try:
+            number = float(text[:-1] if percent else text)
+        except ValueError:
+            number = math.nan
+        expected = "a fraction (0.05) or a percentage (5%) >= 0"
+        if math.isinf(number) or (math.isnan(number) and "nan" in text.lower()):
+            self.fail(f"{value!r} is not a finite number; expected {expected}", param, ctx)
+        if not number >= 0:
+            self.fail(f"expected {expected}, got {value!r}", param, ctx)
+        return number / 100.0 if percent else number
+
+
 def harden_params(command: click.Command) -> click.Command:
     """Bound every float and int option of ``command`` (and of its subcommands), once."""
     if getattr(command, "_plantlod_hardened", False):

@@ -160,6 +160,14 @@ def test_bounds_and_exit_codes(runner, stalks):
     table = invoke(runner, base[:-1] + ["--max-amplitude-error", "0"])
     assert table.exit_code == 1 and table.stdout.startswith("original:")
 
+    # a percentage is read as one (simplify's summary prints them): 100 x the fraction
+    for percent, code in ((f"{amp * 101:.12g}%", 0), (f"{amp * 99:.12g}%", 1)):
+        assert invoke(runner, base + ["--max-amplitude-error", percent]).exit_code == code
+    for wrong in ("5 percent", "-1%", "nan%", "%"):
+        refused = invoke(runner, base + ["--max-amplitude-error", wrong])
+        assert refused.exit_code == 2 and "expected a fraction (0.05) or a percentage (5%)" \
+            in refused.stderr
+
 
 @pytest.mark.parametrize("figure, option", [("motion_error", "--max-motion-error"),
                                             ("period_error_major", "--max-period-error-major"),
