@@ -185,6 +185,21 @@ def assign_stated_groups(original: Tree, simplified: Tree) -> np.ndarray:
                 raise InputError(f"the original's root branch {original.address[i]} belongs to no "
                                  f"group; expected the groups to cover every branch")
             groups[i] = groups[parent[i]]
+    # the level is the groups' tree (model.md 5: each branch the chord of its group): a branch
+    # hangs from the branch whose group holds its root's parent (two roots swapped in a
+    # groups: section were measured as they stood, 18x the errors, without a word)
+    simp_parent = np.asarray(simplified.parent, dtype=np.int64)
+    for s, root in enumerate(simplified.group_root):
+        above = parent[index[root]]
+        expected = groups[above] if above >= 0 else -1
+        if simp_parent[s] != expected:
+            drawn = (f"hangs from simplified branch {simplified.address[simp_parent[s]]}"
+                     if simp_parent[s] >= 0 else "is a root")
+            holds = (f"the group of simplified branch {simplified.address[expected]}"
+                     if expected >= 0 else "no group (it is the original's root)")
+            raise InputError(f"simplified branch {simplified.address[s]} {drawn}, but its group "
+                             f"root {root} hangs in the original from {holds}; expected each "
+                             f"branch to hang as its group does (are two roots swapped?)", **at(s))
     return groups
 
 
