@@ -37,6 +37,15 @@ def build(system: LSystem, steps: int | None = None,
           max_modules: int = DEFAULT_MAX_MODULES) -> Built:
     """Derive ``steps`` steps (default: the file's derivation length) and build the tree."""
     n = system.derivation_length if steps is None else steps
+    if system.groups and n != system.derivation_length:
+        from .errors import InputError
+
+        # (its groups: name the branches of its own derivation; another count said "the
+        # groups: section names no group for the branch at 1.0.0.0", blaming the file)
+        raise InputError(f"a derivation length of {n} (-n, --simplified-n) does not apply to "
+                         f"an explicit-form level: its groups: section names the branches its "
+                         f"own derivation length ({system.derivation_length}) draws; expected "
+                         f"no -n for it", system.source or None)
     derived = derive(system, n, max_modules=max_modules)
     interpreted = interpret(system, derived, max_modules=max_modules)
     tree, warnings = build_tree_with_warnings(system, interpreted)

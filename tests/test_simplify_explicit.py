@@ -132,6 +132,15 @@ def test_groups_section_round_trips_and_is_checked(tmp_path):
     assert (f"{swapped}:" in result.stderr and "simplified branch 1 is a root, but its group "
             "root 0.1.0.0 hangs in the original from the group of simplified branch 3"
             in result.stderr)
+    # a derivation length given for it: the level's groups name its own branches (this
+    # blamed the groups: section, a fuzzer, session 37); its own count is taken
+    for command in (["compare", "examples/stalk8.lsys", str(tmp_path / "l2.lsys"), "--dt",
+                     "0.01", "--steps", "10", "--wind-speed", "1", "--simplified-n", "2"],
+                    ["derive", str(tmp_path / "l2.lsys"), "-n", "1"]):
+        result = run_cli(*command, exit_code=2)
+        assert "a derivation length of" in result.stderr and "does not apply to an " \
+            "explicit-form level" in result.stderr
+    run_cli("derive", str(tmp_path / "l2.lsys"), "-n", "0", "-o", str(tmp_path / "n0.jsonl"))
     # a line for an address that draws nothing is told, as an override for one is (it was
     # taken without a word, session 30)
     extra = tmp_path / "extra.lsys"
