@@ -80,7 +80,11 @@ _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
 _ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
-_BRANCH_ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*(?::[0-9]+)?")   # a tree's branch address
+# a groups: line's two addresses, as derive writes them: its root is matched to the original's
+# addresses as text, so "00.1" named no branch, and a key "01" was taken as 1 (session 37)
+_WRITTEN_NUMBER = r"(?:0|[1-9][0-9]*)"
+_GROUP_ADDRESS = re.compile(rf"{_WRITTEN_NUMBER}(?:\.{_WRITTEN_NUMBER})*")
+_GROUP_ROOT = re.compile(rf"{_WRITTEN_NUMBER}(?:\.{_WRITTEN_NUMBER})*(?::{_WRITTEN_NUMBER})?")
 # ABOP's captions: "n = 5, δ = 22.5°, ω: F" and what to write instead.
 _ABOP_KEYS = {"n": "derivation_length: N", "δ": "branching_angle: DEGREES", "ω": "axiom: MODULES"}
 _ABOP_CAPTION = re.compile(r"\s*(n|δ|ω)\s*[=:]")
@@ -1027,10 +1031,11 @@ class _FileParser:
         line = cur.text[cur.i:].split("#", 1)[0]
         left, colon, right = line.partition(":")
         left, right = left.strip(), right.strip()
-        if not colon or not _ADDRESS.fullmatch(left) or not _BRANCH_ADDRESS.fullmatch(right):
+        if not colon or not _GROUP_ADDRESS.fullmatch(left) or not _GROUP_ROOT.fullmatch(right):
             raise cur.error("expected 'ADDRESS: ORIGINAL_ADDRESS' in the groups section, as in "
-                            "'12: 0.4.0.1' (dotted non-negative integers; the original's may end "
-                            "in ':K', the K-th branch drawn at one address)")
+                            "'12: 0.4.0.1' (dotted non-negative integers without leading zeros; "
+                            "the original's may end in ':K', the K-th branch drawn at one "
+                            "address)")
         address = _address_parts(cur, left, cur.i + len(line) - len(line.lstrip()))
         pos = cur.pos()
         if address in self.group_pos:

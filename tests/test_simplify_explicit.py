@@ -141,6 +141,13 @@ def test_groups_section_round_trips_and_is_checked(tmp_path):
         assert "a derivation length of" in result.stderr and "does not apply to an " \
             "explicit-form level" in result.stderr
     run_cli("derive", str(tmp_path / "l2.lsys"), "-n", "0", "-o", str(tmp_path / "n0.jsonl"))
+    # addresses with leading zeros: a key "01" was taken as 1, a root "00.0.0.0" named no
+    # branch of the original (a root is matched as written); both refused at the line
+    for old, new in (("  1: 0.0.0.0", "  01: 0.0.0.0"), ("  1: 0.0.0.0", "  1: 00.0.0.0")):
+        zeros = tmp_path / "zeros.lsys"
+        zeros.write_text(text.replace(old, new))
+        result = run_cli("derive", str(zeros), "-o", str(tmp_path / "z.jsonl"), exit_code=2)
+        assert f"{zeros}:" in result.stderr and "without leading zeros" in result.stderr
     # a line for an address that draws nothing is told, as an override for one is (it was
     # taken without a word, session 30)
     extra = tmp_path / "extra.lsys"
