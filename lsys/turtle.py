@@ -581,7 +581,7 @@ def _apply_overrides(system, derived, branches, values, leaves, leaf_area) -> No
 
 
 def _warn_kind_mismatches(merged, keys, kinds) -> None:
-    """A warning for each value an override line sets at an address that draws only the other
+    """A warning for each override line whose values are set at an address that draws only the other
     kind of module: a branch's key where only leaves attach, a leaf's area where only a branch
     is drawn (it applies to nothing; such values were dropped without a word, session 36).
     kinds: ((branch keys matched, branch names), (leaf keys matched, {"area"}))."""
@@ -592,14 +592,15 @@ def _warn_kind_mismatches(merged, keys, kinds) -> None:
             continue
         names, other = ((leaf_names, "no leaf attaches there, only a branch") if k in branch_hit
                         else (branch_names, "no branch is drawn there, only leaves"))
-        for name in merged[address]:
-            if name in names:
-                if said < _WARN_LIST:
-                    warnings.warn(f"override {name} for address {_short_address(address)} "
-                                  f"applies to nothing: {other}", stacklevel=4)
-                said += 1
+        dropped = [name for name in merged[address] if name in names]
+        if dropped:        # (one line per address: a gain matrix's six keys said six lines)
+            if said < _WARN_LIST:
+                warnings.warn(f"override {', '.join(dropped)} for address "
+                              f"{_short_address(address)} applies to nothing: {other}",
+                              stacklevel=4)
+            said += 1
     if said > _WARN_LIST:
-        warnings.warn(f"{said - _WARN_LIST:,} more override values apply to nothing",
+        warnings.warn(f"{said - _WARN_LIST:,} more override lines apply to nothing",
                       stacklevel=4)
 
 

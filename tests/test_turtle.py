@@ -259,6 +259,14 @@ def test_override_values_of_the_other_kind_of_module_warn():
         "override length for address 0.4 applies to nothing: no branch is drawn there, only "
         "leaves"]
     assert tree.radius.tolist()[-1] == 0.3
+    # several keys on one line: one warning naming them all (a gain matrix's six keys on a
+    # leaf's address said six lines, a fuzzer, session 37)
+    system = make_system(overrides=[((0, 4), {"length": 2.5, "radius": 0.2})])
+    with pytest.warns(UserWarning) as record:
+        build_tree(system, string)
+    assert [str(w.message) for w in record] == [
+        "override length, radius for address 0.4 applies to nothing: no branch is drawn "
+        "there, only leaves"]
 
 
 def test_override_matching_nothing_warns():
