@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 
@@ -115,8 +116,6 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         if bar is not None:
             bar.show(stage, done, total, what)
 
-    import contextlib
-
     with contextlib.ExitStack() as stack:
         tmp = None
         if angles_path is not None:     # a new zarr store: in place only when every output is
@@ -189,8 +188,8 @@ class _ProgressBar:
 
         self.bar = progress_bar()
         self.bar.start()
-        self.compiling = compiling_shown(self.bar)
-        self.compiling.__enter__()
+        self.held = contextlib.ExitStack()
+        self.held.enter_context(compiling_shown(self.bar))
         self.tasks: dict[str, int] = {}
 
     def show(self, stage: str, done: int, total: int, what: str) -> None:
@@ -202,7 +201,7 @@ class _ProgressBar:
                         completed=done if stage == "batches" else done - 1)
 
     def stop(self) -> None:
-        self.compiling.__exit__(None, None, None)
+        self.held.close()
         self.bar.stop()
 
 

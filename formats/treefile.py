@@ -29,7 +29,8 @@ import numpy as np
 from .constants import MAX_JSON_DEPTH, NORMAL_UNIT_TOL
 from plantlod.lsys.checks import digits_past_limit
 from plantlod.lsys.errors import InputError, RunFailure
-from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, chain_depths, is_symbol
+from plantlod.lsys.tree import (ADDRESS_FORM, BRANCH_ADDRESS, BRANCH_FLOAT_FIELDS,  # noqa: F401
+                                LEAF_ADDRESS, Tree, chain_depths, is_symbol)
 
 FORMAT_NAME = "plantlod-tree"
 # Version 1: plain trees. Version 2: a level's tree, whose header lists in "extras" the
@@ -46,15 +47,8 @@ BRANCH_KEYS = ("type", "index", "address", "symbol", "parent", *BRANCH_FLOAT_FIE
                "phi", "alpha", "psi", "offset")
 LEAF_KEYS = ("type", "index", "address", "branch", "area", "normal")
 
-# Addresses a0.a1...ak; a branch's may end in ":j" (a repeat, lsys/tree.py). Numbers are
-# written as derive writes them, without leading zeros: the readers check that addresses are
-# unique as text, and "0.01" is the address "0.1" (as compare reads addresses, by number).
-# Each pattern matches one address; `first_bad_address` checks a block of them at once.
-_NUMBER = r"(?:0|[1-9][0-9]*)"
-_ADDRESS = rf"{_NUMBER}(?:\.{_NUMBER})*"
-BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::{_NUMBER})?\Z")
-LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
-ADDRESS_FORM = "numbers without leading zeros"    # (for messages)
+# Addresses as derive writes them (lsys/tree.py: BRANCH_ADDRESS, LEAF_ADDRESS, ADDRESS_FORM);
+# `first_bad_address` checks a block of them at once.
 # the same patterns for many addresses at once, each followed by a line break (`first_bad_address`)
 # (possessive and atomic: nothing is tried again, 7x faster over 390,625 addresses than plain
 # repeats)

@@ -49,6 +49,17 @@ def real(name: str, value: Any, *, low: float | None = None, low_open: bool = Fa
     return x
 
 
+def real_array(value: Any) -> np.ndarray:
+    """``value`` (an array, or nested lists) as a float64 array where it holds real numbers
+    (integers or floats); TypeError naming what it holds otherwise, where numpy would read
+    strings as numbers, True as 1, timedelta64 as an integer, or drop a complex part with a
+    warning. A ragged list is numpy's ValueError."""
+    raw = np.asarray(value)
+    if raw.dtype.kind not in "iuf":
+        raise TypeError("complex numbers" if raw.dtype.kind == "c" else f"an array of {raw.dtype}")
+    return np.asarray(raw, dtype=np.float64)
+
+
 def flag(name: str, value: Any) -> bool:
     """``value`` where it is True or False (numpy's bool too); any other value, which Python
     would read as true or false ("yes", None, 0), is an `InputError` naming ``name``."""

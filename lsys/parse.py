@@ -33,6 +33,7 @@ from .expr import (
     Binary, Call, Expr, Name, Num, Pos, Unary, evaluate, expression_depth, format_number,
     free_names,
 )
+from .tree import BRANCH_ADDRESS, LEAF_ADDRESS
 from .words import counted
 from .system import (
     BRACKETS, BRANCH_KEYS, GAIN_KEYS, LEAF_KEYS, LEAF_ORDINAL_KEY, RESERVED_CHARS, STRUCTURE_SYMBOLS,
@@ -80,11 +81,6 @@ _HEADER_LINE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*:")
 _DECLARATION_LINE = re.compile(r"\s*(define|branch|leaf)(?=\s|$)")
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
 _ADDRESS = re.compile(r"[0-9]+(?:\.[0-9]+)*")
-# a groups: line's two addresses, as derive writes them: its root is matched to the original's
-# addresses as text, so "00.1" named no branch, and a key "01" was taken as 1 (session 37)
-_WRITTEN_NUMBER = r"(?:0|[1-9][0-9]*)"
-_GROUP_ADDRESS = re.compile(rf"{_WRITTEN_NUMBER}(?:\.{_WRITTEN_NUMBER})*")
-_GROUP_ROOT = re.compile(rf"{_WRITTEN_NUMBER}(?:\.{_WRITTEN_NUMBER})*(?::{_WRITTEN_NUMBER})?")
 # ABOP's captions: "n = 5, δ = 22.5°, ω: F" and what to write instead.
 _ABOP_KEYS = {"n": "derivation_length: N", "δ": "branching_angle: DEGREES", "ω": "axiom: MODULES"}
 _ABOP_CAPTION = re.compile(r"\s*(n|δ|ω)\s*[=:]")
@@ -1031,7 +1027,10 @@ class _FileParser:
         line = cur.text[cur.i:].split("#", 1)[0]
         left, colon, right = line.partition(":")
         left, right = left.strip(), right.strip()
-        if not colon or not _GROUP_ADDRESS.fullmatch(left) or not _GROUP_ROOT.fullmatch(right):
+        # (as derive writes them, `tree.LEAF_ADDRESS` and `tree.BRANCH_ADDRESS`: the root is
+        # matched to the original's addresses as text, so "00.1" named no branch, and a key
+        # "01" was taken as 1, session 37)
+        if not colon or not LEAF_ADDRESS.match(left) or not BRANCH_ADDRESS.match(right):
             raise cur.error("expected 'ADDRESS: ORIGINAL_ADDRESS' in the groups section, as in "
                             "'12: 0.4.0.1' (dotted non-negative integers without leading zeros; "
                             "the original's may end in ':K', the K-th branch drawn at one "

@@ -10,9 +10,20 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import re
 import unicodedata
 
 import numpy as np
+
+
+# Addresses a0.a1...ak as derive writes them; a branch's may end in ":j" (a repeat, `Tree`).
+# Numbers without leading zeros: tree files, archives and groups: sections match addresses
+# as text, and "0.01" is the address "0.1" as compare reads addresses (by number).
+_NUMBER = r"(?:0|[1-9][0-9]*)"
+_ADDRESS = rf"{_NUMBER}(?:\.{_NUMBER})*"
+BRANCH_ADDRESS = re.compile(rf"{_ADDRESS}(?::{_NUMBER})?\Z")
+LEAF_ADDRESS = re.compile(rf"{_ADDRESS}\Z")
+ADDRESS_FORM = "numbers without leading zeros"    # (for messages)
 
 
 def is_symbol(text) -> bool:

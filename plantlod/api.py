@@ -24,7 +24,7 @@ from typing import IO, Any, Union
 import numpy as np
 
 from plantlod.formats.kinds import OUTPUT_KINDS
-from plantlod.lsys.checks import shown_value
+from plantlod.lsys.checks import finite, shown_value
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
@@ -674,8 +674,8 @@ def _checked(tree: Tree) -> Tree:
         scale = tree.leaf_force_scale
         if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)):
             raise ValueError(f"leaf_force_scale must be one number, got {type(scale).__name__}")
-        if isinstance(scale, int) and not -2.0 ** 1023 < scale < 2.0 ** 1023:
-            raise ValueError("leaf_force_scale is past a float's range")   # (OverflowError)
+        if isinstance(scale, int) and not finite(scale):     # (float() raised OverflowError)
+            raise ValueError("leaf_force_scale is past a float's range")
         fields = (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal")
         optional = [name for name in ("force_gain", "swing_roll") if getattr(tree, name) is not None]
         # (a list said "'list' object has no attribute 'shape'", strings were read as numbers,

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from plantlod.lsys.checks import flag, real, whole  # noqa: F401  (the API's argument checks)
+from plantlod.lsys.checks import flag, real, real_array, whole  # noqa: F401  (the API's argument checks)
 from plantlod.lsys.errors import InputError
 
 
@@ -81,10 +81,8 @@ def one_run(angles: Any, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray,
         raise InputError("the angles' time, bend and rotation must be arrays of real numbers, "
                          "got complex numbers")
     try:
-        given = [np.asarray(a) for a in (angles.time, angles.bend, angles.rotation)]
-        if any(a.dtype.kind not in "iuf" for a in given):
-            raise TypeError     # (strings were read as numbers, True as 1 rad)
-        time, bend, rot = (np.asarray(a, dtype=np.float64) for a in given)
+        # (strings were read as numbers, True as 1 rad)
+        time, bend, rot = (real_array(a) for a in (angles.time, angles.bend, angles.rotation))
     except (TypeError, ValueError, OverflowError):
         raise InputError("the angles' time, bend and rotation must be arrays of real numbers") from None
     shape = (time.shape[0] if time.ndim == 1 else -1, len(addresses))

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from plantlod.lsys.checks import real, shown_value, whole
+from plantlod.lsys.checks import real, real_array, shown_value, whole
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
@@ -104,10 +104,8 @@ def thread_count(threads: int | None = None) -> int:
 
 def _winds(winds, lanes: int | None, steps: int) -> np.ndarray:
     try:
-        if np.iscomplexobj(winds):
-            raise TypeError("complex")
-        w = np.asarray(winds, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
+        w = real_array(winds)
+    except (TypeError, ValueError):
         raise InputError(f"winds must be numbers in m/s of shape (W, 3) or (W, {steps}, 3), "
                          f"got {shown_value(winds)}") from None
     if w.ndim == 1 and w.shape == (3,):

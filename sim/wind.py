@@ -24,7 +24,7 @@ import numpy as np
 
 from .constants import (GUST_COMPONENTS, GUST_MAX_FREQUENCY, GUST_MIN_FREQUENCY, MAX_WIND_SPEED,
                         SPEED_ROUNDING)
-from plantlod.lsys.checks import real, shown_value, whole
+from plantlod.lsys.checks import real, real_array, shown_value, whole
 from plantlod.lsys.errors import InputError, RunFailure
 
 
@@ -42,10 +42,7 @@ def wind_samples(wind: Wind, times: np.ndarray) -> np.ndarray:
     values that are not finite is a RunFailure; one faster than MAX_WIND_SPEED an InputError,
     as every wind is (`check_speed`)."""
     try:
-        raw = np.asarray(wind.sample(times))
-        if raw.dtype.kind not in "iuf":             # (strings were read as numbers)
-            raise TypeError("complex numbers" if raw.dtype.kind == "c" else f"an array of {raw.dtype}")
-        out = np.asarray(raw, dtype=np.float64)
+        out = real_array(wind.sample(times))     # (strings were read as numbers)
     except (TypeError, ValueError) as exc:
         raise RunFailure(f"the wind gave no array of numbers ({exc})") from None
     except Exception as exc:                        # the caller's own object failed
