@@ -487,10 +487,19 @@ def _modules(cur: _Cursor) -> tuple[Module, ...]:
 def _refuse_control(cur: "_Cursor", c: str, what: str) -> None:
     """A control character (Unicode category Cc: U+0001, DEL, ...) names no module: the tree
     files refuse it as a branch's symbol (`lsys.tree.is_symbol`), so derive wrote files that
-    simulate could not read (a helper's fuzzing, session 32). Refused here, at its place."""
-    if unicodedata.category(c) == "Cc":
+    simulate could not read (a helper's fuzzing, session 32). Nor does an invisible format
+    character (Cf: a zero-width space U+200B, a byte-order mark U+FEFF inside the text, a
+    soft hyphen, a direction mark), which a copied text carries unseen: as a module it drew
+    nothing and shifted every address after it (session 38). Refused here, at its place."""
+    category = unicodedata.category(c)
+    if category == "Cc":
         raise cur.error(f"a control character (U+{ord(c):04X}) cannot be {what}; expected a "
                         "printable character such as F")
+    if category == "Cf":
+        name = unicodedata.name(c, "a format character")
+        raise cur.error(f"an invisible character (U+{ord(c):04X} {name}) cannot be {what}; "
+                        "expected a visible character such as F (delete it: it may have come "
+                        "with copied text)")
 
 
 def _check_brackets(modules: tuple[Module, ...], closing: str = "on this line") -> None:

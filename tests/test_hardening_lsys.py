@@ -499,3 +499,35 @@ def test_a_control_character_is_no_module(text, where, what):
         parse_lsys(text, "x.lsys")
     assert (info.value.line, info.value.col) == where
     assert f"a control character ({what}" in info.value.message
+
+
+@pytest.mark.parametrize("text, where, what", [
+    ("axiom: F\u200bF\n", (1, 9), "U+200B ZERO WIDTH SPACE) cannot be a module"),
+    ("axiom: F\nproductions:\n  F -> F \ufeffF\n", (3, 10),
+     "U+FEFF ZERO WIDTH NO-BREAK SPACE) cannot be a module"),
+    ("axiom: F\nproductions:\n  \u00ad -> F\n", (3, 3), "U+00AD SOFT HYPHEN) cannot be a module pattern"),
+    ("branch \u202e: length=1\naxiom: F\n", (1, 8), "U+202E RIGHT-TO-LEFT OVERRIDE) cannot be a symbol"),
+])
+def test_an_invisible_character_is_no_module(text, where, what):
+    """A zero-width space pasted into an axiom was a module that drew nothing, and every
+    address after it moved by one (session 37's fuzzing; refused since session 38), where
+    it stands. Spaces of other widths (U+00A0, U+2003) still separate modules, and a
+    byte-order mark opening the file is read as before."""
+    with pytest.raises(InputError) as info:
+        parse_lsys(text, "x.lsys")
+    assert (info.value.line, info.value.col) == where
+    assert f"an invisible character ({what}" in info.value.message
+    assert "\n" not in info.value.message
+
+
+def test_wide_spaces_still_separate_modules():
+    plain = build(system("axiom: F F\n", 0)).tree
+    for space in ("\u00a0", "\u2003"):
+        wide = build(system(f"axiom: F{space}F\n", 0)).tree
+        assert wide.address == plain.address == ["0", "1"]
+
+
+def test_a_byte_order_mark_opening_a_file_is_still_read(tmp_path):
+    path = tmp_path / "bom.lsys"
+    path.write_bytes(b"\xef\xbb\xbf" + (HEAD.format(n=0) + "axiom: F F\n").encode())
+    assert parse_lsys(read_text(str(path)), str(path)).axiom == system("axiom: F F\n", 0).axiom
