@@ -15,7 +15,12 @@ A (tree, level, speed, direction) case passes when it meets the issue's targets:
 Cases where the original's largest combined angle (over the level's groups)
 passes SMALL_ANGLE_LIMIT rad are left out (the targets apply below it) and
 counted as excluded; a figure that is undefined (nothing counted) does not fail
-a case; a level that simplify refuses or that diverges fails all its cases.
+a case; a level that simplify refuses or that diverges fails all its cases. Each
+case also records the original's largest turn of any branch's axis from its rest
+direction over the run (`largest_turns`, level-independent): a chain turns its top far
+while its groups' combined angles stay small, and a last table splits each level's
+counted cases by it (a diagnosis of where the misses are; the pass fractions above
+are the counting rule's).
 
 Seeds 0-199 are the tuning range; --held-out measures seeds 1000-1199, the
 range nobody tunes on. Output (stdout, and --out FILE.md) is the same for any
@@ -70,6 +75,7 @@ class Case:
     branches: tuple[int, int]                      # original, level
     form: str
     angle: float                                   # the original's largest combined angle, rad
+    turn: float = math.nan                         # the original's largest axis turn, rad
     figures: dict[str, float] = field(default_factory=dict)
     error: str = ""
 
@@ -119,12 +125,14 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     original = build(system).tree
     stalk = is_stalk(original)
     winds = [WindCase(s, d) for s in SPEEDS for d in DIRECTIONS]
+    turns = largest_turns(original, winds)
     cases = []
     chain = LevelChain()          # the levels share the original's runs and level 1's fit
     for level in levels:
         def case(wind, **kw):
             """A Case of this tree and level in ``wind``."""
-            return Case(name, kind, seed, level, wind.speed, wind.direction, stalk, **kw)
+            return Case(name, kind, seed, level, wind.speed, wind.direction, stalk,
+                        turn=turns[winds.index(wind)], **kw)
         try:
             tree = simplify(system, Options(level=level, form=FORM), chain=chain).tree
             runs = Runs(original, group_map(original, tree), winds, DT, int(round(DURATION / DT)), EVERY)
@@ -143,6 +151,26 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
             cases.append(case(wind, branches=(original.n_branches, tree.n_branches), form=form,
                               angle=angle, figures={f: float(getattr(report, f)) for f in FIGURES}))
     return cases
+
+
+def largest_turns(original, winds: list, chunk: int = 64) -> list[float]:
+    """Per wind, the largest angle (rad) between any branch's axis R_i e_z and its rest
+    direction over the original's run from rest (DT, DURATION, sampled every EVERY steps):
+    atan2(|a x a0|, a . a0), which keeps small angles exact. Poses ``chunk`` samples at once."""
+    import numpy as np
+    from plantlod.sim.kinematics import pose, rest_pose
+    from plantlod.simplify.evaluate import simulate_runs
+
+    rest = rest_pose(original).frame[:, :, 2]                                   # (B, 3)
+    out = []
+    for _wind, times, bend, rot in simulate_runs(original, winds, DT, int(round(DURATION / DT)), EVERY):
+        largest = 0.0
+        for lo in range(0, len(times), chunk):
+            axis = pose(original, bend[lo:lo + chunk], rot[lo:lo + chunk]).frame[..., 2]  # (k, B, 3)
+            angle = np.arctan2(np.linalg.norm(np.cross(axis, rest), axis=-1), (axis * rest).sum(-1))
+            largest = max(largest, float(angle.max(initial=0.0)))
+        out.append(largest)
+    return out
 
 
 def _init_worker() -> None:
@@ -284,6 +312,25 @@ def tables(cases: list[Case], kinds: tuple[str, ...], levels: tuple[int, ...]) -
                       ("motion_error", "period_error_major", "tip_error", "amplitude_error", "period_error")]
             cells.append(w.error.replace("|", "/")[:120])
             lines.append("| " + " | ".join(cells) + " |")
+    lines += turn_split(cases, present, targeted)
+    return lines
+
+
+def turn_split(cases: list[Case], kinds: list[str], levels: list[int]) -> list[str]:
+    """Markdown lines: each level's counted cases split by the original's largest axis turn
+    (`Case.turn`) at SMALL_ANGLE_LIMIT, passed/counted on each side, per kind."""
+    lines = ["", f"### Where the misses are: counted cases by the original's largest axis turn "
+             f"(at most / more than {SMALL_ANGLE_LIMIT:g} rad)", "",
+             "| kind | " + " | ".join(f"level {lv} turn ≤ {SMALL_ANGLE_LIMIT:g} | level {lv} turn > "
+                                      f"{SMALL_ANGLE_LIMIT:g}" for lv in levels) + " |",
+             "|---|" + "--:|--:|" * len(levels)]
+    for k in kinds + ["all"]:
+        row = [k]
+        for lv in levels:
+            sel = [c for c in cases if c.level == lv and (k == "all" or c.kind == k)]
+            low = [c for c in sel if not c.turn > SMALL_ANGLE_LIMIT]
+            row += [_fraction(low), _fraction([c for c in sel if c.turn > SMALL_ANGLE_LIMIT])]
+        lines.append("| " + " | ".join(row) + " |")
     return lines
 
 

@@ -15,6 +15,9 @@ DEFAULT_MOVE_LENGTH = 1.0           # f without a parameter
 # 750 MB) to 1.1 kB (F -> FF at n = 21, every module a branch: 2.1 M modules, 2.3 GB) per
 # module, so 5 M modules stay within about 3.5 to 5.5 GB.
 DEFAULT_MAX_MODULES = 5_000_000
+# how the module limit is named in its errors, which every command that derives can raise
+# (only derive has the option; the API's build functions take max_modules)
+MODULE_LIMIT_SAID = "more than the {:,} modules allowed (derive --max-modules, the API's max_modules)"
 
 
 # --- tolerances ------------------------------------------------------------------

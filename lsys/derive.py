@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import steps_past_limit
-from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR
+from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR, MODULE_LIMIT_SAID
 from .cut import CUT_SYMBOL, cut_keep_mask, keep_modules
 from .derived import DerivedString
 from .errors import InputError
@@ -133,7 +133,8 @@ def derive(system: LSystem, steps: int | None = None,
     alphabet = system_alphabet(system)
     ds = axiom_string(system, alphabet)
     if len(ds) > max_modules:
-        raise InputError(f"the axiom has {len(ds):,} modules, more than --max-modules {max_modules:,}")
+        raise InputError(f"the axiom has {len(ds):,} modules, {MODULE_LIMIT_SAID.format(max_modules)}",
+                         system.source or None)
     rewriter = _rewriter(system, system.productions, alphabet, ds.params.size > 0, fast)
     # A step that gives the string back unchanged is a fixed point when no choice
     # depends on the address (no stochastic productions): every later step is the
@@ -143,7 +144,7 @@ def derive(system: LSystem, steps: int | None = None,
     held = 0
     for j in range(1, k + 1):
         codes, starts, params, parent, local = _apply_cut(
-            alphabet, *rewriter.apply(ds, j, max_modules))
+            alphabet, *_located(system, rewriter.apply, ds, j, max_modules))
         settled = can_settle and _unchanged(ds, codes, starts, params, parent)
         held += len(codes) * (k - j + 1 if settled else 1)
         if held > history_budget:
@@ -157,6 +158,18 @@ def derive(system: LSystem, steps: int | None = None,
             return DerivedString(ds.alphabet, ds.codes, ds.param_start, ds.params, history)
         ds = DerivedString(ds.alphabet, codes, starts, params, ds.history + [(parent, local)])
     return ds
+
+
+def _located(system: LSystem, apply, *args):
+    """apply(*args), its InputError (the module limit, an expression's value) given the
+    system's file where it names none: a scene of several trees said which limit, not which
+    tree (a helper's fuzzing, session 38)."""
+    try:
+        return apply(*args)
+    except InputError as exc:
+        if exc.file is None and system.source:
+            exc.file = system.source
+        raise
 
 
 def interpret(system: LSystem, derived: DerivedString, *, fast: bool = True,
@@ -182,5 +195,5 @@ def interpret(system: LSystem, derived: DerivedString, *, fast: bool = True,
         alphabet, derived.codes, derived.param_start, derived.params, derived.history, derived.origin)
     rewriter = _rewriter(system, system.interpretation, alphabet, ds.params.size > 0, fast)
     codes, starts, params, parent, _local = _apply_cut(
-        alphabet, *rewriter.apply(ds, None, max_modules))
+        alphabet, *_located(system, rewriter.apply, ds, None, max_modules))
     return DerivedString(alphabet, codes, starts, params, derived.history, prior[parent])

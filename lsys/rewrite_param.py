@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .constants import MODULE_LIMIT_SAID
 from .context import neighbours
 from .errors import InputError
 from .derived import DerivedString, ragged_arange
@@ -272,6 +273,6 @@ class GeneralRewriter:
 
 
 def too_many_modules(step_label: int | None, total: int, max_modules: int) -> InputError:
-    """The `max_modules` guard's error."""
+    """The `max_modules` guard's error (`derive` and `interpret` add the file)."""
     what = "interpretation" if step_label is None else f"step {step_label}"
-    return InputError(f"{what} would produce {total:,} modules, more than --max-modules {max_modules:,}")
+    return InputError(f"{what} would produce {total:,} modules, {MODULE_LIMIT_SAID.format(max_modules)}")

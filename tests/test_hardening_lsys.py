@@ -99,10 +99,23 @@ def test_history_cap_bounds_slow_growth():
         derive(s, 100, max_modules=(held - 1) // DERIVATION_HISTORY_FACTOR)
 
 
+def test_the_module_limit_names_the_file(tmp_path):
+    """A scene of several trees said `step 23 would produce 8,388,609 modules, more than
+    --max-modules 5,000,000`: neither which tree nor an option scene has (a helper's fuzzing,
+    session 38). The step's, the interpretation's and the axiom's limits name the file."""
+    for body, n, limit, said in (("axiom: F\nproductions:\n  F -> FF\n", 5, 20, "step 5 would produce 32"),
+                                 ("axiom: F\ninterpretation:\n  F -> FFF\n", 0, 2, "interpretation"),
+                                 ("axiom: F F F\n", 0, 2, "the axiom has 3 modules")):
+        with pytest.raises(InputError) as info:
+            build(parse_lsys(HEAD.format(n=n) + body, "deep.lsys"), max_modules=limit)
+        assert info.value.file == "deep.lsys" and info.value.message.startswith(said)
+        assert str(info.value).startswith("deep.lsys: ")
+
+
 def test_max_modules_applies_to_interpretation():
     s = system("axiom: F\nproductions:\n  F -> FF\ninterpretation:\n  F -> FFFFFFFFFF\n")
-    with pytest.raises(InputError, match="^interpretation would produce 80 modules, more than "
-                                         "--max-modules 50$"):
+    with pytest.raises(InputError, match="^t.lsys: interpretation would produce 80 modules, more than "
+                                         "the 50 modules allowed"):
         build(s, 3, max_modules=50)
     assert len(interpret(s, derive(s, 3), max_modules=80)) == 80
 

@@ -201,6 +201,11 @@ def test_lod_family_quick_end_to_end(tmp_path, capsys):
     within = sum(1 for r in counted                # an undefined figure (NaN) does not count
                  if not any(r["figures"][k] > b for k, b in bounds.items()))
     assert f"| {within}/{len(counted)} (" in text
+    # the split by the original's axis turn: the same counted cases, in two parts
+    low = [r for r in counted if r["turn"] <= 0.1]
+    low_within = sum(1 for r in low if not any(r["figures"][k] > b for k, b in bounds.items()))
+    split = text.split("### Where the misses are")[1]
+    assert f"| stalk | {low_within}/{len(low)} (" in split or (not low and "| stalk | – |" in split)
 
 
 def test_a_generated_tree_whose_grammar_refinement_overflows_is_simplified(tmp_path):
@@ -213,3 +218,28 @@ def test_a_generated_tree_whose_grammar_refinement_overflows_is_simplified(tmp_p
     system = parse_lsys(tree_family.generate("stochastic", 1067), "stochastic-1067.lsys")
     result = simplify(system, Options(level=1, duration=4.0))
     assert result.tree.n_branches < build(system).tree.n_branches
+
+
+def test_largest_turn_is_the_angle_of_the_axis_from_rest():
+    """lod_family.largest_turns against closed forms of the posed axis: a lone straight branch
+    turns by hypot(θb, θr) (model.md 3: Rot(u, θ), θ = hypot); a straight two-branch stalk
+    in wind toward x (no sideways force) turns its top by θb_1 + θb_2."""
+    import lod_family
+    from plantlod.simplify.evaluate import WindCase, simulate_runs
+
+    text = ("name: t\nderivation_length: 0\nbranching_angle: 30\nrotation_angle: 90\nseed: 0\n"
+            "drag_coefficient: 0.0015\nforce_absorbed: 0.005\nforce_propagated: 0.7\n"
+            "branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=23\nleaf L: area=0.01\n"
+            "axiom: {axiom}\n")
+    winds = [WindCase(8.0, 0.0), WindCase(12.0, 37.0)]
+    steps = int(round(lod_family.DURATION / lod_family.DT))
+    one = build(parse_lsys(text.format(axiom="F L"), "one.lsys")).tree
+    got = lod_family.largest_turns(one, winds)
+    for k, (_w, _t, bend, rot) in enumerate(simulate_runs(one, winds, lod_family.DT, steps,
+                                                          lod_family.EVERY)):
+        assert got[k] == pytest.approx(float(np.hypot(bend, rot).max()), rel=1e-9, abs=1e-12)
+    two = build(parse_lsys(text.format(axiom="F F L"), "two.lsys")).tree
+    (_w, _t, bend, rot), = simulate_runs(two, winds[:1], lod_family.DT, steps, lod_family.EVERY)
+    assert np.abs(rot).max() < 1e-12 * np.abs(bend).max()
+    assert lod_family.largest_turns(two, winds[:1])[0] == pytest.approx(
+        float(np.abs(bend.sum(axis=1)).max()), rel=1e-9)
