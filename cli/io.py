@@ -12,9 +12,7 @@ import contextlib
 import errno
 import io
 import os
-import signal
 import sys
-import tempfile
 import threading
 from typing import IO, Callable, Iterator
 
@@ -23,7 +21,7 @@ import click
 # Re-exported: every command reads its inputs through formats.text_input.
 from plantlod.formats.text_input import read_text  # noqa: F401
 from plantlod.formats.text_input import source_name as display_name  # noqa: F401
-from plantlod.formats.atomic import (atomic_path, hold, landing, lands_on, release,
+from plantlod.formats.atomic import (atomic_path, landing, lands_on, new_temporary, release,
                                      remove_folder, remove_pending, special_target,
                                      usual_file_mode, write_all)
 from plantlod.lsys.errors import InputError, RunFailure
@@ -376,9 +374,8 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
         base = os.path.dirname(base)
     if not os.path.isdir(base):
         raise InputError(f"{base} is not a folder", path)
-    with write_errors(path), _signals_held():
-        tmp = tempfile.mkdtemp(prefix=".plantlod-", suffix=suffix, dir=base)
-        hold(tmp)
+    with write_errors(path):
+        tmp = new_temporary(base, suffix, is_folder=True)   # (registered for remove_pending)
     try:
         try:
             yield tmp
@@ -410,22 +407,6 @@ def check_merge_targets(path: str, names: list[str]) -> None:
         if os.path.isdir(target) and not os.path.islink(target):
             raise InputError(f"{name} in it is a folder; expected a file of that name or none",
                              path)
-
-
-@contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold SIGINT, SIGTERM and SIGHUP for the block (a temporary made and registered at once)."""
-    from .discipline import CAUGHT_SIGNALS
-
-    block = getattr(signal, "pthread_sigmask", None)
-    if block is None or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = block(signal.SIG_BLOCK, CAUGHT_SIGNALS)
-    try:
-        yield
-    finally:
-        block(signal.SIG_SETMASK, old)
 
 
 @contextlib.contextmanager

@@ -115,11 +115,11 @@ def test_dev_full_as_output(tmp_path):
 @pytest.mark.parametrize("code, reason", [(errno.EROFS, "Read-only file system"),
                                           (errno.EACCES, "Permission denied")])
 def test_unwritable_directory(tmp_path, monkeypatch, code, reason):
-    import tempfile
+    from plantlod.formats import atomic
 
     def refuse(*args, **kwargs):
         raise OSError(code, os.strerror(code))
-    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    monkeypatch.setattr(atomic, "new_temporary", refuse)
     one_line(run_cli("derive", STALK8, "-o", str(tmp_path / "t.jsonl"), exit_code=None), 1,
              f"t.jsonl: {reason}")
     assert os.listdir(tmp_path) == []
@@ -622,8 +622,7 @@ def test_a_failed_atomic_write_names_the_target_not_its_temporary(tmp_path, monk
     """export into a folder that cannot take a file said '…/.plantlod-o7jsvca7.glb: Operation
     not permitted', the temporary's name (session 23, found by fuzzing): a failure to make or
     write the temporary is reported against the file asked for."""
-    import tempfile
-
+    from plantlod.formats import atomic
     from plantlod.formats.atomic import atomic_path, write_whole
 
     target = str(tmp_path / "x.glb")
@@ -633,7 +632,7 @@ def test_a_failed_atomic_write_names_the_target_not_its_temporary(tmp_path, monk
                               str(tmp_path / ".plantlod-abc.glb"))
 
     with monkeypatch.context() as m:
-        m.setattr(tempfile, "mkstemp", refused)
+        m.setattr(atomic, "new_temporary", refused)
         with pytest.raises(OSError) as info:
             with atomic_path(target, ".glb"):
                 pass
@@ -643,6 +642,38 @@ def test_a_failed_atomic_write_names_the_target_not_its_temporary(tmp_path, monk
             write_whole(tmp, b"x")
             raise OSError(errno.ENOSPC, "No space left on device", tmp)
     assert info.value.filename == target and os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("is_folder", [False, True])
+def test_a_temporary_is_registered_before_it_exists(tmp_path, monkeypatch, is_folder):
+    """A signal between making a temporary and registering it left it behind (3 of 100
+    interrupted `simulate -o` runs on a loaded machine, session 38): the name is now held
+    for `remove_pending` before the file or folder is made, and released where the name was
+    taken (a second try) or the making failed."""
+    from plantlod.formats import atomic
+
+    made, real = {}, {"open": os.open, "mkdir": os.mkdir}
+    taken = []
+
+    def spy(kind):
+        def call(path, *args, **kwargs):
+            made[path] = path in atomic._pending           # registered at the moment it is made
+            if not taken:                                  # the first name: taken already
+                taken.append(path)
+                raise FileExistsError(errno.EEXIST, "File exists", path)
+            return real[kind](path, *args, **kwargs)
+        return call
+
+    monkeypatch.setattr(atomic.os, "mkdir" if is_folder else "open",
+                        spy("mkdir" if is_folder else "open"))
+    path = atomic.new_temporary(str(tmp_path), ".x", is_folder=is_folder)
+    monkeypatch.undo()
+    assert list(made.values()) == [True, True] and taken[0] not in atomic._pending
+    assert path in atomic._pending and os.path.basename(path).startswith(".plantlod-")
+    assert os.path.isdir(path) if is_folder else os.path.isfile(path)
+    atomic.remove_pending()
+    assert os.listdir(tmp_path) == []
+    atomic.release(path)
 
 
 def test_a_levels_folder_name_too_long_is_refused_before_the_fit(tmp_path):
