@@ -383,6 +383,7 @@ class _Reader:
         # the section being read: the keys before the first header, until `table` says
         self.span: tuple[int, int] | None = (0, self.tables[0][1] if self.tables else len(text))
         self.name = ""
+        self.index = 0
 
     @contextlib.contextmanager
     def table(self, name: str, index: int = 0):
@@ -390,12 +391,31 @@ class _Reader:
         (a key several tables set, each its own; a missing key at the header's line); where
         the file has no such header (an inline table), the first line that sets the key."""
         sections = [(start, end) for n, start, end in self.tables if n == name]
-        outer = self.span, self.name
+        outer = self.span, self.name, self.index
         self.span, self.name = sections[index] if index < len(sections) else None, name
+        self.index = index
         try:
             yield
         finally:
-            self.span, self.name = outer
+            self.span, self.name, self.index = outer
+
+    def _inline_place(self) -> tuple[int, int] | None:
+        """(line, column) of the table being read where the file writes it inline, as
+        element ``index`` of an array (`tree = [{…}, {}]`) or as a key's value
+        (`scatter = {…}`): the table ``a.b`` is the key ``b`` in ``[a]``, or ``a.b`` at the top."""
+        if self.span is not None or not self.name:
+            return None
+        *outer, key = self.name.split(".")
+        spans = [(start, end) for n, start, end in self.tables if n == ".".join(outer)] \
+            if outer else [(0, self.tables[0][1] if self.tables else len(self.text))]
+        found = next((m for m in (_key_match(self.text, key, _ANY, span) for span in spans)
+                      if m is not None), None)
+        if found is None and outer:                  # a dotted key at the top: camera.key = […]
+            found = _key_match(self.text, self.name, _ANY, spans[0] if spans else None)
+        if found is None:
+            return None
+        offset = _element_offset(self.text, found.start(1), self.index)
+        return _line_col(self.text, found.start() if offset is None else offset)
 
     def error(self, message: str, key: str | None = None, value=_ANY) -> InputError:
         """InputError at the line of ``key`` (the one holding ``value`` where given) in the
@@ -413,6 +433,10 @@ class _Reader:
             line = _loose_line(self.text, key, self.span if header else None, value)  # `"scale"`
         if line is None and header:
             line = self.text.count("\n", 0, self.span[0]) + 1
+        if line is None:                         # a missing key of a table written inline
+            place = self._inline_place()
+            if place is not None:
+                return InputError(message, self.source, *place)
         return InputError(message, self.source, line, 1 if line else None)
 
     def element_error(self, message: str, key: str, index: int) -> InputError:
@@ -556,6 +580,9 @@ def read_scene(path: str) -> Scene:
             raise other from None
         m = re.search(r"line (\d+), column (\d+)", str(exc))
         line, col = (int(m.group(1)), int(m.group(2))) if m else (None, None)
+        if m is None and "(at end of document)" in str(exc):
+            # an unclosed string, array or table runs to the end: say where the text ends
+            line, col = _line_col(text, len(text.rstrip("\r\n")) if text.strip() else 0)
         message = f"not valid TOML: {str(exc).split(' (at')[0]}"
         twice = re.match(r"Cannot declare \(([^)]*)\) twice", str(exc))
         if twice and line is not None:

@@ -857,3 +857,35 @@ def test_a_table_declared_twice_names_its_header_and_the_double_brackets(tmp_pat
     path = scene_file(tmp_path, body)
     line = one_line(run_cli("scene", path, "--no-cache", exit_code=None), 2, hint)
     assert line.startswith(f"{path}:{where[0]}:{where[1]}: error: "), line
+
+
+REST = "dt = 0.01\nduration = 1\n[wind]\nspeed = 5\n"
+CAMERA = "[camera]\nposition = [0, -20, 1.7]\ntarget = [0, 0, 1]\n"
+
+
+@pytest.mark.parametrize("text, where, said", [
+    # a missing key of a table written inline: at that table (session 38's fuzzing; the
+    # [[tree]] form always said its header's line)
+    ('tree = [{file="t.lsys"}, {}]\n' + REST + CAMERA, (1, 26), "missing 'file'"),
+    ("tree = [\n  {file='t.lsys'},\n  {seed = 3},\n]\n" + REST + CAMERA, (3, 3), "missing 'file'"),
+    ('scatter = {files=["t.lsys"], area=[0,0,1,1]}\n' + REST + CAMERA, (1, 1), "missing 'count'"),
+    ('tree = [{file="t.lsys"}]\n' + REST + "[camera]\nkey = [{t=0, position=[0,-20,1.7]}]\n",
+     (7, 8), "missing 'target'"),
+    ('tree = [{file="t.lsys"}]\ncamera.key = [{t=0, position=[0,-20,1.7]}]\n' + REST,
+     (2, 15), "missing 'target'"),
+    # TOML that ends inside a string, an array or a table: where the text ends
+    ('tree = [{file="t.lsys"}]\n' + REST + 'x = """abc\n', (6, 11), "Unterminated string"),
+    ("dt = ", (1, 6), "Invalid value"),
+    ("x = [1, 2\n\n", (1, 10), "Unclosed array"),
+])
+def test_scene_errors_name_the_place_of_inline_tables_and_of_the_end(tmp_path, text, where, said):
+    from plantlod.lsys.errors import InputError
+    from plantlod.scene.file import read_scene
+
+    (tmp_path / "t.lsys").write_text(open(STALK, encoding="utf-8").read())
+    path = tmp_path / "q.toml"
+    path.write_text(text)
+    with pytest.raises(InputError) as info:
+        read_scene(str(path))
+    assert (info.value.line, info.value.col) == where
+    assert said in info.value.message
