@@ -8,6 +8,7 @@
 #   make lod-family pass fractions of levels 1-3 on 200 generated trees (LOD_FAMILY_ARGS)
 #   make test-browser  install Debian's chromium if missing, run the page tests in it
 #   make view-picture  docs/view.png: a frame of `plantlod view` (original and levels)
+#   make help   this list (also what `make` alone prints)
 
 PYTHON ?= python3
 VENV   := .venv
@@ -15,7 +16,12 @@ PY     := $(VENV)/bin/python
 PLANTLOD := $(VENV)/bin/plantlod
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow test-browser bench golden lod-table lod-family view-picture clean
+.PHONY: help demo test test-slow test-browser bench golden lod-table lod-family view-picture clean
+
+# the first target, what `make` alone does: the list above (it printed only that the
+# virtual environment was up to date)
+help:
+	@sed -n 's/^#   make /make /p' $(firstword $(MAKEFILE_LIST))
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)

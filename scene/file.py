@@ -522,7 +522,8 @@ class _Reader:
                             "file")
             if path.exists():                    # /dev/null, a FIFO, a socket
                 raise error(f"tree file {name!r} is not a regular file; expected an .lsys file")
-            raise error(f"tree file {name!r} not found (looked in {folder})")
+            raise error(f"tree file {name!r} not found"
+                        + ("" if pathlib.Path(name).is_absolute() else f" (looked in {folder})"))
         other = _other_kind_of(path)
         if other is not None:
             raise error(f"tree file {name!r} is {other}; expected an .lsys file")

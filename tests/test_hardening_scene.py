@@ -889,3 +889,16 @@ def test_scene_errors_name_the_place_of_inline_tables_and_of_the_end(tmp_path, t
         read_scene(str(path))
     assert (info.value.line, info.value.col) == where
     assert said in info.value.message
+
+
+def test_a_missing_tree_file_says_where_it_was_looked_for_only_when_relative(tmp_path):
+    from plantlod.lsys.errors import InputError
+    from plantlod.scene.file import read_scene
+
+    for name, said in (("nope.lsys", f"not found (looked in {tmp_path})"),
+                       (str(tmp_path / "abs" / "nope.lsys"), "not found")):
+        path = tmp_path / "q.toml"
+        path.write_text(REST + f"[[tree]]\nfile = {name!r}\n" + CAMERA)
+        with pytest.raises(InputError) as info:
+            read_scene(str(path))
+        assert info.value.message.endswith(said) and (info.value.line, info.value.col) == (6, 1)
