@@ -1,6 +1,11 @@
 """Constants of scenes (docs/scene.md)."""
 
 MAX_TREES = 100_000            # trees one scene may place (a [scatter] count is checked before drawing)
+# m: every coordinate a scene gives (positions, camera targets, a scatter's area) lies within
+# this of the origin, as every tree's own rest extent does (compare's MAX_EXTENT_M); a tree at
+# 1e308 m made distances overflow, the run went on with numpy's warning (session 38's fuzzing)
+MAX_SCENE_COORDINATE_M = 1e9
+MAX_TREE_SCALE = 1e6           # a tree's scale: 1e308 made its extent overflow the same way
 # distinct (file, seed) pairs of one scene: a level chain each, fitted in 10-20 s for the
 # bundled trees (a few hours at the limit; one seed per tree of a 100,000-tree forest was weeks)
 MAX_SCENE_CHAINS = 1_000

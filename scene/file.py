@@ -40,8 +40,9 @@ from plantlod.sim.constants import MAX_DAMPING_RATIO, MAX_WIND_SPEED
 from plantlod.sim.wind import gust_peak_factor
 from plantlod.simplify.constants import SIMPLIFY_EVERY
 
-from .constants import (MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_CHAINS, MAX_SCENE_NESTING,
-                        MAX_SCENE_STEPS, MAX_TREES)
+from .constants import (MAX_SCATTER_CELLS, MAX_SCATTER_TRIES, MAX_SCENE_CHAINS,
+                        MAX_SCENE_COORDINATE_M, MAX_SCENE_NESTING, MAX_SCENE_STEPS, MAX_TREE_SCALE,
+                        MAX_TREES)
 
 TOP_KEYS = {"dt", "duration", "budget_px", "damping_ratio", "wind", "camera", "tree", "scatter"}
 WIND_KEYS = {"speed", "direction", "gust_strength", "gust_seed", "front_speed"}
@@ -485,6 +486,9 @@ class _Reader:
                            and finite(v) for v in value)):
             raise self.error(f"'{key}' must be a list of {size} finite numbers, got {_shown(value)}",
                              key, value)
+        if any(abs(v) > MAX_SCENE_COORDINATE_M for v in value):     # (every vector is metres)
+            raise self.error(f"'{key}' must lie within {MAX_SCENE_COORDINATE_M:.0e} m of the "
+                             f"origin in each coordinate, got {_shown(value)}", key, value)
         return tuple(float(v) for v in value)
 
     def seed(self, table: dict, key: str, element: int | None = None) -> int:
@@ -667,7 +671,8 @@ def read_scene(path: str) -> Scene:
             trees.append(Placed(r.file(entry.get("file"), "file", folder),
                                 r.vector(entry, "position", 3, (0.0, 0.0, 0.0)),
                                 r.number(entry, "heading", 0.0),
-                                r.number(entry, "scale", 1.0, low=0, low_open=True),
+                                r.number(entry, "scale", 1.0, low=0, low_open=True,
+                                         high=MAX_TREE_SCALE),
                                 r.seed(entry, "seed") if "seed" in entry else None))
     if "scatter" in data:
         with r.table("scatter"):
@@ -760,7 +765,7 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
         raise r.error("'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0 (and sides that are "
                       "finite numbers)", "area")
     spacing = r.number(table, "min_spacing", 0.0, low=0)
-    scale = r.number(table, "scale", 1.0, low=0, low_open=True)
+    scale = r.number(table, "scale", 1.0, low=0, low_open=True, high=MAX_TREE_SCALE)
     if spacing > 0:
         # points at least s apart in a w x h rectangle: disks of radius s/2 in the rectangle
         # grown by s/2 a side, packed at most hexagonally (density pi / (2 sqrt 3))

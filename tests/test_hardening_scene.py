@@ -391,7 +391,11 @@ def test_a_scene_of_trees_without_branches_warns_and_writes_valid_json(tmp_path)
 @pytest.mark.parametrize("body, message", [
     (f'[[tree]]\nfile = "{STALK}"\n', "'damping_ratio' must be <= 100, got 1e+300"),
     (f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [-1e308, -1e308, 1e308, 1e308]\n',
-     "'area' is [x0, y0, x1, y1] with x1 > x0 and y1 > y0 (and sides that are finite numbers)"),
+     "'area' must lie within 1e+09 m of the origin in each coordinate"),   # (since session 38)
+    (f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [-1e9, -1e9, 1e9, 1e9]\nscale = 1e7\n',
+     "'scale' must be <= 1e+06, got 10000000.0"),
+    (f'[[tree]]\nfile = "{STALK}"\nposition = [1e308, 0, 0]\n',
+     "'position' must lie within 1e+09 m of the origin in each coordinate, got [1e+308, 0, 0]"),
     (f'[scatter]\nfiles = ["{STALK}"]\ncount = 3\narea = [0, 0, 10, 10]\nmin_spacing = 1e300\n',
      "cannot place 3 trees 1e+300 m apart in the area: at most 1 fit"),
     ('[[tree]]\nfile = "a\\u0000b"\n', "'file' must name an .lsys file"),
@@ -481,12 +485,13 @@ def test_toml_nested_thousands_deep_names_the_file_and_the_place(tmp_path, head,
 
 
 @pytest.mark.parametrize("spacing", ["0", "1e-300"])
-def test_a_scatter_over_an_area_of_1e300_m_places_its_trees(tmp_path, spacing):
+def test_a_scatter_over_the_largest_area_places_its_trees(tmp_path, spacing):
     """Grid cells of 1e-9 m (or the spacing) across 1e300 m overflowed int(): an internal
     error (session 22, found by fuzzing). The spacing grid now has at most MAX_SCATTER_CELLS
-    cells a side, and no grid without a spacing."""
+    cells a side, and no grid without a spacing. (Since session 38 an area lies within
+    MAX_SCENE_COORDINATE_M, 1e9 m, of the origin: 1e9 / 1e-300 cells a side is as many.)"""
     path = scene_file(tmp_path, f'[scatter]\nfiles = ["{STALK}"]\ncount = 2\nseed = 1\n'
-                                f'area = [0, 0, 1e300, 1e300]\nmin_spacing = {spacing}\n')
+                                f'area = [0, 0, 1e9, 1e9]\nmin_spacing = {spacing}\n')
     result = run_cli("scene", path, "--no-cache", "--report", "-", exit_code=None)
     assert result.exit_code == 0 and "internal error" not in result.stderr
     assert json.loads(result.stdout)["trees"] == 2
@@ -501,16 +506,20 @@ def test_a_scene_too_short_to_fit_levels_in_is_located_bad_input(tmp_path):
     assert line.startswith(f"{path}:2:")
 
 
-def test_a_plot_of_a_camera_near_1e308_m_is_one_line_and_leaves_nothing(tmp_path):
-    """matplotlib's 'Axis limits cannot be NaN or Inf' was an internal error (session 22)."""
+def test_a_camera_near_1e308_m_is_one_line_and_leaves_nothing(tmp_path):
+    """matplotlib's 'Axis limits cannot be NaN or Inf' was an internal error (session 22),
+    then a runtime failure; since session 38 such a camera is bad input, at its key's line
+    (every scene coordinate lies within 1e9 m of the origin)."""
     path = tmp_path / "s.toml"
     path.write_text("dt = 0.01\nduration = 1\n[wind]\nspeed = 5\n[camera]\n"
                     "[[camera.key]]\nt = 0\nposition = [0, -1e308, 1]\ntarget = [0, 0, 1]\n"
                     "[[camera.key]]\nt = 1\nposition = [0, 1e308, 1]\ntarget = [0, 1e308, 2]\n"
                     f'[[tree]]\nfile = "{STALK}"\n')
     report, plot = tmp_path / "r.json", tmp_path / "p.png"
-    one_line(run_cli("scene", str(path), "--no-cache", "--report", str(report), "--plot",
-                     str(plot), exit_code=None), 1, "cannot draw the plot")
+    line = one_line(run_cli("scene", str(path), "--no-cache", "--report", str(report),
+                            "--plot", str(plot), exit_code=None), 2,
+                    "'position' must lie within 1e+09 m of the origin")
+    assert line.startswith(f"{path}:8:")
     assert not report.exists() and not plot.exists()
 
 
