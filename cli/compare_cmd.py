@@ -50,7 +50,7 @@ def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[f
 
 @click.command()
 @click.argument("original", metavar="ORIGINAL")
-@click.argument("simplified", metavar="SIMPLIFIED...", nargs=-1, required=True)
+@click.argument("simplified", metavar="SIMPLIFIED...", nargs=-1)   # (required: checked below)
 @click.option("--original-angles", metavar="A.csv", default=None,
               help="Angle CSV of ORIGINAL from `plantlod simulate` (else ORIGINAL is simulated here).")
 @click.option("--simplified-angles", metavar="B.csv", multiple=True,
@@ -123,6 +123,10 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
       plantlod compare tree.jsonl l1.tree.jsonl --original-angles a.csv --simplified-angles b.csv --json
       plantlod compare --angles golden.csv new.csv --atol 1e-9
     """
+    if not simplified:                      # (click's own message named no --angles form)
+        raise click.UsageError("--angles compares two angle CSVs of one tree: give both, as in "
+                               "'plantlod compare --angles golden.csv new.csv'" if angles_mode
+                               else "Missing argument 'SIMPLIFIED...'.")
     require_together(ctx, {"degrees": ("original_angles", "simplified_angles", "angles_mode")})
     inputs = {"ORIGINAL": original, "--original-angles": original_angles}
     for k, path in enumerate(simplified):

@@ -99,7 +99,10 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     require_together(click.get_current_context(), {"evaluations": ("calibrate",)})
     if level_n is not None:
         if level is not None:
-            raise click.UsageError("give the level once: --level N (-n is its old spelling)")
+            raise click.UsageError("give the level once: --level N; simplify's -n is an old "
+                                   "spelling of --level, not the derivation length it is in "
+                                   "derive, simulate and compare (simplify derives the file's "
+                                   "derivation_length)")
         from .io import warn
 
         warn("simplify -n N is now --level N (or -l N): -n means the derivation length in "

@@ -771,3 +771,19 @@ def test_a_signal_after_the_work_is_done_is_too_late_to_stop_it(tmp_path):
         assert done.wait(timeout=60) == 0 and rest == "", (done.returncode, rest)
         assert summary.startswith("simulate: ") and out.stat().st_size > 0
         out.unlink()
+
+
+def test_compare_with_one_file_says_what_its_form_needs():
+    """`compare --angles golden.csv` said "Missing argument 'SIMPLIFIED...'", a name its
+    --angles form does not use (a new user's first hour, session 38)."""
+    line = one_line(run_cli("compare", "--angles", "golden.csv", exit_code=None), 2,
+                    "--angles compares two angle CSVs of one tree: give both")
+    assert "SIMPLIFIED" not in line
+    one_line(run_cli("compare", STALK8, exit_code=None), 2, "Missing argument 'SIMPLIFIED...'.")
+
+
+def test_simplify_level_and_n_say_what_n_is_here():
+    """`simplify --level 1 -n 30` (-n the derivation length, as in simulate) said only "-n is
+    its old spelling" (a new user's first hour, session 38)."""
+    one_line(run_cli("simplify", STALK8, "--level", "1", "-n", "30", exit_code=None), 2,
+             "simplify's -n is an old spelling of --level, not the derivation length")
