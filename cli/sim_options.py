@@ -127,7 +127,7 @@ class SimulationSettings:
         if wind_file is not None:
             import io
 
-            text = read_text(wind_file)
+            text = read_text(wind_file, expected="a wind CSV (rows t,vx,vy,vz)")
             wind = KeyframeWind.from_csv(io.StringIO(text), "<stdin>" if wind_file == "-" else wind_file)
             description = f"wind file {wind_file}"
         elif wind_speed is not None:

@@ -179,7 +179,7 @@ def read_angles_file(path: str, degrees: bool = False
     `read_angles_csv` returns them; ``degrees`` applies to a CSV only (InputError for an .npz)."""
     from .npz import is_npz, read_angles_bytes, read_npz_file
     from .constants import MAX_CSV_LINE_BYTES
-    from .text_input import read_text, source_name
+    from .text_input import ANGLES_TEXT, read_text, source_name
 
     name = source_name(path)
     if is_npz(path):
@@ -187,7 +187,7 @@ def read_angles_file(path: str, degrees: bool = False
             raise InputError("--degrees applies to an angle CSV; an .npz archive holds radians",
                              name)
         return read_angles_bytes(read_npz_file(path), name)
-    return read_angles_text(read_text(path, MAX_CSV_LINE_BYTES, expected="an angle CSV"),
+    return read_angles_text(read_text(path, MAX_CSV_LINE_BYTES, expected=ANGLES_TEXT),
                             name, degrees)
 
 

@@ -24,8 +24,7 @@ _LINE_BREAK = re.compile(rb"\r\n?|\n")     # where a line ends (lsys.parse.LINE_
 BINARY_KINDS = (
     (b"PK\x03\x04", "a zip archive (an .npz?)", "archives are read by their .npz extension, so "
                                                "give the file a name ending in .npz"),
-    (b"glTF", "a binary glTF (.glb)", "`plantlod view` reads those; a tree comes from an .lsys "
-                                      "file, a tree file or a tree .npz"),
+    (b"glTF", "a binary glTF (.glb)", "`plantlod view` reads those"),
     (USDC_MAGIC, "a binary OpenUSD file (.usdc)", "`plantlod export` writes those for other "
                                                  "programs; plantlod reads none"),
 )
@@ -52,6 +51,8 @@ def refuse_empty(text: str, name: str, expected: str) -> None:
 
 
 LSYS_TEXT = "an .lsys file: simulate, compare and export also read tree archives"
+ANGLES_TEXT = "an angle CSV"
+ARCHIVE_READERS = (LSYS_TEXT, ANGLES_TEXT)   # the readers whose commands also take an .npz
 
 
 def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
@@ -79,8 +80,11 @@ def _not_utf8(data: bytes, offset: int, name: str, expected: str = LSYS_TEXT) ->
         return InputError("an .npz archive (a tree or angles), which is not read here; expected "
                           f"a text file ({expected})", name)
     binary = binary_kind(data)
-    if binary is not None:
-        return InputError(f"not text but {binary[0]}: {binary[1]}", name)
+    if binary is not None:          # (what it is, what reads it, and what this reader expected)
+        what, hint = binary
+        if data.startswith(b"PK\x03\x04") and expected not in ARCHIVE_READERS:
+            hint = "this reader takes no archive"       # (a scene, a wind file: text only)
+        return InputError(f"not text but {what}: {hint}; expected {expected}", name)
     bom = len(_BOM) if data.startswith(_BOM) else 0
     breaks = list(_LINE_BREAK.finditer(data, 0, offset))   # (\r\n, a lone \r or \n: as the
     line = len(breaks) + 1                                  # .lsys parser and text mode count)

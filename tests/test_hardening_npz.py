@@ -275,6 +275,16 @@ def test_binary_files_given_to_a_text_reader_are_named(tmp_path):
     (tmp_path / "x.glb").write_bytes(b"glTF\x02\x00\x00\x00\xff\xff")
     one_line(run_cli("derive", str(tmp_path / "x.glb"), exit_code=None), 2,
              "not text but a binary glTF (.glb)")
+    # each reader says what it expected (a scene, a wind file and an angle CSV given a .glb
+    # all said "a tree comes from an .lsys file, …"; a helper's fuzzing, session 38)
+    one_line(run_cli("scene", str(tmp_path / "x.glb"), exit_code=None), 2,
+             "`plantlod view` reads those; expected a scene file, TOML")
+    one_line(run_cli("simulate", STALK, *SIM[:4], "--wind-file", str(tmp_path / "x.glb"),
+                     exit_code=None), 2, "expected a wind CSV (rows t,vx,vy,vz)")
+    one_line(run_cli("export", STALK, str(tmp_path / "x.glb"), "-o", str(tmp_path / "o.glb"),
+                     exit_code=None), 2, "expected an angle CSV")
+    one_line(run_cli("scene", str(tmp_path / "t.bin"), exit_code=None), 2,
+             "a zip archive (an .npz?): this reader takes no archive; expected a scene file")
     # a tree archive named .npz where an L-system is read was told to be named .npz, and a
     # tree file was refused at its first '{' (session 23, found by fuzzing)
     one_line(run_cli("simplify", str(tmp_path / "t.npz"), "--level", "1", exit_code=None), 2,
