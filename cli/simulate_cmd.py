@@ -68,7 +68,8 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
 
     watch = LargeAngleWatch(tree.address)
     chunks = _watched(run_simulation(tree, settings.dt, settings.steps, settings.wind,
-                                     every=every, damping=settings.damping), watch)
+                                     every=every, damping=settings.damping), watch,
+                      tree, display_name(input_path))
     from plantlod.formats.npz import angles_bytes, is_npz
 
     if is_npz(output):
@@ -101,11 +102,22 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
            else "(interpreted kernel: a short run)"))
 
 
-def _watched(chunks, watch):
-    """The chunks of a run, each shown to ``watch`` (the model's range) on its way out."""
-    for chunk in chunks:
-        watch.see(chunk.times, chunk.bend, chunk.rot)
-        yield chunk
+def _watched(chunks, watch, tree, name: str):
+    """The chunks of a run, each shown to ``watch`` (the model's range) on its way out. A run
+    that diverges on a tree of absurd size (a branch `F(1e200)`: its drag is 1e200 N) is bad
+    input, said as compare and export say it (`compare.runs.check_extent`, exit 2), not a
+    divergence whose advice, lower k_FA, the wind or dt, cannot help (session 37's fuzzing)."""
+    from plantlod.lsys.errors import RunFailure
+
+    try:
+        for chunk in chunks:
+            watch.see(chunk.times, chunk.bend, chunk.rot)
+            yield chunk
+    except RunFailure:
+        from plantlod.compare.runs import check_extent
+
+        check_extent(tree, name)
+        raise
 
 
 def _write_with_progress(writer, chunks, steps: int, dt: float) -> None:

@@ -230,7 +230,8 @@ def check_extent(tree: Tree, source: str | None) -> None:
     """InputError (naming ``source``) where the tree's rest bases or tips lie farther than
     MAX_EXTENT_M from the origin, or are not finite: tip errors square position differences,
     and a tree of 1e300 m offsets (`f(1e300)`) posed tips that overflowed, reported as a run
-    that diverged and under no file. Angles alone (simulate) never need positions."""
+    that diverged and under no file. Angles alone (simulate) never need positions: simulate
+    asks only when its run diverged, to tell a tree of absurd size from a run too strong."""
     if tree.n_branches == 0:
         return
     rest = rest_pose(tree)

@@ -787,3 +787,24 @@ def test_simplify_level_and_n_say_what_n_is_here():
     its old spelling" (a new user's first hour, session 38)."""
     one_line(run_cli("simplify", STALK8, "--level", "1", "-n", "30", exit_code=None), 2,
              "simplify's -n is an old spelling of --level, not the derivation length")
+
+
+def test_a_divergence_of_a_tree_of_absurd_size_is_bad_input(tmp_path):
+    """A branch F(1e200) diverged at step 2 and was told to lower force_absorbed, the wind or
+    dt (exit 1; session 37's fuzzing): where a run diverges, simulate now asks whether the tree
+    reaches past what compare and export measure (exit 2, naming the file, no output left).
+    A tree of ordinary size whose run diverges is still a runtime failure."""
+    text = (ROOT / "examples" / "stalk8.lsys").read_text()
+    huge = tmp_path / "huge.lsys"
+    huge.write_text(text.replace("axiom: F L", "axiom: F(1e200) L").replace(
+        "  F -> F F", "  F(x) -> F(x) F(x)"))
+    out = tmp_path / "a.csv"
+    line = one_line(run_cli("simulate", str(huge), "--dt", "0.01", "--steps", "50",
+                            "--wind-speed", "5", "-o", str(out), exit_code=None), 2,
+                    "the tree reaches 8e+200 m from the origin at rest")   # 2^3 branches of 1e200 m
+    assert line.startswith(f"{huge}: error:") and os.listdir(tmp_path) == ["huge.lsys"]
+    strong = tmp_path / "strong.lsys"
+    strong.write_text(text.replace("force_absorbed: 0.005", "force_absorbed: 1e300"))
+    one_line(run_cli("simulate", str(strong), "--dt", "0.01", "--steps", "50", "--wind-speed",
+                     "5", "-o", str(out), exit_code=None), 1, "simulation diverged")
+    assert not out.exists()
