@@ -82,7 +82,10 @@ def sequential_solution(skeleton: Tree, gains: np.ndarray, per_leaf: np.ndarray,
                 p_new = min(max(p_new, chain_kfp[g] / kappa_range), chain_kfp[g] * kappa_range)
             lam = kappa * p_new
             if own:
-                areas[own] = u / lam if lam > 0 else 0.0
+                # (lam can be subnormal: k_fp^2048 at the top of a 2,048-branch stalk; the
+                # quotient's overflow to inf is capped below, and its warning was noise)
+                with np.errstate(over="ignore"):
+                    areas[own] = u / lam if lam > 0 else 0.0
                 if kappa_range is not None:
                     areas[own] = np.minimum(areas[own], kappa_range * natural_area[own])
             mu = drag_gain(gain, drag_shape[:, g], targets.drag[:, g], lam, in_drag[:, g])

@@ -808,3 +808,16 @@ def test_a_divergence_of_a_tree_of_absurd_size_is_bad_input(tmp_path):
     one_line(run_cli("simulate", str(strong), "--dt", "0.01", "--steps", "50", "--wind-speed",
                      "5", "-o", str(out), exit_code=None), 1, "simulation diverged")
     assert not out.exists()
+
+
+def test_a_force_passed_on_to_a_subnormal_share_raises_no_warning(tmp_path):
+    """A 512-branch stalk with force_propagated 0.24 passes its top 0.24^511 ~ 1e-317 (a
+    subnormal) of the force: the sequential fit's leaf area u / lam overflowed to inf, capped
+    after, and numpy's 'overflow encountered in divide' reached stderr as a warning (a 2,048-
+    branch stalk at 0.7 in a helper's runs, session 38). The levels are the same bytes."""
+    text = (ROOT / "examples" / "stalk8.lsys").read_text()
+    tree = tmp_path / "s.lsys"
+    tree.write_text(text.replace("derivation_length: 3", "derivation_length: 9")
+                    .replace("force_propagated: 0.7", "force_propagated: 0.24"))
+    result = run_cli("simplify", str(tree), "--levels", str(tmp_path / "L"), exit_code=0)
+    assert "overflow" not in result.stderr and "warning: floating point" not in result.stderr
