@@ -59,3 +59,33 @@ def test_auto_chain_never_gains_branches():
         result = simplify(system, Options(level=level, duration=4.0))
         counts.append(result.tree.n_branches)
     assert all(b <= a for a, b in zip(counts, counts[1:])), counts
+
+
+# one branch whose steps grow only leaves: every grammar level has that one branch
+LEAVES_ONLY = """\
+name: lob
+derivation_length: 3
+branching_angle: 30
+force_absorbed: 0.005
+force_propagated: 0.7
+branch F: length=1 radius=0.02 bend_strength=20 rotation_strength=20
+leaf L: area=0.01
+axiom: F A
+productions:
+  A -> [+L][-L][&L][^L]A
+"""
+
+
+def test_a_grammar_level_no_coarser_than_the_tree_is_no_level():
+    """`--form auto` gave "level 1" of 1 -> 1 branch (the grammar form at N - 1 steps, every
+    leaf kept as an equivalent one) while --levels said the tree has no levels (a helper's
+    runs of odd trees, session 38): a grammar level must have fewer branches than the finer
+    level too, so auto takes the explicit form, which has none."""
+    from plantlod.lsys.errors import InputError
+
+    system = parse_lsys(LEAVES_ONLY, "lob.lsys")
+    assert chain_plan(system, 1).grammar_fits is False
+    with pytest.raises(InputError, match="level 1 is past the last: this tree has no levels"):
+        simplify(system, Options(level=1))
+    # a grammar level asked for by name is still the thesis' N - n steps
+    assert simplify(system, Options(level=1, form="grammar")).tree.n_branches == 1
