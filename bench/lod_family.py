@@ -75,7 +75,7 @@ class Case:
     branches: tuple[int, int]                      # original, level
     form: str
     angle: float                                   # the original's largest combined angle, rad
-    turn: float = math.nan                         # the original's largest axis turn, rad
+    turn: float                                    # the original's largest axis turn, rad
     figures: dict[str, float] = field(default_factory=dict)
     error: str = ""
 
@@ -114,7 +114,7 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     """Every Case of tree (kind, seed): each level simplified and measured in every wind."""
     from plantlod.lsys.build import build
     from plantlod.lsys.parse import parse_lsys
-    from plantlod.simplify.evaluate import Runs, WindCase
+    from plantlod.simplify.evaluate import Runs, WindCase, simulate_runs
     from plantlod.simplify.explicit import is_stalk
     from plantlod.simplify.pipeline import LevelChain, Options, simplify
     from plantlod.simplify.targets import group_map
@@ -125,17 +125,20 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     original = build(system).tree
     stalk = is_stalk(original)
     winds = [WindCase(s, d) for s in SPEEDS for d in DIRECTIONS]
-    turns = largest_turns(original, winds)
+    steps = int(round(DURATION / DT))
+    simulated = list(simulate_runs(original, winds, DT, steps, EVERY))   # once for every level
+    turn = dict(zip(winds, largest_turns(original, simulated)))
     cases = []
     chain = LevelChain()          # the levels share the original's runs and level 1's fit
     for level in levels:
         def case(wind, **kw):
             """A Case of this tree and level in ``wind``."""
             return Case(name, kind, seed, level, wind.speed, wind.direction, stalk,
-                        turn=turns[winds.index(wind)], **kw)
+                        turn=turn[wind], **kw)
         try:
             tree = simplify(system, Options(level=level, form=FORM), chain=chain).tree
-            runs = Runs(original, group_map(original, tree), winds, DT, int(round(DURATION / DT)), EVERY)
+            runs = Runs(original, group_map(original, tree), winds, DT, steps, EVERY,
+                        simulated=simulated)
             reports = runs.compare(tree)
             angles = runs.largest_combined_angle()
         except Exception as exc:     # noqa: BLE001 - refused, diverged or a bug: a row, not the end
@@ -153,17 +156,16 @@ def measure_tree(kind: str, seed: int, levels: tuple[int, ...]) -> list[Case]:
     return cases
 
 
-def largest_turns(original, winds: list, chunk: int = 64) -> list[float]:
-    """Per wind, the largest angle (rad) between any branch's axis R_i e_z and its rest
-    direction over the original's run from rest (DT, DURATION, sampled every EVERY steps):
+def largest_turns(original, simulated: list, chunk: int = 64) -> list[float]:
+    """Per run of ``simulated`` (the original's runs, as `simulate_runs` gives them), the
+    largest angle (rad) between any branch's axis R_i e_z and its rest direction over the run:
     atan2(|a x a0|, a . a0), which keeps small angles exact. Poses ``chunk`` samples at once."""
     import numpy as np
     from plantlod.sim.kinematics import pose, rest_pose
-    from plantlod.simplify.evaluate import simulate_runs
 
     rest = rest_pose(original).frame[:, :, 2]                                   # (B, 3)
     out = []
-    for _wind, times, bend, rot in simulate_runs(original, winds, DT, int(round(DURATION / DT)), EVERY):
+    for _wind, times, bend, rot in simulated:
         largest = 0.0
         for lo in range(0, len(times), chunk):
             axis = pose(original, bend[lo:lo + chunk], rot[lo:lo + chunk]).frame[..., 2]  # (k, B, 3)

@@ -21,8 +21,9 @@ from .kinds import USDC_MAGIC
 _BOM = b"\xef\xbb\xbf"
 _LINE_BREAK = re.compile(rb"\r\n?|\n")     # where a line ends (lsys.parse.LINE_BREAK, in bytes)
 # Binary files a user may hand to a text reader: (magic, what it is, what to do instead).
+ZIP_MAGIC = b"PK\x03\x04"           # a zip archive's first bytes (an .npz is one)
 BINARY_KINDS = (
-    (b"PK\x03\x04", "a zip archive (an .npz?)", "archives are read by their .npz extension, so "
+    (ZIP_MAGIC, "a zip archive (an .npz?)", "archives are read by their .npz extension, so "
                                                "give the file a name ending in .npz"),
     (b"glTF", "a binary glTF (.glb)", "`plantlod view` reads those"),
     (USDC_MAGIC, "a binary OpenUSD file (.usdc)", "`plantlod export` writes those for other "
@@ -76,13 +77,13 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
 def _not_utf8(data: bytes, offset: int, name: str, expected: str = LSYS_TEXT) -> InputError:
     """The error for the byte at ``offset`` of ``data`` (the file's bytes up to and past it),
     located at its line and column (characters, a leading byte-order mark not counted)."""
-    if data.startswith(b"PK\x03\x04") and name.lower().endswith(".npz"):
+    if data.startswith(ZIP_MAGIC) and name.lower().endswith(".npz"):
         return InputError("an .npz archive (a tree or angles), which is not read here; expected "
                           f"a text file ({expected})", name)
     binary = binary_kind(data)
     if binary is not None:          # (what it is, what reads it, and what this reader expected)
         what, hint = binary
-        if data.startswith(b"PK\x03\x04") and expected not in ARCHIVE_READERS:
+        if data.startswith(ZIP_MAGIC) and expected not in ARCHIVE_READERS:
             hint = "this reader takes no archive"       # (a scene, a wind file: text only)
         return InputError(f"not text but {what}: {hint}; expected {expected}", name)
     bom = len(_BOM) if data.startswith(_BOM) else 0

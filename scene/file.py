@@ -381,8 +381,10 @@ class _Reader:
     def __init__(self, text: str, source: str):
         self.text, self.source = text, source
         self.tables = _table_spans(text)
-        # the section being read: the keys before the first header, until `table` says
-        self.span: tuple[int, int] | None = (0, self.tables[0][1] if self.tables else len(text))
+        # the keys before the first header (`tree = [...]`, `camera.key = [...]`)
+        self.top = (0, self.tables[0][1] if self.tables else len(text))
+        # the section being read: the top, until `table` says
+        self.span: tuple[int, int] | None = self.top
         self.name = ""
         self.index = 0
 
@@ -407,12 +409,10 @@ class _Reader:
         if self.span is not None or not self.name:
             return None
         *outer, key = self.name.split(".")
-        spans = [(start, end) for n, start, end in self.tables if n == ".".join(outer)] \
-            if outer else [(0, self.tables[0][1] if self.tables else len(self.text))]
-        found = next((m for m in (_key_match(self.text, key, _ANY, span) for span in spans)
-                      if m is not None), None)
-        if found is None and outer:                  # a dotted key at the top: camera.key = […]
-            found = _key_match(self.text, self.name, _ANY, spans[0] if spans else None)
+        places = [(key, (start, end)) for n, start, end in self.tables
+                  if outer and n == ".".join(outer)] + [(self.name, self.top)]
+        found = next((m for k, span in places
+                      if (m := _key_match(self.text, k, _ANY, span)) is not None), None)
         if found is None:
             return None
         offset = _element_offset(self.text, found.start(1), self.index)

@@ -328,10 +328,10 @@ def chain_plan(system: LSystem, level: int) -> ChainPlan:
         budget = min([budget, *counts])
     own = grammar_count(level)
     # (a grammar level whose last step added few branches is hardly coarser: family stalk-162
-    # 80 -> 79, monopodial-37 235 -> 189; it is held to the explicit form's 60 % too, and to
-    # fewer branches than the finer level: one branch whose steps grow only leaves gave a
-    # "level 1" of 1 -> 1 branch while --levels said the tree has none, session 38)
-    fits = None if own is None else own <= max(math.floor(LEVEL_RATIO * budget), 1) and own < budget
+    # 80 -> 79, monopodial-37 235 -> 189; it is held to the explicit form's 60 % too, with no
+    # floor of one branch: one branch whose steps grow only leaves gave a "level 1" of 1 -> 1
+    # branch while --levels said the tree has none, session 38)
+    fits = None if own is None else own <= math.floor(LEVEL_RATIO * budget)
     if level >= len(explicit_counts):           # past the explicit form's last level
         return ChainPlan(budget, fits, None)
     grouping = level

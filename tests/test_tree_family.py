@@ -234,12 +234,13 @@ def test_largest_turn_is_the_angle_of_the_axis_from_rest():
     winds = [WindCase(8.0, 0.0), WindCase(12.0, 37.0)]
     steps = int(round(lod_family.DURATION / lod_family.DT))
     one = build(parse_lsys(text.format(axiom="F L"), "one.lsys")).tree
-    got = lod_family.largest_turns(one, winds)
-    for k, (_w, _t, bend, rot) in enumerate(simulate_runs(one, winds, lod_family.DT, steps,
-                                                          lod_family.EVERY)):
+    runs = list(simulate_runs(one, winds, lod_family.DT, steps, lod_family.EVERY))
+    got = lod_family.largest_turns(one, runs)
+    for k, (_w, _t, bend, rot) in enumerate(runs):
         assert got[k] == pytest.approx(float(np.hypot(bend, rot).max()), rel=1e-9, abs=1e-12)
     two = build(parse_lsys(text.format(axiom="F F L"), "two.lsys")).tree
-    (_w, _t, bend, rot), = simulate_runs(two, winds[:1], lod_family.DT, steps, lod_family.EVERY)
+    runs = list(simulate_runs(two, winds[:1], lod_family.DT, steps, lod_family.EVERY))
+    (_w, _t, bend, rot), = runs
     assert np.abs(rot).max() < 1e-12 * np.abs(bend).max()
-    assert lod_family.largest_turns(two, winds[:1])[0] == pytest.approx(
+    assert lod_family.largest_turns(two, runs)[0] == pytest.approx(
         float(np.abs(bend.sum(axis=1)).max()), rel=1e-9)
