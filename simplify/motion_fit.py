@@ -313,6 +313,31 @@ def group_scores(reports, level: int, stalk: bool, s_count: int) -> np.ndarray:
     return worst
 
 
+def opposite_period_errors(runs: Runs, tree: Tree, reports) -> list[np.ndarray | None]:
+    """Per wind of ``runs``, (S,) each group's largest period error in the opposite wind over
+    its counted components, or None where that wind does not count: a chain's level, compared
+    with ``downward`` set (``reports``: those `Report`s, one per wind).
+
+    Below SMALL_ANGLE_LIMIT a chain's response to the reversed wind is the negative, whose
+    upward crossings (model.md 6's period) are this run's downward ones
+    (`evaluate.downward_periods`); so each wind where the original's combined angles stay
+    under SMALL_ANGLE_LIMIT and its linear statics turn no axis past MOTION_FIT_TURN
+    (`within_turn`) reads, per group, |P_y,down / P_x,down - 1| over the components the
+    upward report counts (a component with no downward period: 0)."""
+    out: list[np.ndarray | None] = []
+    for report, (p_x, p_y), largest, linear in zip(
+            reports, runs.downward(tree), runs.largest_combined_angle(),
+            within_turn(runs.original, runs.winds)):
+        if largest > SMALL_ANGLE_LIMIT or not linear:
+            out.append(None)
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            error = np.abs(np.asarray(p_y) / np.asarray(p_x) - 1.0)          # (2, S)
+        counted = np.asarray(report.table.counted, dtype=bool) & np.isfinite(error)
+        out.append(np.where(counted, error, 0.0).max(axis=0, initial=0.0))
+    return out
+
+
 def both_ways(px: np.ndarray, py: np.ndarray, down: list, bound: float
               ) -> tuple[np.ndarray, np.ndarray]:
     """The periods (W, 2, S) a round corrects toward, where the opposite winds count too.

@@ -631,11 +631,11 @@ def _measured(original: Tree, runs: Runs, tree: Tree, options: Options) -> tuple
     largest = runs.largest_combined_angle()
     notes = _angle_notes(runs.winds, largest) + _period_notes(original, reports, options) \
         + _sampling_notes(original, options) \
-        + (_opposite_wind_notes(original, runs, tree, reports, options) if stalk else [])
+        + (_opposite_wind_notes(runs, tree, reports, options) if stalk else [])
     return reports, summary, largest, notes
 
 
-def _opposite_wind_notes(original: Tree, runs: Runs, tree: Tree,
+def _opposite_wind_notes(runs: Runs, tree: Tree,
                          reports: list[tuple[WindCase, Report]], options: Options) -> list[str]:
     """For a chain (the caller checks `explicit.is_stalk`, its runs compared with
     ``downward``): a note where its level misses its period bound in the opposite winds though the
@@ -649,20 +649,12 @@ def _opposite_wind_notes(original: Tree, runs: Runs, tree: Tree,
     and `motion_fit.within_turn`, as the motion fit counts them), against the level's stalk
     period bound (STALK_BOUNDS)."""
     from .constants import STALK_BOUNDS
-    from .motion_fit import within_turn
+    from .motion_fit import opposite_period_errors
 
     bound = STALK_BOUNDS[min(options.level, max(STALK_BOUNDS))][1]
-    worst = -math.inf
-    for (_wind, report), (p_x, p_y), largest, linear in zip(
-            reports, runs.downward(tree), runs.largest_combined_angle(),
-            within_turn(original, runs.winds)):
-        if largest > SMALL_ANGLE_LIMIT or not linear:
-            continue
-        with np.errstate(divide="ignore", invalid="ignore"):
-            error = np.abs(np.asarray(p_y) / np.asarray(p_x) - 1.0)
-        counted = np.asarray(report.table.counted, dtype=bool) & np.isfinite(error)
-        if counted.any():
-            worst = max(worst, float(error[counted].max()))
+    errors = [e for e in opposite_period_errors(runs, tree, [r for _w, r in reports])
+              if e is not None and e.size]
+    worst = max((float(e.max()) for e in errors), default=-math.inf)
     if not worst > bound:
         return []
     return [f"note: in the opposite winds (each measurement wind where the chain is linear, "

@@ -40,31 +40,66 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
-from .bounds import form_rank
+from .bounds import bounds_score, form_rank
 from .constants import (MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES,
-                        REGROUP_MISFIT_PRICINGS, SMALL_ANGLE_LIMIT)
+                        REGROUP_MISFIT_PRICINGS, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
 from .evaluate import Runs
 from .grouping import Grouping, merge_levels
-from .motion_fit import group_scores
+from .motion_fit import group_scores, opposite_period_errors, within_turn
 
 LevelText = tuple[str, Tree]
 
 
 def missing_paths(tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]:
-    """The level's rank (`bounds.form_rank` at level 1, in ``runs``' winds) and the members
-    of the main paths of its missing groups, their roots left out: (rank, branches), each
-    branch's merge into its parent's group being one its group needed.
+    """The level's rank in ``runs``' winds and the members of the main paths of its missing
+    groups, their roots left out: (rank, branches), each branch's merge into its parent's
+    group being one its group needed.
 
     runs: the original's `Runs` read with ``tree``'s groups; a branch misses where its
     `group_scores` (over the winds where the original stays within SMALL_ANGLE_LIMIT) pass 1.
+    rank: (winds missed that a grouping can mend, winds missed, worst ratio), the last two
+    `bounds.form_rank` at level 1; for a branching tree the first is the second.
+
+    A chain is read in two more ways. Where it is linear (`motion_fit.within_turn`) the
+    reversed wind gives the negative response, whose period is the downward crossings'
+    (`motion_fit.opposite_period_errors`): a group whose period there passes the level's
+    bound misses, and each such wind counts as one more wind missed, its ratio in the worst.
+    Where it is not (its top turned far, every group still within 0.1 rad), the chain's
+    coupling moves every group (docs/simplify.md, Limits 3), and no grouping tried mends it:
+    its misses are ranked after the linear winds' and keep groups apart only where the linear
+    winds miss nothing (else they would keep every merged member apart and leave the
+    regrouping nothing to choose).
     """
-    reports = runs.compare(tree)
+    reports = runs.compare(tree, downward=stalk)
     largest = runs.largest_combined_angle()
-    rank = form_rank(list(zip(runs.winds, reports)), 1, largest, stalk)
-    counted = [r for r, a in zip(reports, largest) if a <= SMALL_ANGLE_LIMIT]
-    scores = group_scores(counted, 1, stalk, tree.n_branches)
+    misses, worst = form_rank(list(zip(runs.winds, reports)), 1, largest, stalk)
+    counted = [a <= SMALL_ANGLE_LIMIT for a in largest]
+    if not stalk:
+        scores = group_scores([r for r, c in zip(reports, counted) if c], 1, stalk,
+                              tree.n_branches)
+        mendable = misses
+    else:
+        linear = within_turn(runs.original, runs.winds)
+        held = [r for r, c, lin in zip(reports, counted, linear) if c and lin]
+        scores = group_scores(held, 1, stalk, tree.n_branches)
+        mendable = sum(1 for r, c, lin in zip(reports, counted, linear)
+                       if c and lin and bounds_score([(None, r)], 1, stalk=stalk) > 1.0)
+        bound = STALK_BOUNDS[1][1]
+        for errors in opposite_period_errors(runs, tree, reports):
+            if errors is None:
+                continue
+            ratios = errors / bound
+            missed = int(ratios.max(initial=0.0) > 1.0)
+            misses += missed
+            mendable += missed
+            worst = max(worst, float(ratios.max(initial=0.0)))
+            scores = np.maximum(scores, ratios)
+        if not (scores > 1.0).any():              # (nothing to mend: as a branching tree)
+            scores = group_scores([r for r, c in zip(reports, counted) if c], 1, stalk,
+                                  tree.n_branches)
     paths = runs.gmap.paths                       # ``tree``'s groups, as the runs read them
-    return rank, {int(m) for s in np.flatnonzero(scores > 1.0) for m in paths[s][1:]}
+    return ((mendable, misses, worst),
+            {int(m) for s in np.flatnonzero(scores > 1.0) for m in paths[s][1:]})
 
 
 def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping], LevelText],

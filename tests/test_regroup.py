@@ -20,7 +20,8 @@ from plantlod.lsys.parse import parse_lsys
 from plantlod.simplify.bounds import form_rank
 from plantlod.simplify.explicit import explicit_system_text, is_stalk, level_header
 from plantlod.simplify.grouping import merge_levels
-from plantlod.simplify.motion_fit import measurement_runs_for
+from plantlod.simplify.evaluate import Runs, WindCase
+from plantlod.simplify.motion_fit import measurement_runs_for, opposite_period_errors
 from plantlod.simplify.regroup import missing_paths, regrouped
 from plantlod.simplify.targets import group_map
 
@@ -77,7 +78,8 @@ def test_a_group_made_to_miss_is_named_by_its_path():
     _, level = fit(merge_levels(tree)[1])
     gmap = group_map(tree, level)
     rank, missing = missing_paths(level, runs_for(level), False)
-    assert rank == _rank(tree, level, runs_for)
+    misses, worst = _rank(tree, level, runs_for)
+    assert rank == (misses, misses, worst)           # (a branching tree: all it misses mendable)
     # a level branch with no level branch hanging from it, of a group of 2+ on its path
     parents = set(np.asarray(level.parent).tolist())
     s = next(s for s in range(level.n_branches)
@@ -92,6 +94,42 @@ def test_a_group_made_to_miss_is_named_by_its_path():
     assert set(gmap.paths[s][1:].tolist()) <= now_missing
     assert int(gmap.paths[s][0]) not in now_missing            # its root hangs where it did
     assert worse > rank
+
+
+def test_a_chain_is_held_in_the_opposite_winds_too():
+    # eval/stalk_unequal's level 1 pairs members of different strengths: a pair crosses its
+    # mean at another pace downward than upward, which a wind from the other side reads
+    system = parse_lsys((ROOT / "examples" / "eval" / "stalk_unequal.lsys").read_text(),
+                        "stalk_unequal.lsys")
+    tree = build(system).tree
+    runs_for = measurement_runs_for(tree, DT, DURATION)
+    _, level = explicit_system_text(tree, merge_levels(tree)[1], name="t",
+                                    header=level_header(system), level=1, dt=DT,
+                                    duration=DURATION, runs_for=runs_for)
+    runs = runs_for(level)
+    reports = runs.compare(level, downward=True)
+    errors = opposite_period_errors(runs, level, reports)
+    k, s = max(((k, int(np.argmax(e))) for k, e in enumerate(errors) if e is not None),
+               key=lambda ks: errors[ks[0]][ks[1]])
+    assert errors[k][s] > 0.01                       # past level 1's stalk period bound
+    # the reversed wind itself, run: its upward crossings give the same period error (the
+    # chain is linear there, its response the negative)
+    wind = runs.winds[k]
+    reversed_run = Runs(tree, group_map(tree, level),
+                        [WindCase(wind.speed, (wind.direction + 180.0) % 360.0)], DT,
+                        int(round(DURATION / DT)), runs.every)
+    table = reversed_run.compare(level)[0].table
+    assert np.nanmax(np.where(table.counted[:, s], table.period_error[:, s], np.nan)) \
+        == pytest.approx(errors[k][s], rel=0.01)
+    # that group's main path is missing, and each wind whose reverse misses counts
+    (mendable, misses, worst), missing = missing_paths(level, runs, True)
+    gmap = group_map(tree, level)
+    assert set(gmap.paths[s][1:].tolist()) <= missing
+    upward_misses, _ = _rank(tree, level, runs_for)
+    reverse_misses = sum(1 for e in errors if e is not None and e.max() > 0.01)
+    assert misses == upward_misses + reverse_misses
+    assert worst >= errors[k][s] / 0.01
+    assert reverse_misses <= mendable <= misses
 
 
 @pytest.mark.slow

@@ -335,23 +335,31 @@ def test_levels_says_the_warnings_that_level_says_once(tmp_path):
 def test_a_chains_period_in_the_opposite_winds_is_noted(tmp_path):
     """simplify's measurement winds blow toward 0-90° only; a chain whose groups sum members of
     several periods crosses its mean at another pace downward, which is the period of the
-    reversed wind (180-270°). eval/stalk_unequal's level 1 holds its period at 0-90° and
-    misses it there, so simplify says so; compare in a reversed wind gives the same figure
-    (its runs keep every step, simplify's every fourth: within 0.05 points). stalk8, of
-    equal members, gets no such note."""
+    reversed wind (180-270°). Family stalk-180 (F G H repeated, strengths 15-35) has no
+    grouping whose level 1 holds its period there (regrouping tries: docs/simplify.md), so
+    simplify says so; compare in a reversed wind gives the same figure (its runs keep every
+    step, simplify's every fourth: within 0.05 points). stalk8, of equal members, gets no
+    such note. (eval/stalk_unequal had one until session 39, when regrouping began to read
+    the opposite winds and found it a level without.)"""
     import re
 
+    from golden_util import family_tree
+
+    family_tree("stalk", 180)                        # (puts bench/ on the path)
+    import tree_family
+
+    source = tmp_path / "stalk-180.lsys"
+    source.write_text(tree_family.generate("stalk", 180))
     level = tmp_path / "l1.lsys"
-    result = run_cli("simplify", str(ROOT / "examples" / "eval" / "stalk_unequal.lsys"),
-                     "--level", "1", "-o", str(level))
+    result = run_cli("simplify", str(source), "--level", "1", "-o", str(level))
     notes = [line for line in result.stderr.splitlines() if "in the opposite winds" in line]
     assert len(notes) == 1, result.stderr
     noted = float(re.search(r"period error reaches ([0-9.]+) %", notes[0]).group(1)) / 100
     worst = 0.0
     for direction in (180, 195, 225, 270):
-        compared = run_cli("compare", str(ROOT / "examples" / "eval" / "stalk_unequal.lsys"),
-                           str(level), "--dt", "0.01", "--duration", "20", "--wind-speed", "0.5",
-                           "--wind-direction", str(direction), "--json")
+        compared = run_cli("compare", str(source), str(level), "--dt", "0.01", "--duration",
+                           "20", "--wind-speed", "0.5", "--wind-direction", str(direction),
+                           "--json")
         worst = max(worst, json.loads(compared.stdout)["comparisons"][0]["period_error"])
     assert worst > 0.01 and abs(noted - worst) < 5e-4, (noted, worst)
     plain = run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--level", "1",
