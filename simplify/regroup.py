@@ -5,15 +5,17 @@ members' swing models, before any level exists; what it cannot price shows only 
 level is fitted and run (a member's bend turning its child's frame, forces a parent level
 branch passes on, periods that beat; docs/simplify.md, "Limits"). So level 1 is fitted
 (statics and motion, `explicit.explicit_system_text`), and its runs in simplify's
-measurement winds, those where the original stays within 0.1 rad, score every level branch
-against level 1's bounds (`motion_fit.group_scores`, the worst of its motion, period and tip
+measurement winds, those where the original stays within 0.1 rad and its linear statics turn
+no axis past it (the others only where these miss nothing: `missing_paths`), score every
+level branch against level 1's bounds (`motion_fit.group_scores`, the worst of its motion, period and tip
 figures over their bounds). Where branches miss, the main paths of their groups are kept
 apart: level 1 merges those members into their parents' groups last, after every other merge
 (`merge_levels`' kept_apart, `KEPT_APART_COST`; the count of every level stays the same, so
 model.md 5's 60 % holds and the chain's counts do not change), and level 1 is fitted again.
 The kept-apart set grows with each attempt's missing groups; of the `REGROUP_ATTEMPTS` fits,
-the level that ranks best in the same winds (`bounds.form_rank`: the winds it misses, then
-its worst ratio; the first attempt on a tie) is kept, with the levels above it grouped on
+the level that ranks best in the same winds (`missing_paths`: the winds it misses that a
+grouping can mend, then `bounds.form_rank`'s winds missed and worst ratio; the first attempt
+on a tie) is kept, with the levels above it grouped on
 it (nested as before). Trees of more than `REGROUP_MAX_BRANCHES` branches are grouped as
 they are (each attempt costs a level-1 fit).
 
@@ -56,34 +58,34 @@ def missing_paths(tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]
     group being one its group needed.
 
     runs: the original's `Runs` read with ``tree``'s groups; a branch misses where its
-    `group_scores` (over the winds where the original stays within SMALL_ANGLE_LIMIT) pass 1.
+    `group_scores` pass 1 in the winds a grouping can mend: those where the original stays
+    within SMALL_ANGLE_LIMIT and its linear statics turn no branch's axis past
+    MOTION_FIT_TURN (`motion_fit.within_turn`, the winds the motion fit runs). Where an axis
+    turns further (a chain's top, a long lateral), the frames the tree below swings drive
+    every group above it (docs/simplify.md, Limits 3), and no grouping tried mends that:
+    those winds are ranked after the others, and keep groups apart only where the others
+    miss nothing (else they would keep every merged member apart, and leave the regrouping
+    nothing to choose between).
     rank: (winds missed that a grouping can mend, winds missed, worst ratio), the last two
-    `bounds.form_rank` at level 1; for a branching tree the first is the second.
+    `bounds.form_rank` at level 1.
 
-    A chain is read in two more ways. Where it is linear (`motion_fit.within_turn`) the
-    reversed wind gives the negative response, whose period is the downward crossings'
-    (`motion_fit.opposite_period_errors`): a group whose period there passes the level's
-    bound misses, and each such wind counts as one more wind missed, its ratio in the worst.
-    Where it is not (its top turned far, every group still within 0.1 rad), the chain's
-    coupling moves every group (docs/simplify.md, Limits 3), and no grouping tried mends it:
-    its misses are ranked after the linear winds' and keep groups apart only where the linear
-    winds miss nothing (else they would keep every merged member apart and leave the
-    regrouping nothing to choose).
+    A chain is also read in the opposite winds: where it is linear the reversed wind gives
+    the negative response, whose period is the downward crossings'
+    (`motion_fit.opposite_period_errors`); a group whose period there passes the level's
+    bound misses, and each such wind counts as one more wind missed (a mendable one), its
+    ratio in the worst. (Read for branching trees too, with their major components, it lost
+    the tuning range 4 level-1 cases, bush3d-130 10 → 6 of 20.)
     """
     reports = runs.compare(tree, downward=stalk)
     largest = runs.largest_combined_angle()
     misses, worst = form_rank(list(zip(runs.winds, reports)), 1, largest, stalk)
     counted = [a <= SMALL_ANGLE_LIMIT for a in largest]
-    if not stalk:
-        scores = group_scores([r for r, c in zip(reports, counted) if c], 1, stalk,
-                              tree.n_branches)
-        mendable = misses
-    else:
-        linear = within_turn(runs.original, runs.winds)
-        held = [r for r, c, lin in zip(reports, counted, linear) if c and lin]
-        scores = group_scores(held, 1, stalk, tree.n_branches)
-        mendable = sum(1 for r, c, lin in zip(reports, counted, linear)
-                       if c and lin and bounds_score([(None, r)], 1, stalk=stalk) > 1.0)
+    linear = within_turn(runs.original, runs.winds)
+    held = [c and lin for c, lin in zip(counted, linear)]
+    scores = group_scores([r for r, h in zip(reports, held) if h], 1, stalk, tree.n_branches)
+    mendable = sum(1 for r, h in zip(reports, held)
+                   if h and bounds_score([(None, r)], 1, stalk=stalk) > 1.0)
+    if stalk:
         bound = STALK_BOUNDS[1][1]
         for errors in opposite_period_errors(runs, tree, reports):
             if errors is None:
@@ -94,9 +96,9 @@ def missing_paths(tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]
             mendable += missed
             worst = max(worst, float(ratios.max(initial=0.0)))
             scores = np.maximum(scores, ratios)
-        if not (scores > 1.0).any():              # (nothing to mend: as a branching tree)
-            scores = group_scores([r for r, c in zip(reports, counted) if c], 1, stalk,
-                                  tree.n_branches)
+    if not (scores > 1.0).any():              # (nothing to mend: every counted wind's misses)
+        scores = group_scores([r for r, c in zip(reports, counted) if c], 1, stalk,
+                              tree.n_branches)
     paths = runs.gmap.paths                       # ``tree``'s groups, as the runs read them
     return ((mendable, misses, worst),
             {int(m) for s in np.flatnonzero(scores > 1.0) for m in paths[s][1:]})
