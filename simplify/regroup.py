@@ -7,17 +7,17 @@ branch passes on, periods that beat; docs/simplify.md, "Limits"). So level 1 is 
 (statics and motion, `explicit.explicit_system_text`), and its runs in simplify's
 measurement winds, those where the original stays within 0.1 rad and its linear statics turn
 no axis past it (the others only where these miss nothing: `missing_paths`), score every
-level branch against level 1's bounds (`motion_fit.group_scores`, the worst of its motion, period and tip
-figures over their bounds). Where branches miss, the main paths of their groups are kept
-apart: level 1 merges those members into their parents' groups last, after every other merge
-(`merge_levels`' kept_apart, `KEPT_APART_COST`; the count of every level stays the same, so
-model.md 5's 60 % holds and the chain's counts do not change), and level 1 is fitted again.
-The kept-apart set grows with each attempt's missing groups; of the `REGROUP_ATTEMPTS` fits,
-the level that ranks best in the same winds (`missing_paths`: the winds it misses that a
-grouping can mend, then `bounds.form_rank`'s winds missed and worst ratio; the first attempt
-on a tie) is kept, with the levels above it grouped on
-it (nested as before). Trees of more than `REGROUP_MAX_BRANCHES` branches are grouped as
-they are (each attempt costs a level-1 fit).
+level branch against level 1's bounds (`motion_fit.group_scores`, the worst of its motion,
+period and tip figures over their bounds). Where branches miss, the main paths of their
+groups are kept apart: level 1 merges those members into their parents' groups last, after
+every other merge (`merge_levels`' kept_apart, `KEPT_APART_COST`; the count of every level
+stays the same, so model.md 5's 60 % holds and the chain's counts do not change), and level
+1 is fitted again. The kept-apart set grows with each attempt's missing groups; of the
+`REGROUP_ATTEMPTS` fits, the level that ranks best in the same winds (`missing_paths`: the
+winds it misses that a grouping can mend, then `bounds.form_rank`'s winds missed and worst
+ratio; the first attempt on a tie) is kept, with the levels above it grouped on it (nested
+as before). Trees of more than `REGROUP_MAX_BRANCHES` branches are grouped as they are (each
+attempt costs a level-1 fit).
 
 Where every such attempt still misses in some wind, level 1 is grouped again with a second
 pricing, the mode misfit weighed while level 1 is merged too, at each weight of
