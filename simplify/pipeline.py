@@ -638,16 +638,13 @@ def _measured(original: Tree, runs: Runs, tree: Tree, options: Options) -> tuple
 def _opposite_wind_notes(runs: Runs, tree: Tree,
                          reports: list[tuple[WindCase, Report]], options: Options) -> list[str]:
     """For a chain (the caller checks `explicit.is_stalk`, its runs compared with
-    ``downward``): a note where its level misses its period bound in the opposite winds though the
-    measurement winds (0-90°) do not show it. Below SMALL_ANGLE_LIMIT a chain's response to
-    the reversed wind is the negative, whose upward crossings are this run's downward ones
-    (`evaluate.downward_periods`); a group that sums members of several periods crosses its
-    mean at another pace downward than upward over a few periods, and one branch holds one
-    pace (docs/simplify.md, Limits: family stalk-63's level 1 misses by 5.8 % at 200° and holds
-    at 20°). The worst relative error of the downward periods over counted components, in the
-    winds where the chain is linear (the original's combined angles under SMALL_ANGLE_LIMIT,
-    and `motion_fit.within_turn`, as the motion fit counts them), against the level's stalk
-    period bound (STALK_BOUNDS)."""
+    ``downward``): a note where its level misses its period bound in the opposite winds though
+    the measurement winds (0-90°) do not show it: the worst of
+    `motion_fit.opposite_period_errors` (the reversed wind's period, read from this run's
+    downward crossings where the chain is linear) against the level's stalk period bound
+    (STALK_BOUNDS). A group that sums members of several periods crosses its mean at another
+    pace downward than upward over a few periods, and one branch holds one pace
+    (docs/simplify.md, Limits: family stalk-180's level 1 misses by 5.8 % reversed)."""
     from .constants import STALK_BOUNDS
     from .motion_fit import opposite_period_errors
 

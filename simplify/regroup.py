@@ -42,7 +42,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import Tree
 
-from .bounds import bounds_score, form_rank
+from .bounds import form_rank
 from .constants import (MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS, REGROUP_MAX_BRANCHES,
                         REGROUP_MISFIT_PRICINGS, SMALL_ANGLE_LIMIT, STALK_BOUNDS)
 from .evaluate import Runs
@@ -83,8 +83,8 @@ def missing_paths(tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]
     linear = within_turn(runs.original, runs.winds)
     held = [c and lin for c, lin in zip(counted, linear)]
     scores = group_scores([r for r, h in zip(reports, held) if h], 1, stalk, tree.n_branches)
-    mendable = sum(1 for r, h in zip(reports, held)
-                   if h and bounds_score([(None, r)], 1, stalk=stalk) > 1.0)
+    mendable, _ = form_rank([(w, r) for w, r, h in zip(runs.winds, reports, held) if h], 1,
+                            stalk=stalk)
     if stalk:
         bound = STALK_BOUNDS[1][1]
         for errors in opposite_period_errors(runs, tree, reports):
