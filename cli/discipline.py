@@ -32,7 +32,7 @@ from typing import Callable
 
 import click
 
-from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning
+from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning, cut_middle
 from plantlod.formats.atomic import defer_signal, end_deferred, remove_pending
 from plantlod.sim.constants import CAUGHT_SIGNALS  # (cli.io reads it from here too)
 
@@ -302,10 +302,10 @@ def _working_directory_gone() -> bool:
 
 def _one_line(text: str) -> str:
     """``text`` on one line, control characters (a NUL read from a file) escaped, cut
-    to MAX_ERROR_CHARS."""
+    to MAX_ERROR_CHARS (`cut_middle`)."""
     text = " ".join(str(text).split())
     text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
-    return text if len(text) <= MAX_ERROR_CHARS else text[:MAX_ERROR_CHARS - 1] + "…"
+    return cut_middle(text, MAX_ERROR_CHARS)
 
 
 def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:

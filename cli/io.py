@@ -24,7 +24,7 @@ from plantlod.formats.text_input import source_name as display_name  # noqa: F40
 from plantlod.formats.atomic import (atomic_path, landing, lands_on, new_temporary, release,
                                      remove_folder, remove_pending, special_target,
                                      usual_file_mode, write_all)
-from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.errors import InputError, RunFailure, cut_middle
 
 _console = None
 DEFAULT_CONSOLE_WIDTH = 80    # characters, where COLUMNS=0 would give rich none
@@ -141,9 +141,7 @@ def warn(message: str) -> None:
         _shown["hidden"] += 1
         return
     _shown["warnings"] += 1
-    text = " ".join(message.split())
-    if len(text) > MAX_MESSAGE_CHARS:
-        text = text[:MAX_MESSAGE_CHARS - 1] + "…"
+    text = cut_middle(" ".join(message.split()), MAX_MESSAGE_CHARS)
     say(f"warning: {text}")
 
 

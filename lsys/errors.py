@@ -43,9 +43,19 @@ class InputError(PlantlodError):
 def shown(name: str, most: int = 200) -> str:
     """A name or value as a message shows it: quoted where it holds a control character, cut
     to ``most`` characters (a 5,000-character string taken for a path made a 5,000-character
-    line; a scene value of 4,000 digits)."""
-    shown = name if name.isprintable() else repr(name)
-    return shown if len(shown) <= most else shown[:most - 1] + "…"
+    line; a scene value of 4,000 digits) by `cut_middle`."""
+    return cut_middle(name if name.isprintable() else repr(name), most)
+
+
+def cut_middle(text: str, most: int) -> str:
+    """``text`` cut to ``most`` characters by leaving out its middle (an ellipsis stands for
+    it): the head of a message names the file and the thing, its tail what is wrong and what
+    to do, and what lies between is what runs long (a branch address of 600 parts made a
+    message that was cut before it said the length was negative)."""
+    if len(text) <= most:
+        return text
+    head = (most - 1) // 2
+    return text[:head] + "…" + text[len(text) - (most - 1 - head):]
 
 
 class RunFailure(PlantlodError):

@@ -821,3 +821,52 @@ def test_a_force_passed_on_to_a_subnormal_share_raises_no_warning(tmp_path):
                     .replace("force_propagated: 0.7", "force_propagated: 0.24"))
     result = run_cli("simplify", str(tree), "--levels", str(tmp_path / "L"), exit_code=0)
     assert "overflow" not in result.stderr and "warning: floating point" not in result.stderr
+
+
+# --- long messages keep what they say is wrong (session 40, a helper's novel trees) -----
+
+def test_cut_middle_keeps_the_head_and_the_tail():
+    from plantlod.lsys.errors import cut_middle
+
+    assert cut_middle("short", 9) == "short"
+    assert cut_middle("a" * 10 + "b" * 10, 9) == "aaaa…bbbb"
+    assert cut_middle("a" * 10 + "b" * 10, 10) == "aaaa…bbbbb"
+    assert all(len(cut_middle("x" * 50, n)) == n for n in range(1, 50))
+
+
+DEEP_NEGATIVE = """name: deep_negative
+derivation_length: 600
+branching_angle: 30
+force_absorbed: 0.002
+force_propagated: 0.7
+branch F: length=1 radius=0.01 bend_strength=30 rotation_strength=30
+axiom: A(0)
+productions:
+  A(n) -> F(0.5-n*0.001) A(n+1)
+"""
+
+
+def test_an_error_at_a_deep_address_still_says_what_is_wrong(tmp_path):
+    """Branch 501 of a 600-step chain is F(-0.001): its address has 500 parts, and the line,
+    cut at its end to 1,000 characters, stopped inside the address, before 'has a negative
+    length'."""
+    (tmp_path / "deep.lsys").write_text(DEEP_NEGATIVE)
+    line = one_line(run_cli("simplify", str(tmp_path / "deep.lsys"), "--level", "1",
+                            exit_code=None), 2, "deep.lsys", "F(-0.00", "…",
+                    "has a negative length; expected a number >= 0")
+    assert len(line) < 1100
+
+
+def test_a_warning_at_a_deep_address_still_says_what_to_do(tmp_path):
+    """A soft chain of 300 branches (k_fp 1) tilts past 1 rad near its top: the warning,
+    cut at its end to 400 characters, stopped inside the branch's 300-part address."""
+    (tmp_path / "soft.lsys").write_text(
+        "derivation_length: 300\nbranching_angle: 30\nforce_absorbed: 0.002\n"
+        "force_propagated: 1\nbranch F: length=0.02 radius=0.005 bend_strength=2 "
+        "rotation_strength=2\nleaf L: area=0.002\naxiom: A\nproductions:\n  A -> F L A\n")
+    result = run_cli("simulate", str(tmp_path / "soft.lsys"), "--dt", "0.01", "--steps", "200",
+                     "--wind-speed", "10", "-o", str(tmp_path / "a.csv"))
+    warnings = [w for w in result.stderr.splitlines() if "tilts" in w]
+    assert warnings and all(len(w) <= len("warning: ") + 400 for w in warnings)
+    assert "branch 0.0.0" in warnings[0] and "…" in warnings[0]
+    assert warnings[0].endswith("check the units (metres), the wind and the strengths")
