@@ -435,6 +435,8 @@ def explicit_levels_said(last: int, roots: int) -> str:
     if last == 0:
         return (f"this tree has no levels in the explicit form (it is already "
                 f"{'a single branch' if roots == 1 else f'{roots} root branches'})")
+    if last == 1:
+        return f"this tree has 1 level in the explicit form (level 1, {end})"
     return f"this tree has {last} levels in the explicit form (1 to {last}, the last {end})"
 
 

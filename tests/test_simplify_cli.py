@@ -365,3 +365,32 @@ def test_a_chains_period_in_the_opposite_winds_is_noted(tmp_path):
     plain = run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--level", "1",
                     "-o", str(tmp_path / "s.lsys"))
     assert "opposite winds" not in plain.stderr
+
+
+def test_a_tree_of_one_level_says_so_in_the_singular(tmp_path):
+    """Two branches become one at level 1, so level 2 is past the last; the message said
+    'this tree has 1 levels' (a helper's novel trees, session 40)."""
+    tree = tmp_path / "two.lsys"
+    tree.write_text("derivation_length: 0\nbranching_angle: 30\nforce_absorbed: 0.002\n"
+                    "force_propagated: 0.7\nbranch F: length=1 radius=0.01 bend_strength=30 "
+                    "rotation_strength=30\nleaf L: area=0.01\naxiom: F F L\n")
+    result = run_cli("simplify", str(tree), "--level", "2", "--form", "explicit",
+                     "-o", str(tmp_path / "out.lsys"), exit_code=2)
+    assert "level 2 is past the last: this tree has 1 level in the explicit form " \
+           "(level 1, a single branch)" in result.stderr
+
+
+@pytest.mark.parametrize("axiom, code", [("f(3) ^(180) A", 0), ("^(180) A", 2)])
+def test_a_hanging_plant_is_written_from_above_its_support(tmp_path, axiom, code):
+    """docs/lsys-format.md, "Symbols": a tree growing down from the origin has no rest height
+    to state tip errors in and is refused; the same tree hung 3 m up is simplified."""
+    tree = tmp_path / "hang.lsys"
+    tree.write_text("derivation_length: 3\nbranching_angle: 30\nforce_absorbed: 0.002\n"
+                    "force_propagated: 0.7\nbranch F: length=0.5 radius=0.01 bend_strength=30 "
+                    f"rotation_strength=30\nleaf L: area=0.01\naxiom: {axiom}\nproductions:\n"
+                    "  A -> F [+A L] [-A L]\n")
+    result = run_cli("simplify", str(tree), "--level", "1", "-o", str(tmp_path / "out.lsys"),
+                     exit_code=code)
+    if code:
+        assert "hangs below z = 0" in result.stderr
+        assert not (tmp_path / "out.lsys").exists()
