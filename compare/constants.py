@@ -4,6 +4,10 @@
 ALPHA_TIE_TOL = 1e-9          # main path: alphas this close are tied (model.md 5)
 COUNTED_AMPLITUDE_FRACTION = 0.01  # error measures count components >= 1 % (model.md 6)
 MAJOR_AMPLITUDE_FRACTION = 0.10   # period error (major): components >= 10 % of A_max (model.md 6)
+STILL_AMPLITUDE = 1e-12       # rad: an original whose largest combined-angle amplitude is at most
+                              # this does not move, and nothing counts, as model.md 6 says of 0: a
+                              # planar tree without drag in a wind across its plane swings 1e-17 rad
+                              # of float64 roundoff, against which a level read 8e8 % motion error
 
 # --- compare -------------------------------------------------------------------------
 # Two runs' times agree when they differ by at most this much, relative to

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION
+from .constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITUDE_FRACTION, STILL_AMPLITUDE
 from plantlod.lsys.errors import InputError
 
 COMPONENTS = ("bend", "rotation")
@@ -248,7 +248,8 @@ class Report:
     undefined_periods : counted components left out of the period maximum because
                         the original's or the simplified run's period is undefined
     largest_amplitude : the largest original combined-angle amplitude (rad), the
-                        reference of the counting rule
+                        reference of the counting rule; 0 where it is at most
+                        STILL_AMPLITUDE (roundoff: the original does not move)
     groups            : one entry per group, in simplified-branch order
     t0, t1            : the time window (s) the figures cover
 
@@ -376,6 +377,8 @@ def compare_groups(t: np.ndarray,
     amp_err = relative_error(amp_y, amp_x)
     per_err = relative_error(per_y, per_x)
     largest = float(amp_x.max()) if g else 0.0
+    if largest <= STILL_AMPLITUDE:            # roundoff, not motion: nothing counts (model.md 6)
+        largest = 0.0
     counted = (amp_x >= COUNTED_AMPLITUDE_FRACTION * largest) if largest > 0 else np.zeros_like(amp_x, bool)
     d2 = _squared_distances(tips_orig, tips_simp)                # (K, G) m²
     tips = np.sqrt(np.mean(d2, axis=0)) / rest_height            # tip_error, (G,)

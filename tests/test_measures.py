@@ -234,3 +234,24 @@ def test_bad_input_is_refused():
         compare_groups(t, ob, orr, sr[:, :3], sr, to, ts, rest_height=3.0, addresses=ADDR)
     with pytest.raises(InputError, match="rest height"):
         compare_groups(t, ob, orr, sr, sr, to, ts, rest_height=0.0, addresses=ADDR)
+
+
+@pytest.mark.parametrize("scale, moves", [(1e-13, False), (1e-12 / 0.99, True), (1e-10, True)])
+def test_an_original_swinging_only_roundoff_does_not_move(scale, moves):
+    """model.md 6: nothing counts when the largest original amplitude is 0. An amplitude of at
+    most 1e-12 rad (STILL_AMPLITUDE) is float64 roundoff, read as 0 (a planar tree without drag
+    in a wind across its plane swings 1e-17 rad; a level's 1e-3 rad against it read 8e8 %
+    motion error). The same signals scaled above it count as before."""
+    t, ob, orr, sb, sr, tips_o, tips_s = report_inputs()
+    rep = compare_groups(t, scale * ob, orr, sb, sr, tips_o, tips_s, rest_height=3.0,
+                         addresses=ADDR)
+    counted = [g.bend.counted for g in rep.groups]
+    if moves:
+        assert rep.largest_amplitude == pytest.approx(scale)
+        assert counted == [True, True, False, True]
+        # 1.1 S against (scale) S: the level's whole swing over A_max
+        assert rep.motion_error == pytest.approx((1.1 - scale) / scale, rel=1e-9)
+    else:
+        assert rep.largest_amplitude == 0.0 and counted == [False] * 4
+        assert math.isnan(rep.motion_error) and math.isnan(rep.amplitude_error)
+        assert rep.tip_error == pytest.approx(0.2)            # the tips still say how far they stray
