@@ -29,7 +29,8 @@ from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
-from .arguments import binary_stream, flag, label, one_run, output_target, path_of, real, whole
+from .arguments import (angle_ndim, binary_stream, flag, label, one_run, output_target, path_of,
+                        real, whole)
 
 PathOrText = Union[str, "os.PathLike[str]"]
 PathOrFile = Union[str, "os.PathLike[str]", IO[str]]
@@ -53,7 +54,7 @@ class Angles:
     def __getitem__(self, lane: int | slice) -> "Angles":
         """One run of a result for a list of winds: ``angles[w]`` has bend (T, B); a slice,
         ``angles[a:b]``, keeps those runs as a result for a list of winds, (W', T, B)."""
-        if np.ndim(self.bend) != 3:
+        if angle_ndim(self.bend) != 3:
             raise InputError("these angles are one run; angles[w] selects a run of "
                              "simulate(tree, wind=[...]) (a list of winds)")
         lanes = np.shape(self.bend)[0]
@@ -68,7 +69,7 @@ class Angles:
 
     def __len__(self) -> int:
         """The number of runs (winds) of a result for a list of winds."""
-        if np.ndim(self.bend) != 3:
+        if angle_ndim(self.bend) != 3:
             raise TypeError("these angles are one run; len() counts the runs of a list of winds")
         return int(np.shape(self.bend)[0])
 

@@ -63,6 +63,17 @@ def path_of(value: Any, name: str = "the path", *, output: bool = False) -> str:
     return path
 
 
+def angle_ndim(values: Any) -> int:
+    """The number of dimensions of an `Angles` array (``bend`` or ``rotation``); a ragged
+    one (rows of different lengths) is refused as the other malformed arrays are (numpy's
+    "inhomogeneous shape" ValueError reached the caller)."""
+    try:
+        return int(np.ndim(values))
+    except (TypeError, ValueError):
+        raise InputError("the angles' time, bend and rotation must be arrays of real numbers "
+                         "(rows of one length)") from None
+
+
 def one_run(angles: Any, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """(time (T,), bend (T, B), rotation (T, B), addresses [B]) of an `Angles` of one run,
     checked: T >= 1 finite times rising, finite angles of the addresses' count."""
@@ -71,7 +82,7 @@ def one_run(angles: Any, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     if not isinstance(angles, Angles):
         raise InputError(f"{what} takes an Angles (plantlod.simulate or read_angles), got "
                          f"{type(angles).__name__}")
-    if np.ndim(angles.bend) == 3:
+    if angle_ndim(angles.bend) == 3:
         raise InputError(f"{what} takes one run: select it first (angles[w])")
     addresses = angles.addresses
     if not isinstance(addresses, (tuple, list)) or not all(isinstance(a, str) for a in addresses):

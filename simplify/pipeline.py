@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import threading
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Callable
 
@@ -28,7 +29,7 @@ from .constants import SIMPLIFY_WIND_RANGE
 from .constants import MAX_LEVEL
 from .constants import MAX_SIMPLIFY_STEPS
 from .constants import LEVEL_RATIO
-from plantlod.lsys.errors import InputError
+from plantlod.lsys.errors import InputError, PlantlodWarning
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
@@ -130,9 +131,12 @@ class Options:
                              f"{round(SIMPLIFY_DURATION / SIMPLIFY_DT):,}); expected a larger "
                              f"{dt} or a shorter {duration}")
         if self.duration < 2 * self.every * self.dt:    # (a period needs two kept samples)
+            # (the API's every too: the CLI keeps every 4th step and has no flag for it)
+            every = "" if self.flags else f" (two kept samples at every={self.every})"
             raise InputError(f"{duration} {self.duration:g} s at {dt} {self.dt:g} s gives fewer "
-                             f"than {2 * self.every} steps to measure the motion in; expected a "
-                             f"longer {duration} or a smaller {dt}")
+                             f"than {2 * self.every} steps to measure the motion in{every}; "
+                             f"expected a longer {duration}, a smaller {dt}"
+                             f"{'' if self.flags else ' or a smaller every'}")
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
@@ -761,9 +765,20 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
     known = {f.name for f in dataclasses.fields(Options)} - {"level", "flags"}
     unknown = sorted(set(options) - known)
     if unknown:
-        raise InputError(f"unknown option {unknown[0]!r}{did_you_mean(str(unknown[0]), known)}; "
-                         f"expected some of {', '.join(sorted(known))}")
-    level_system_ = simplify(system, Options(level=level, **options)).system
+        # ('levle' was told 'did you mean every?': level is a keyword too)
+        hint = did_you_mean(str(unknown[0]), known | {"level"})
+        raise InputError(f"unknown option {unknown[0]!r}{hint}; "
+                         f"expected some of {', '.join(sorted(known | {'level'}))}")
+    checked = Options(level=level, **options)
+    if "max_evaluations" in options and not checked.calibrate:
+        # (ignored without calibrate, as the CLI refuses --evaluations without --calibrate)
+        raise InputError("max_evaluations is the calibration's budget; it applies with "
+                         "calibrate=True")
+    result = simplify(system, checked)
+    for note in result.notes:                 # (the CLI says them on stderr)
+        if note.startswith("warning: "):
+            warnings.warn(note[len("warning: "):], PlantlodWarning, stacklevel=3)
+    level_system_ = result.system
     # (named as the level it is: the original's file name made a warning about the level's
     # branch 3 name a file that has no branch 3)
     source = f"{system.source or system.name or 'tree'} (level {level})"

@@ -151,8 +151,15 @@ def test_writing_to_a_device_writes_in_place_and_never_replaces_it(tmp_path):
     ({"method": np.array(["derived", "x"])}, "method must be one of"),     # ValueError (s. 32)
     ({"foo": 1}, "unknown option 'foo'"),                                  # TypeError
     ({"forms": "explicit"}, "unknown option 'forms' (did you mean 'form'?)"),  # (session 33)
-    ({"dt": 10}, "duration 20 s at dt 10 s gives fewer than 8 steps to measure the motion in; "
-                 "expected a longer duration or a smaller dt"),           # signal shape error
+    ({"dt": 10}, "duration 20 s at dt 10 s gives fewer than 8 steps to measure the motion in "
+                 "(two kept samples at every=4); expected a longer duration, a smaller dt or "
+                 "a smaller every"),                                      # signal shape error
+    # (session 40, a helper's first hour: the API's every was not named; levle was told
+    # 'did you mean every?'; max_evaluations without calibrate was ignored)
+    ({"duration": 5.0, "every": 10 ** 6}, "two kept samples at every=1000000"),
+    ({"levle": 2}, "unknown option 'levle' (did you mean 'level'?)"),
+    ({"max_evaluations": 5}, "max_evaluations is the calibration's budget; it applies with "
+                             "calibrate=True"),
     ({"duration": -1}, "duration -1 s: expected a duration of at least 0 s"),  # "more than 10^10 steps"
     # (session 34's fuzzing: a MemoryError of 37 GB after 22 s; dt 1e-6 ran 45 s at 3.4 GB)
     ({"dt": 1e-9, "duration": 5.0}, "gives 5,000,000,000 steps; simplify measures runs of at "
@@ -471,3 +478,25 @@ def test_simplify_options_a_numpy_level_and_a_reversed_wind_range():
         plantlod.simplify(STALK, level=1, wind_range=(10, 1))
     options = Options(level=np.int64(2))
     assert type(options.level) is int and options.level == 2
+
+
+def test_simplify_warns_as_the_command_does():
+    """The CLI says simplify's warnings on stderr; the API dropped them (session 40, a helper's
+    first hour). stalk8 in runs of 2 s: its slowest swing (about 3 s) shows no period, and it
+    leans past 0.1 rad at 15 m/s."""
+    with pytest.warns(plantlod.PlantlodWarning) as caught:
+        plantlod.simplify(STALK, 1, duration=2.0)
+    said = [str(w.message) for w in caught]
+    assert any(s.startswith("no period was measured in any wind") for s in said), said
+    assert any("pass 0.1 rad at 15 m/s" in s for s in said), said
+    assert not any(s.startswith("warning:") for s in said)
+
+
+def test_ragged_angles_are_refused_as_other_malformed_ones():
+    """Rows of different lengths reached numpy's 'inhomogeneous shape' ValueError from
+    write_angles, len() and [w] (session 40, a helper's first hour)."""
+    ragged = plantlod.Angles([0.0, 1.0], [[0.0, 0.0], [0.0]], [[0.0, 0.0], [0.0, 0.0]],
+                             ("0", "1"))
+    for call in (lambda: plantlod.write_angles(ragged), lambda: len(ragged), lambda: ragged[0]):
+        with pytest.raises(InputError, match="must be arrays of real numbers"):
+            call()
