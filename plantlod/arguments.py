@@ -58,6 +58,11 @@ def path_of(value: Any, name: str = "the path", *, output: bool = False) -> str:
     path = os.fspath(value)
     if not isinstance(path, str) or not path or "\0" in path:
         raise InputError(f"{name} must name a file, got {value!r}")
+    if output and ("\n" in path or "\r" in path):
+        # (a name from readline(): 'a.npz\n' was written as JSON to a file no read_* call
+        # opens by the same string, which it reads as text)
+        raise InputError(f"{name} must name a file, got {value!r}, which holds a line break "
+                         f"(strip it)")
     if output and not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         raise InputError("output directory does not exist", path)
     return path

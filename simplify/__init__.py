@@ -13,14 +13,14 @@ import types as _types
 
 
 class _CallablePackage(_types.ModuleType):
-    def __call__(self, system, level=1, **options):
+    def __call__(self, *args, **options):
         """The level-``level`` L-system standing for ``system`` (plantlod.api.simplify: an
-        `LSystem`, a path, or the text of an L-system, as `plantlod.read_lsystem` reads it)."""
+        `LSystem`, a path, or the text of an L-system, as `plantlod.read_lsystem` reads it).
+        The arguments pass on as given, so that Python's TypeError for a wrong call counts
+        them as the caller wrote them (``self`` made it one more)."""
         from plantlod.api import simplify   # the API's function; a call, not a dependency
 
-        return simplify(system, level, **options)
-
-    __call__.__qualname__ = "simplify"      # (Python's TypeError for a wrong call names it)
+        return simplify(*args, **options)
 
     @property
     def __signature__(self):

@@ -129,6 +129,11 @@ def merge_levels(tree: Tree, ratio: float = LEVEL_RATIO,
     misfit_weight: W_f while level 1 is merged and after it (`regroup` tries level 1 priced
     with the mode misfit too, where the default grouping's level misses).
     """
+    if not isinstance(tree, Tree):            # (an LSystem met an AttributeError; docs/api.md)
+        from plantlod.lsys.errors import InputError
+
+        raise InputError(f"merge_levels takes a Tree (plantlod.derive of an L-system), got "
+                         f"{type(tree).__name__}")
     b = tree.n_branches
     parent = np.asarray(tree.parent, dtype=np.int64).tolist()
     levels = [Grouping(np.arange(b, dtype=np.int64), np.arange(b, dtype=np.int64))]

@@ -500,3 +500,32 @@ def test_ragged_angles_are_refused_as_other_malformed_ones():
     for call in (lambda: plantlod.write_angles(ragged), lambda: len(ragged), lambda: ragged[0]):
         with pytest.raises(InputError, match="must be arrays of real numbers"):
             call()
+
+
+def test_a_wrong_call_of_the_simplify_package_counts_the_callers_arguments():
+    """plantlod.simplify is a callable package; its __call__ counted self, so three arguments
+    were said to be four (session 40, a helper's first hour)."""
+    with pytest.raises(TypeError, match=r"simplify\(\) takes from 1 to 2 positional arguments "
+                                        r"but 3 were given"):
+        plantlod.simplify(STALK, 1, "explicit")
+
+
+def test_merge_levels_says_it_takes_a_tree():
+    """docs/api.md's lower level `merge_levels` given an L-system met an AttributeError
+    ('LSystem' object has no attribute 'n_branches'; session 40, a helper's first hour)."""
+    from plantlod.simplify.explicit import merge_levels
+
+    with pytest.raises(InputError, match="merge_levels takes a Tree .* got LSystem"):
+        merge_levels(plantlod.read_lsystem(STALK))
+    assert len(merge_levels(plantlod.derive(STALK))) == 4      # 8, 4, 2, 1 branches
+
+
+def test_an_output_path_with_a_line_break_is_refused(tmp_path):
+    """A name from readline(), 'r.npz\\n', was written as JSON (the .npz check missed it) to a
+    file that read_tree cannot open by the same string, which it reads as text (session 40,
+    a helper's first hour)."""
+    tree = plantlod.derive(STALK)
+    target = str(tmp_path / "r.npz") + "\n"
+    with pytest.raises(InputError, match="holds a line break"):
+        plantlod.write_tree(tree, target)
+    assert os.listdir(tmp_path) == []
