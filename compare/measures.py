@@ -145,12 +145,12 @@ class ComponentFigures:
 
     def to_dict(self) -> dict:
         return {
-            "amplitude_original": _json_float(self.amplitude_original),
-            "amplitude_simplified": _json_float(self.amplitude_simplified),
-            "amplitude_error": _json_float(self.amplitude_error),
-            "period_original": _json_float(self.period_original),
-            "period_simplified": _json_float(self.period_simplified),
-            "period_error": _json_float(self.period_error),
+            "amplitude_original": json_float(self.amplitude_original),
+            "amplitude_simplified": json_float(self.amplitude_simplified),
+            "amplitude_error": json_float(self.amplitude_error),
+            "period_original": json_float(self.period_original),
+            "period_simplified": json_float(self.period_simplified),
+            "period_error": json_float(self.period_error),
             "counted": self.counted,
         }
 
@@ -172,7 +172,7 @@ class GroupFigures:
             "address": self.address,
             "bend": self.bend.to_dict(),
             "rotation": self.rotation.to_dict(),
-            "tip_error": _json_float(self.tip_error),
+            "tip_error": json_float(self.tip_error),
         }
 
 
@@ -294,23 +294,23 @@ class Report:
         """JSON-ready values: plain floats, None for NaN, addresses as strings."""
         at = lambda w: None if w is None else w.to_dict()   # noqa: E731
         return {
-            "motion_error": _json_float(self.motion_error),
+            "motion_error": json_float(self.motion_error),
             "motion_error_at": at(self.motion_error_at),
-            "period_error_major": _json_float(self.period_error_major),
+            "period_error_major": json_float(self.period_error_major),
             "period_error_major_at": at(self.period_error_major_at),
-            "tip_error_max_m": _json_float(self.tip_error_max_m),
+            "tip_error_max_m": json_float(self.tip_error_max_m),
             "tip_error_max_m_at": at(self.tip_error_max_m_at),
-            "amplitude_error": _json_float(self.amplitude_error),
-            "period_error": _json_float(self.period_error),
-            "tip_error": _json_float(self.tip_error),
+            "amplitude_error": json_float(self.amplitude_error),
+            "period_error": json_float(self.period_error),
+            "tip_error": json_float(self.tip_error),
             "amplitude_error_at": None if self.amplitude_error_at is None else self.amplitude_error_at.to_dict(),
             "period_error_at": None if self.period_error_at is None else self.period_error_at.to_dict(),
             "tip_error_at": None if self.tip_error_at is None else self.tip_error_at.to_dict(),
             "undefined_periods": [w.to_dict() for w in self.undefined_periods],
-            "largest_amplitude": _json_float(self.largest_amplitude),
+            "largest_amplitude": json_float(self.largest_amplitude),
             "counted_fraction": COUNTED_AMPLITUDE_FRACTION,
-            "rest_height": _json_float(self.rest_height),
-            "window": [_json_float(self.t0), _json_float(self.t1)],
+            "rest_height": json_float(self.rest_height),
+            "window": [json_float(self.t0), json_float(self.t1)],
             "groups": [g.to_dict() for g in self.groups],
         }
 
@@ -435,7 +435,9 @@ def _check_time(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t, x.reshape(x.shape[0], -1)
 
 
-def _json_float(v: float) -> float | None:
+def json_float(v: float) -> float | None:
+    """``v`` as compare's JSON holds a figure: a float, or None where it is undefined (NaN;
+    plain JSON has no NaN)."""
     return None if v is None or not math.isfinite(v) else float(v)
 
 

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from .runs import AngleDifference, Comparison, Violation
-from .measures import COMPONENTS
+from .measures import COMPONENTS, json_float
 
 from plantlod.formats.constants import JSON_SIGNIFICANT_DIGITS, TABLE_FLOAT_FORMAT
 from plantlod.lsys.words import counted
@@ -210,8 +210,9 @@ def comparison_document(comparisons: list[Comparison], bounds: dict[str, float |
             "simplified": {"file": s.name, "branches": s.tree.n_branches, "leaves": s.tree.n_leaves},
             "unassigned_branches": comp.unassigned,
             **report,
-            "exceeded": [{"bound": v.option, "figure": v.figure, "value": v.value,
-                          "limit": v.limit, "at": None if v.at is None else v.at.to_dict()}
+            # (an undefined figure breaks its bound as None, as the figures above say it)
+            "exceeded": [{"bound": v.option, "figure": v.figure, "value": json_float(v.value),
+                          "limit": json_float(v.limit), "at": None if v.at is None else v.at.to_dict()}
                          for v in broken],
             "groups": groups,
         })

@@ -68,3 +68,16 @@ class PlantlodWarning(UserWarning):
     """Something worth a word that does not stop the run (a file with no branch symbol,
     angles far outside the small-angle model). The CLI prints each once as a one-line
     ``warning:`` on stderr (exit 0); a library caller sees it through `warnings`."""
+
+
+def warn_caller(message: str) -> None:
+    """Warn ``message`` as a `PlantlodWarning` at the caller's line: the first frame outside
+    plantlod's modules, however deep the call is inside them (`plantlod.simplify`, a callable
+    package, reached the warning through three of them and named its own line)."""
+    import sys
+    import warnings
+
+    level, frame = 2, sys._getframe(1)          # (stacklevel 1 is this function)
+    while frame is not None and frame.f_globals.get("__name__", "").split(".")[0] == "plantlod":
+        level, frame = level + 1, frame.f_back
+    warnings.warn(message, PlantlodWarning, stacklevel=level)

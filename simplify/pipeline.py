@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import threading
-import warnings
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Callable
 
@@ -29,7 +28,7 @@ from .constants import SIMPLIFY_WIND_RANGE
 from .constants import MAX_LEVEL
 from .constants import MAX_SIMPLIFY_STEPS
 from .constants import LEVEL_RATIO
-from plantlod.lsys.errors import InputError, PlantlodWarning
+from plantlod.lsys.errors import InputError, warn_caller
 from plantlod.lsys.parse import parse_lsys
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
@@ -777,7 +776,7 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
     result = simplify(system, checked)
     for note in result.notes:                 # (the CLI says them on stderr)
         if note.startswith("warning: "):
-            warnings.warn(note[len("warning: "):], PlantlodWarning, stacklevel=3)
+            warn_caller(note[len("warning: "):])
     level_system_ = result.system
     # (named as the level it is: the original's file name made a warning about the level's
     # branch 3 name a file that has no branch 3)

@@ -490,6 +490,8 @@ def test_simplify_warns_as_the_command_does():
     assert any(s.startswith("no period was measured in any wind") for s in said), said
     assert any("pass 0.1 rad at 15 m/s" in s for s in said), said
     assert not any(s.startswith("warning:") for s in said)
+    # at the caller's line, not inside plantlod (the callable package's own line)
+    assert {w.filename for w in caught} == {__file__}
 
 
 def test_ragged_angles_are_refused_as_other_malformed_ones():
@@ -529,3 +531,18 @@ def test_an_output_path_with_a_line_break_is_refused(tmp_path):
     with pytest.raises(InputError, match="holds a line break"):
         plantlod.write_tree(tree, target)
     assert os.listdir(tmp_path) == []
+
+
+def test_an_undefined_figure_breaks_its_bound_as_null_json():
+    """compare's document held NaN in exceeded[].value where the figure itself read None, so
+    json.dumps(..., allow_nan=False) refused it (session 40, a helper's first hour)."""
+    import json
+
+    level = plantlod.simplify(STALK, 1, form="grammar", wind_range=(0.5, 2.0))
+    doc = plantlod.compare(STALK, level, wind=(10, 0, 0), dt=0.01, duration=1.0,
+                           bounds={"period_error": 0.001})
+    comparison = doc["comparisons"][0]
+    assert comparison["period_error"] is None                 # 1 s holds no stalk8 period
+    assert comparison["exceeded"] == [{"bound": "--max-period-error", "figure": "period_error",
+                                       "value": None, "limit": 0.001, "at": None}]
+    json.dumps(doc, allow_nan=False)
