@@ -632,6 +632,11 @@ def _checked_system(system: LSystem) -> LSystem:
         value = getattr(system, name)
         if not isinstance(value, (tuple, list)) or not all(isinstance(v, kind) for v in value):
             fail(f"{name} must be a tuple of {kind.__name__}s, got {shown_value(value)}")
+    # a list where the file gives a tuple is the same sequence (it read back as another:
+    # `replace(system, productions=list(...))`; session 40, a helper's first hour)
+    system = dataclasses.replace(system, **{name: tuple(getattr(system, name))
+                                            for name in (*kinds, "defines")
+                                            if isinstance(getattr(system, name), list)})
     if not isinstance(system.defines, (tuple, list)) or not all(
             isinstance(d, tuple) and len(d) == 2 and isinstance(d[0], str) for d in system.defines):
         fail("defines must be a tuple of (name, value) pairs")

@@ -546,3 +546,15 @@ def test_an_undefined_figure_breaks_its_bound_as_null_json():
     assert comparison["exceeded"] == [{"bound": "--max-period-error", "figure": "period_error",
                                        "value": None, "limit": 0.001, "at": None}]
     json.dumps(doc, allow_nan=False)
+
+
+def test_an_lsystem_edited_with_lists_is_the_same_lsystem():
+    """`replace(system, productions=list(...))` (or ignore=[]) was refused as reading back
+    'as something else': a list is not equal to the tuple the text reads (session 40)."""
+    import dataclasses
+
+    system = plantlod.read_lsystem(STALK)
+    edited = dataclasses.replace(system, axiom=list(system.axiom), ignore=[],
+                                 productions=list(system.productions))
+    assert plantlod.write_lsystem(edited) == plantlod.write_lsystem(system)
+    assert plantlod.derive(edited).n_branches == plantlod.derive(system).n_branches == 8
