@@ -370,6 +370,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
 
     if not simplified:
         raise InputError("compare needs at least one simplified tree")
+    items = (original,) + simplified
+    trees = [_compared_tree(item, k) for k, item in enumerate(items)]
     n = _step_count(dt, steps, duration)
     if n < 1:                               # (it said "window [-, -] s holds 1 sample(s)")
         raise InputError(f"compare needs a run of at least one step (two samples); "
@@ -404,16 +406,30 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     bounds = {name: limits.get(name) for name in BOUND_OPTIONS}
     bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
               for name, b in bounds.items()}
-    items = (original,) + simplified
     runs = []
     damped = _damping(damping, damping_ratio)
-    for item, label in zip(items, _labels(items)):
-        tree = _as_tree(item)
+    for tree, label in zip(trees, _labels(items)):
         a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
     comparisons = [compare_runs(runs[0], r, t0, t1) for r in runs[1:]]
     violations = [check_bounds(c.report, bounds) for c in comparisons]
     return comparison_document(comparisons, bounds, violations)
+
+
+def _compared_tree(item: Any, k: int) -> Tree:
+    """Argument ``k`` of `compare` (0 the original) as a tree, every one before any run: a
+    wrong third argument was found after the first two had been simulated (12 s), and said
+    neither which argument it was nor that a wind is given as ``wind=``."""
+    try:
+        return _as_tree(item)
+    except InputError as exc:
+        if isinstance(item, (Tree, LSystem, str, os.PathLike)):
+            raise                              # (a tree whose own reading failed says where)
+        which = "the original" if k == 0 else f"simplified tree {k}"
+        hint = (" (the wind is a keyword: wind=(vx, vy, vz) or wind_speed=...)"
+                if _is_number(item) or (isinstance(item, (tuple, list)) and _is_vector(item))
+                or (isinstance(item, np.ndarray) and item.shape == (3,)) else "")
+        raise InputError(f"compare's argument {k + 1} ({which}): {exc.message}{hint}") from None
 
 
 # --- helpers -------------------------------------------------------------------------------

@@ -558,3 +558,20 @@ def test_an_lsystem_edited_with_lists_is_the_same_lsystem():
                                  productions=list(system.productions))
     assert plantlod.write_lsystem(edited) == plantlod.write_lsystem(system)
     assert plantlod.derive(edited).n_branches == plantlod.derive(system).n_branches == 8
+
+
+def test_compare_checks_every_tree_before_any_run(monkeypatch):
+    """A wind given in place of a keyword, compare(a, b, (5, 0, 0)), was found only after a and
+    b had been simulated (12 s on abop_2_6), and the message named no argument (session 40,
+    a helper's first hour). Nothing may run before every argument is read."""
+    import plantlod.api as api
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a run started before every argument was checked")
+
+    monkeypatch.setattr(api, "_simulated", no_run)
+    with pytest.raises(InputError, match=r"compare's argument 3 \(simplified tree 2\): .* got "
+                                         r"tuple \(the wind is a keyword: wind="):
+        plantlod.compare(STALK, STALK, (5, 0, 0), dt=0.01, duration=1.0)
+    with pytest.raises(InputError, match=r"argument 2 \(simplified tree 1\): .* got NoneType$"):
+        plantlod.compare(STALK, None, wind=(5, 0, 0), dt=0.01, duration=1.0)
