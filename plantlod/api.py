@@ -261,8 +261,11 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
         s = simulate_arrays(tree, dt, steps, winds[0], every=every, damping=damping)
         return s.times, s.bend[None], s.rot[None]
 
+    from plantlod.sim.run import check_held_angles
     from plantlod.sim.wind import wind_samples
 
+    # (before the winds' samples and the lanes' state: 20,000 winds were refused after 46 s)
+    check_held_angles(steps // every, tree.n_branches, len(winds))
     ks = np.arange(steps, dtype=np.float64)          # step k uses V(t_{k-1})
     samples = (np.stack([wind_samples(w, ks * dt) for w in winds]) if steps
                else np.zeros((len(winds), 0, 3)))

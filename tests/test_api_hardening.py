@@ -575,3 +575,22 @@ def test_compare_checks_every_tree_before_any_run(monkeypatch):
         plantlod.compare(STALK, STALK, (5, 0, 0), dt=0.01, duration=1.0)
     with pytest.raises(InputError, match=r"argument 2 \(simplified tree 1\): .* got NoneType$"):
         plantlod.compare(STALK, None, wind=(5, 0, 0), dt=0.01, duration=1.0)
+
+
+def test_too_many_winds_are_refused_before_their_samples(monkeypatch):
+    """20,000 winds on a 2,048-branch tree were refused by the lanes engine after 46 s and
+    2.6 GB of wind samples and state (session 40, a helper's first hour); the angles' size,
+    2 x 20,000 x 2,000 rows x 8 branches x 8 bytes = 5.1 GB here, is known before any of that."""
+    import plantlod.sim.wind as wind
+
+    sampled = wind.wind_samples
+
+    def no_samples(w, times):                 # (one sample: whether a wind is zero, fine)
+        if len(times) > 1:
+            raise AssertionError("wind samples made before the angles' size was checked")
+        return sampled(w, times)
+
+    monkeypatch.setattr(wind, "wind_samples", no_samples)
+    with pytest.raises(InputError, match=r"the run would hold 5\.1 GB of angles in memory "
+                                         r"\(20,000 x 2,000 rows x 8 branches\)"):
+        plantlod.simulate(STALK, wind=np.tile([2.0, 0.0, 0.0], (20000, 1)), dt=0.01, steps=2000)
