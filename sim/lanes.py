@@ -25,6 +25,7 @@ from plantlod.lsys.tree import Tree
 from .engine_env import check_jit_enabled, env_threads
 from .damping import Damping
 from .kernel import KernelModel, prepare   # numba: the engine compiles on first use
+from .constants import MAX_WIND_SPEED, SPEED_ROUNDING
 from .run import check_held_angles
 
 LANE_PARAMETERS = ("absorbed", "propagated", "bend_k", "rot_k", "drag", "leaf_scale")
@@ -76,7 +77,18 @@ class LaneModel(KernelModel):
             if name not in LANE_PARAMETERS:
                 raise InputError(f"{name!r} is not a lane parameter; expected one of "
                                  f"{', '.join(LANE_PARAMETERS)}")
-            a = np.ascontiguousarray(value, dtype=np.float64)
+            try:                              # (strings were read as numbers)
+                a = np.ascontiguousarray(real_array(value), dtype=np.float64)
+            except (TypeError, ValueError):
+                raise InputError(f"{name} per lane must be an array of numbers, got "
+                                 f"{type(value).__name__} of {np.asarray(value).dtype}") from None
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"{name} per lane must hold finite numbers")
+            # strengths > 0 (model.md 4's stability rule needs them); the rest >= 0
+            if name in ("bend_k", "rot_k") and not np.all(a > 0):
+                raise InputError(f"{name} per lane must be > 0 (k_bs, k_rs / 1000)")
+            if name not in ("bend_k", "rot_k") and not np.all(a >= 0):
+                raise InputError(f"{name} per lane must be >= 0")
             rows = getattr(self, name).shape[0]
             if a.ndim != 2 or a.shape[0] != rows:
                 raise InputError(f"{name} per lane must have shape ({rows}, W), got {a.shape}")
@@ -85,6 +97,23 @@ class LaneModel(KernelModel):
         if len(widths | ({self.lanes} if self.lanes else set())) > 1:
             raise InputError(f"lane parameters disagree on the lane count: {sorted(widths)}")
         return replace(self, **changes)
+
+
+def check_lane_stability(model: LaneModel, dt: float) -> None:
+    """Refuse (InputError) a time step at which some lane's bend or rotation of some branch
+    is unstable (model.md 4: s = k dt / 1000 below `stability.largest_stable_s` of the
+    model's damping), as `simulate` refuses it: lanes of changed strengths ran on, to angles
+    of 1e6 rad."""
+    from .stability import largest_stable_s
+
+    limit = largest_stable_s(model.damping)
+    for name in ("bend_k", "rot_k"):
+        s = np.asarray(getattr(model, name)) * dt          # (B,) or (B, W): k / 1000 * dt
+        if s.size and float(s.max()) >= limit:
+            branch = int(np.unravel_index(int(np.argmax(s)), s.shape)[0])
+            raise InputError(f"time step too large: branch {branch}'s {name} {float(s.max()) / dt:g} "
+                             f"(k / 1000) gives s = k dt / 1000 = {float(s.max()):g} >= {limit:g}, "
+                             f"the stability limit (model.md 4; dt = {dt:g} s)")
 
 
 def thread_count(threads: int | None = None) -> int:
@@ -111,6 +140,11 @@ def _winds(winds, lanes: int | None, steps: int) -> np.ndarray:
     if w.ndim == 1 and w.shape == (3,):
         w = w[None, :]
     if w.ndim == 2 and w.shape[1] == 3:
+        # steady winds, as simulate refuses them (a series' samples are the caller's: a
+        # gusty wind's, sampled by the API, may pass the limit where its mean does not)
+        fastest = float(np.sqrt((w * w).sum(axis=1)).max(initial=0.0))
+        if np.isfinite(fastest) and fastest > MAX_WIND_SPEED * (1.0 + SPEED_ROUNDING):
+            raise InputError(f"a wind of {fastest:g} m/s; expected at most {MAX_WIND_SPEED:g} m/s")
         w = w[:, None, :]
     elif not (w.ndim == 3 and w.shape[2] == 3 and w.shape[1] in (1, steps)):
         raise InputError(f"winds must have shape (W, 3) or (W, {steps}, 3), got {w.shape}")
@@ -145,7 +179,8 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     steps (steps // every when first_step = 1). Raises `RunFailure` naming the
     lane (as ``lane_names`` says, e.g. "the wind of 5 m/s toward 90°"; none for a single
     lane), step and branch (by address when ``addresses`` is given) where an angle
-    stopped being finite. Stability is the caller's check (`sim.stability`).
+    stopped being finite, and `InputError` before any step for a dt at which some lane is
+    unstable (`check_lane_stability`, model.md 4) or a steady wind past MAX_WIND_SPEED.
     """
     check_jit_enabled()
     from . import lanes_kernel   # numba, compiled on first use
@@ -161,6 +196,7 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     dt = real("dt", dt, low=0.0, low_open=True)
     w = _winds(winds, model.lanes, steps)
     lanes, b = w.shape[0], model.n_branches
+    check_lane_stability(model, dt)
     if state is None:
         state = new_state(model, lanes)
     if not isinstance(state, np.ndarray) or state.shape != (lanes, 4, b) \

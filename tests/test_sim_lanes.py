@@ -135,3 +135,37 @@ def test_wrong_argument_types_are_input_errors(call, said):
     tree = y_tree()
     with pytest.raises(InputError, match=said):
         call(LaneModel.from_tree(tree), tree)
+
+
+# --- checked as the API is (docs/api.md, "Lower levels"; session 40, a helper's first hour) ---
+
+def test_an_unstable_lane_is_refused_before_it_runs():
+    """simulate refuses dt at which s = k dt / 1000 >= 4 (model.md 4, undamped); run_lanes ran
+    on to angles of 1e6 rad, and a lane of negative strength to 9,170 rad."""
+    model = LaneModel.from_tree(y_tree())
+    k = float(np.max(model.bend_k))                    # k_bs / 1000 of the stiffest branch
+    with pytest.raises(InputError, match="time step too large"):
+        run_lanes(model, np.ones((1, 3)), 4.0 / k, 10)
+    run_lanes(model, np.ones((1, 3)), 0.999 * 4.0 / max(k, float(np.max(model.rot_k))), 1)
+    stiff = model.with_lane_parameters(rot_k=np.stack([model.rot_k, 10 * model.rot_k], axis=1))
+    with pytest.raises(InputError, match="time step too large"):   # only lane 2 is unstable
+        run_lanes(stiff, np.ones((2, 3)), 0.5 * 4.0 / float(np.max(model.rot_k)), 1)
+
+
+@pytest.mark.parametrize("value, message", [
+    (-1.0, "must be > 0"), (np.nan, "must hold finite numbers"), ("20", "array of numbers")])
+def test_lane_parameters_are_numbers_a_run_can_take(value, message):
+    model = LaneModel.from_tree(y_tree())
+    column = np.full((model.n_branches, 1), value, dtype=object if isinstance(value, str) else float)
+    with pytest.raises(InputError, match=message):
+        model.with_lane_parameters(bend_k=column.astype(str) if isinstance(value, str) else column)
+    with pytest.raises(InputError, match=">= 0"):
+        model.with_lane_parameters(drag=np.full((model.n_branches, 1), -1.0))
+
+
+def test_a_steady_lane_wind_past_the_limit_is_refused():
+    model = LaneModel.from_tree(y_tree())
+    with pytest.raises(InputError, match="a wind of 1e\\+06 m/s; expected at most 1000 m/s"):
+        run_lanes(model, np.array([[1e6, 0.0, 0.0]]), 0.01, 1)
+    # exactly 1000 m/s toward 30° measures 1000.0000000000001 and is taken, as simulate takes it
+    run_lanes(model, np.array([[1000 * np.cos(np.pi / 6), 1000 * np.sin(np.pi / 6), 0.0]]), 0.01, 1)
