@@ -568,6 +568,46 @@ def _sniffed_kind(path: pathlib.Path, _mtime_ns: int, _size: int) -> str | None:
 LISTED_TABLES = ("tree", "camera.key")
 
 
+# what tomllib's commonest complaints mean in a scene, said as what was expected
+TOML_HINTS = {
+    "Unclosed array": "an array opened with [ earlier is not closed; expected its ]",
+    "Unclosed inline table": "an inline table opened with { is not closed on its line; "
+                             "expected its }",
+    "Illegal character '\\n'": "a string runs to the end of its line; expected its closing "
+                                "quote on the same line",
+    "Expected '=' after a key in a key/value pair": "expected key = value; a key without quotes "
+                                                    "holds only A-Z a-z 0-9 _ -",
+    "Invalid value": "expected a value after = (a number, \"text\", true, [..] or {..})",
+    "Expected newline or end of document after a statement": "expected one key = value per "
+                                                             "line",
+}
+
+
+def _toml_hint(complaint: str, text: str, line: int, col: int, message: str
+               ) -> tuple[str, int]:
+    """(message, column) for tomllib's ``complaint`` at ``line``:``col`` of ``text``: a key
+    given twice is named with the line it was first given on (tomllib said "Cannot overwrite a
+    value" at the end of the second); the commonest other complaints get what was expected
+    (`TOML_HINTS`). Anything else keeps ``message``."""
+    lines = text.splitlines()
+    if complaint == "Cannot overwrite a value" and line <= len(lines):
+        key = lines[line - 1].split("=", 1)[0].strip()
+        first = None
+        for k in range(line - 2, -1, -1):      # back to the table's header
+            if lines[k].lstrip().startswith("["):
+                break
+            if "=" in lines[k] and lines[k].split("=", 1)[0].strip() == key:
+                first = k + 1
+                break
+        if not key or key.startswith("["):
+            return message, col
+        before = "" if first is None else f" (first on line {first})"
+        return (f"the key '{key}' is given twice in its table{before}; expected it once",
+                lines[line - 1].find(key) + 1)
+    hint = TOML_HINTS.get(complaint)
+    return (message if hint is None else f"{message}: {hint}"), col
+
+
 def read_scene(path: str) -> Scene:
     """Read and check a scene file (see the module doc); trees resolved relative to it."""
     from plantlod.formats.kinds import other_kind
@@ -599,6 +639,8 @@ def read_scene(path: str) -> Scene:
             message = (f"the table [{name}] is declared twice; "
                        + (f"several of them are written [[{name}]] each (double brackets)"
                           if name in LISTED_TABLES else "expected it once"))
+        if twice is None and line is not None:
+            message, col = _toml_hint(str(exc).split(" (at")[0], text, line, col, message)
         raise InputError(message, path, line, col) from None
     except RecursionError:              # arrays or tables nested thousands deep
         at = _too_deep(text)

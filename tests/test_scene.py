@@ -451,6 +451,16 @@ def test_the_bound_uses_each_frames_current_distance(tmp_path):
     ("budget_px = 0.0\n" + BASE, "'budget_px' is 0"),
     (BASE.replace("count = 12", "count = 5000"), "cannot place"),
     ("dt = [\n", "not valid TOML"),
+    # (session 40, a helper's fuzzing: tomllib's "Cannot overwrite a value" named no key, its
+    # column past the line's end; other complaints said nothing of what was expected)
+    ("dt = 0.01\ndt = 0.02\n" + BASE, "s.toml:2:1: error: the key 'dt' is given twice in its "
+                                       "table (first on line 1); expected it once"),
+    (BASE.replace("speed = 5", "speed = 5\nspeed = 6"), "the key 'speed' is given twice in its "
+                                                        "table (first on line"),
+    ('name = "open\n' + BASE, "s.toml:1:13: error: not valid TOML: Illegal character '\\n': a "
+                              "string runs to the end of its line; expected its closing quote"),
+    ("b\u00fcdget_px = 1\n" + BASE, "expected key = value; a key without quotes holds only"),
+    ("dt =\n" + BASE, "Invalid value: expected a value after ="),
 ])
 def test_bad_scenes_exit_2_with_the_line(tmp_path, body, message):
     path = _scene(tmp_path, body)
