@@ -16,8 +16,10 @@ DEFAULT_MOVE_LENGTH = 1.0           # f without a parameter
 # module, so 5 M modules stay within about 3.5 to 5.5 GB.
 DEFAULT_MAX_MODULES = 5_000_000
 # how the module limit is named in its errors, which every command that derives can raise
-# (only derive has the option; the API's build functions take max_modules)
-MODULE_LIMIT_SAID = "more than the {:,} modules allowed (derive --max-modules, the API's max_modules)"
+# (only derive has the option, the API's build functions max_modules; a scene neither:
+# fewer steps is what every command can be given)
+MODULE_LIMIT_SAID = ("more than the {:,} modules allowed; expected a smaller derivation_length "
+                     "(or derive --max-modules, the API's max_modules)")
 
 
 # --- tolerances ------------------------------------------------------------------

@@ -798,8 +798,10 @@ def _scatter(r: _Reader, table, folder: pathlib.Path, room: int) -> list[Placed]
     files = [r.file(n, "files", folder, element=k) for k, n in enumerate(names)]
     count = int(r.number(table, "count", None, low=1, integer=True))
     if count > room:
-        raise r.error(f"[scatter] count {count:,} makes more trees than the limit of "
-                      f"{MAX_TREES:,}", "count")
+        # (the total: 1 [[tree]] and count 100,000 read "100,000 makes more than 100,000")
+        raise r.error(f"[scatter] count {count:,} and the {MAX_TREES - room:,} [[tree]] "
+                      f"entries make {count + MAX_TREES - room:,} trees, more than the limit of "
+                      f"{MAX_TREES:,}; expected a count of at most {room:,}", "count")
     seed = int(r.number(table, "seed", 0, low=0, integer=True))
     tree_seeds = _tree_seeds(r, table)
     x0, y0, x1, y1 = r.vector(table, "area", 4)
