@@ -549,7 +549,11 @@ def check_scene(scene: Scene) -> None:
                     warnings.warn(f"{source_name(source, full=True)}: {lies_flat(tree)}: it has "
                                   "no levels to measure, so it runs at full detail",
                                   PlantlodWarning, stacklevel=2)
-            check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
+            try:
+                check_stability(tree, scene.dt, Damping(ratio=scene.damping_ratio))
+            except InputError as exc:           # (the dt is the scene's, not the tree's)
+                raise InputError(f"{exc.message} (dt {scene.dt:g} s is the scene's: "
+                                 f"{scene.source})", exc.file, exc.line, exc.col) from None
         branches[source] = max(1, tree.n_branches)
     work = sum(branches[t.source] for t in scene.trees) * steps
     if work > MAX_SCENE_BRANCH_STEPS:

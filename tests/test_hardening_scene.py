@@ -912,3 +912,19 @@ def test_a_missing_tree_file_says_where_it_was_looked_for_only_when_relative(tmp
         with pytest.raises(InputError) as info:
             read_scene(str(path))
         assert info.value.message.endswith(said) and (info.value.line, info.value.col) == (6, 1)
+
+
+def test_a_dt_too_large_for_a_tree_names_the_scene_that_set_it(tmp_path):
+    """The stability error named the tree file only; the dt is the scene's (session 40, a
+    helper's fuzzing). k_bs 100,000 at dt 0.05 s: s = 5 >= 4 (model.md 4)."""
+    tree = tmp_path / "stiff.lsys"
+    tree.write_text("derivation_length: 2\nbranching_angle: 30\nforce_absorbed: 0.002\n"
+                    "force_propagated: 0.7\nbranch F: length=0.5 radius=0.01 "
+                    "bend_strength=100000 rotation_strength=30\nleaf L: area=0.01\naxiom: A\n"
+                    "productions:\n  A -> F [+A L] [-A L]\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text('dt = 0.05\nduration = 2\n[camera]\nposition = [0, -20, 1.7]\n'
+                     'target = [0, 0, 1]\n[[tree]]\nfile = "stiff.lsys"\n')
+    one_line(run_cli("scene", str(scene), "--no-cache", exit_code=None), 2,
+             "stiff.lsys: error: time step too large", "s = k*dt/1000 = 5 >= 4",
+             f"(dt 0.05 s is the scene's: {scene})")
