@@ -285,6 +285,9 @@ def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
 
     degrees = flag("degrees", degrees)
     archive = _npz_path(path_or_file)
+    if archive is not None and degrees:        # (the reader's message named the CLI's --degrees)
+        raise InputError("degrees=True applies to an angle CSV; an .npz archive holds radians",
+                         archive)
     if archive is not None:
         time, addresses, bend, rot = read_angles_file(archive, degrees)
     else:

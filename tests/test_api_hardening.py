@@ -217,6 +217,9 @@ def test_the_writers_write_an_npz_path_as_the_archive_its_reader_reads(tmp_path)
     assert np.array_equal(back.bend, angles.bend) and back.addresses == angles.addresses
     with pytest.raises(InputError, match="degrees applies to CSV output"):
         plantlod.write_angles(angles, tmp_path / "d.npz", degrees=True)
+    with pytest.raises(InputError, match=r"degrees=True applies to an angle CSV; an \.npz "
+                                         r"archive holds radians"):     # (it named --degrees)
+        plantlod.read_angles(str(tmp_path / "a.npz"), degrees=True)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npz", "t.npz"]
 
 
