@@ -25,7 +25,7 @@ import numpy as np
 
 from plantlod.formats.kinds import OUTPUT_KINDS
 from plantlod.lsys.checks import finite, shown_value
-from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.errors import InputError, RunFailure, warn_caller
 from plantlod.lsys.system import LSystem
 from plantlod.lsys.tree import Tree
 
@@ -128,11 +128,8 @@ def derive(system: LSystem | PathOrText, n: int | None = None, *,
     Returns the `Tree` (plantlod.lsys.tree: per-branch arrays of shape (B,),
     per-leaf arrays (F,), rest rotations as ZYZ angles (B, 3)).
     """
-    import warnings
-
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES, MAX_DERIVATION_STEPS
-    from plantlod.lsys.errors import PlantlodWarning
 
     system = _as_system(system)
     if n is not None:
@@ -141,7 +138,7 @@ def derive(system: LSystem | PathOrText, n: int | None = None, *,
         max_modules = whole("max_modules", max_modules, low=1)
     built = build(system, n, max_modules=max_modules or DEFAULT_MAX_MODULES)
     for message in built.warnings:
-        warnings.warn(message, PlantlodWarning, stacklevel=2)
+        warn_caller(message)
     return built.tree
 
 
@@ -236,16 +233,13 @@ def _simulated(tree: Tree, winds: list, many: bool, dt: float, steps: int, every
 
 def _warn_large_angles(tree: Tree, time, bend, rot, many: bool) -> None:
     """A `PlantlodWarning` for the first run (lane) whose angles leave the small-angle model."""
-    import warnings
-
-    from plantlod.lsys.errors import PlantlodWarning
     from plantlod.sim.angle_range import first_large_angle
 
     for lane in range(len(bend)):
         large = first_large_angle(time, bend[lane], rot[lane], tree.address)
         if large is not None:
             what = (tree.where or "tree") + (f", wind {lane}" if many else "")
-            warnings.warn(large.message(what), PlantlodWarning, stacklevel=3)
+            warn_caller(large.message(what))
             return
 
 
@@ -433,8 +427,7 @@ def _compared_tree(item: Any, k: int) -> Tree:
             raise                              # (a tree whose own reading failed says where)
         which = "the original" if k == 0 else f"simplified tree {k}"
         hint = (" (the wind is a keyword: wind=(vx, vy, vz) or wind_speed=...)"
-                if _is_number(item) or (isinstance(item, (tuple, list)) and _is_vector(item))
-                or (isinstance(item, np.ndarray) and item.shape == (3,)) else "")
+                if _is_number(item) or _reads_as_wind(item) else "")
         raise InputError(f"compare's argument {k + 1} ({which}): {exc.message}{hint}") from None
 
 
@@ -538,9 +531,6 @@ def _gusty(winds: list, strength: Any, seed: Any) -> list:
     """``winds`` with seeded gusts of RMS relative ``strength`` (the CLI's --gust-strength,
     --gust-seed; `GustyWind`), and a `PlantlodWarning` where every wind is a steady zero
     (the tree stays at rest, as the CLI warns)."""
-    import warnings
-
-    from plantlod.lsys.errors import PlantlodWarning
     from plantlod.sim.wind import ConstantWind, GustyWind, KeyframeWind, wind_samples
 
     strength = real("gust_strength", strength, low=0)
@@ -552,9 +542,18 @@ def _gusty(winds: list, strength: Any, seed: Any) -> list:
     steady = [getattr(w, "base", w) for w in winds]     # (a gust scales its base wind)
     if all((isinstance(w, ConstantWind) and not np.any(wind_samples(w, np.zeros(1))))
            or (isinstance(w, KeyframeWind) and not np.any(w.vectors)) for w in steady):
-        warnings.warn("the wind is zero, so the tree stays at rest; give wind=(vx, vy, vz) or "
-                      "wind_speed=S", PlantlodWarning, stacklevel=3)
+        warn_caller("the wind is zero, so the tree stays at rest; give wind=(vx, vy, vz) or "
+                    "wind_speed=S")
     return winds
+
+
+def _reads_as_wind(value: Any) -> bool:
+    """Whether ``value`` is a wind or winds as `simulate` reads them (`_winds`)."""
+    try:
+        _winds(value)
+    except InputError:
+        return False
+    return True
 
 
 def _is_vector(value: Any) -> bool:

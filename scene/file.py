@@ -590,8 +590,8 @@ def _toml_hint(complaint: str, text: str, line: int, col: int, message: str
     value" at the end of the second); the commonest other complaints get what was expected
     (`TOML_HINTS`). Anything else keeps ``message``."""
     lines = text.splitlines()
-    if complaint == "Cannot overwrite a value" and line <= len(lines):
-        key = lines[line - 1].split("=", 1)[0].strip()
+    key = lines[line - 1].split("=", 1)[0].strip() if line <= len(lines) else ""
+    if complaint == "Cannot overwrite a value" and key and not key.startswith("["):
         first = None
         for k in range(line - 2, -1, -1):      # back to the table's header
             if lines[k].lstrip().startswith("["):
@@ -599,8 +599,6 @@ def _toml_hint(complaint: str, text: str, line: int, col: int, message: str
             if "=" in lines[k] and lines[k].split("=", 1)[0].strip() == key:
                 first = k + 1
                 break
-        if not key or key.startswith("["):
-            return message, col
         before = "" if first is None else f" (first on line {first})"
         return (f"the key '{key}' is given twice in its table{before}; expected it once",
                 lines[line - 1].find(key) + 1)

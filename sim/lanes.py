@@ -81,14 +81,14 @@ class LaneModel(KernelModel):
                 a = np.ascontiguousarray(real_array(value), dtype=np.float64)
             except (TypeError, ValueError):
                 raise InputError(f"{name} per lane must be an array of numbers, got "
-                                 f"{type(value).__name__} of {np.asarray(value).dtype}") from None
+                                 f"{type(value).__name__}") from None
             if not np.all(np.isfinite(a)):
                 raise InputError(f"{name} per lane must hold finite numbers")
             # strengths > 0 (model.md 4's stability rule needs them); the rest >= 0
-            if name in ("bend_k", "rot_k") and not np.all(a > 0):
-                raise InputError(f"{name} per lane must be > 0 (k_bs, k_rs / 1000)")
-            if name not in ("bend_k", "rot_k") and not np.all(a >= 0):
-                raise InputError(f"{name} per lane must be >= 0")
+            strength = name in ("bend_k", "rot_k")
+            if not np.all(a > 0 if strength else a >= 0):
+                raise InputError(f"{name} per lane must be "
+                                 + ("> 0 (k_bs, k_rs / 1000)" if strength else ">= 0"))
             rows = getattr(self, name).shape[0]
             if a.ndim != 2 or a.shape[0] != rows:
                 raise InputError(f"{name} per lane must have shape ({rows}, W), got {a.shape}")

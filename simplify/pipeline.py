@@ -131,11 +131,11 @@ class Options:
                              f"{dt} or a shorter {duration}")
         if self.duration < 2 * self.every * self.dt:    # (a period needs two kept samples)
             # (the API's every too: the CLI keeps every 4th step and has no flag for it)
-            every = "" if self.flags else f" (two kept samples at every={self.every})"
+            kept, or_every = (("", "") if self.flags else
+                              (f" (two kept samples at every={self.every})", " or a smaller every"))
             raise InputError(f"{duration} {self.duration:g} s at {dt} {self.dt:g} s gives fewer "
-                             f"than {2 * self.every} steps to measure the motion in{every}; "
-                             f"expected a longer {duration}, a smaller {dt}"
-                             f"{'' if self.flags else ' or a smaller every'}")
+                             f"than {2 * self.every} steps to measure the motion in{kept}; "
+                             f"expected a longer {duration}, a smaller {dt}{or_every}")
 
     def winds(self) -> list[WindCase]:
         return wind_cases(*self.wind_range)
@@ -765,9 +765,9 @@ def simplified_system(system: LSystem, level: int = 1, **options) -> LSystem:
     unknown = sorted(set(options) - known)
     if unknown:
         # ('levle' was told 'did you mean every?': level is a keyword too)
-        hint = did_you_mean(str(unknown[0]), known | {"level"})
-        raise InputError(f"unknown option {unknown[0]!r}{hint}; "
-                         f"expected some of {', '.join(sorted(known | {'level'}))}")
+        names = known | {"level"}
+        raise InputError(f"unknown option {unknown[0]!r}{did_you_mean(str(unknown[0]), names)}; "
+                         f"expected some of {', '.join(sorted(names))}")
     checked = Options(level=level, **options)
     if "max_evaluations" in options and not checked.calibrate:
         # (ignored without calibrate, as the CLI refuses --evaluations without --calibrate)

@@ -597,3 +597,12 @@ def test_too_many_winds_are_refused_before_their_samples(monkeypatch):
     with pytest.raises(InputError, match=r"the run would hold 5\.1 GB of angles in memory "
                                          r"\(20,000 x 2,000 rows x 8 branches\)"):
         plantlod.simulate(STALK, wind=np.tile([2.0, 0.0, 0.0], (20000, 1)), dt=0.01, steps=2000)
+
+
+def test_the_apis_warnings_point_at_the_callers_line():
+    """simulate's large-angle warning passes through two helpers; its fixed stacklevel named
+    a line of plantlod/api.py (`warn_caller` walks out of plantlod's frames)."""
+    with pytest.warns(plantlod.PlantlodWarning) as caught:
+        plantlod.simulate(STALK, wind=[(300, 0, 0), (1, 0, 0)], dt=0.01, steps=400)
+    assert any("tilts" in str(w.message) for w in caught)
+    assert {w.filename for w in caught} == {__file__}
