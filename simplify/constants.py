@@ -196,5 +196,9 @@ MOTION_FIT_BOTH_WAYS = 0.8    # a chain's periods are corrected toward the mean 
 MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward the current G, x the
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)
+MOTION_FIT_SWING_ITERATIONS = 6   # Gauss-Newton steps of the motion fit's second gain step, the modelled
+                              # swing's (motion_fit.dynamic_gain_step; session 41: family tuning range, levels
+                              # 1 / 2, 3665 / 3581 -> 3667 / 3586 cases, seeds 2000-2399 sympodial and bush3d
+                              # level 1, 1538 -> 1558, no tree losing a level-1 case in either)
 MEMBER_STATICS_KEPT = 4       # the original's per-branch static angles kept for this many direction sets (`targets`)
 REPORTS_KEPT = 6              # a Runs keeps the reports of this many trees (the motion fit's rounds, then the measurement)

@@ -272,6 +272,20 @@ def test_a_round_is_worth_another_only_if_it_gains_a_wind_or_one_per_cent():
     assert not improves((3, 0.5), (2, 1.0))             # a wind more missed
 
 
+def test_the_second_fit_replaces_the_first_only_where_no_count_is_worse():
+    """`dominates`: the modelled swing's fit is kept where it misses no more winds at no higher
+    worst ratio, and is better in one; fewer winds at a higher ratio is a trade it does not
+    make (family sympodial-29: (4, 4.96) against (6, 2.93))."""
+    from plantlod.simplify.motion_fit import dominates
+
+    assert dominates((6, 6.87), (14, 9.42))
+    assert dominates((3, 2.0), (3, 2.5))                # the same winds, a lower ratio
+    assert dominates((2, 2.5), (3, 2.5))                # a wind fewer, the same ratio
+    assert not dominates((4, 4.96), (6, 2.93))
+    assert not dominates((7, 1.0), (6, 2.93))
+    assert not dominates((3, 2.5), (3, 2.5))            # the same rank: the first stays
+
+
 @pytest.mark.parametrize("kind, seed", [("sympodial", 245), ("stalk", 0)])
 def test_group_scores_at_their_worst_are_the_bounds_score(kind, seed):
     """A level branch's score (`group_scores`) is its worst figure over the level's bounds; the
