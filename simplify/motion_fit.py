@@ -224,6 +224,19 @@ def own_corrections(ax, ay, px, py, a_max, carry: np.ndarray, tied: np.ndarray
     return to_own(p_total, p_mean, tied), to_own(a_total, a_mean, np.zeros_like(tied))
 
 
+def swing_ratios(ax: np.ndarray, ay: np.ndarray, a_max: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the gain steps fit toward: A_max (W,) with 1 where it is 0, and per (W, S, c) the
+    ratio A_x / A_y of the group's swing to the branch's and its weight (A_x / A_max)² where the
+    component counts and the branch swings (ratio 1, weight 0 elsewhere); ax, ay (W, 2, S) and
+    a_max (W,) as `swing_figures` gives them."""
+    scale = np.where(a_max > 0, a_max, 1.0)
+    ax, ay = np.transpose(ax, (0, 2, 1)), np.transpose(ay, (0, 2, 1))          # (W, S, c)
+    rel = ax / scale[:, None, None]
+    ok = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION) & (ay > 0)
+    return scale, np.where(ok, ax / np.where(ok, ay, 1.0), 1.0), np.where(ok, rel ** 2, 0.0)
+
+
 def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, carry: np.ndarray,
                      force: np.ndarray, ax: np.ndarray, ay: np.ndarray, a_max: np.ndarray,
                      ridge: float = MOTION_FIT_GAIN_RIDGE) -> np.ndarray:
@@ -240,13 +253,7 @@ def gain_matrix_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, car
     weighted by (A_x / A_max)² (the major swings lead), pulled toward the current G (directions
     no fit wind drives keep their gains).
     """
-    scale = np.where(a_max > 0, a_max, 1.0)                                    # (W,)
-    # the figures as (W, S, c)
-    ax, ay = np.transpose(ax, (0, 2, 1)), np.transpose(ay, (0, 2, 1))
-    rel = ax / scale[:, None, None]
-    ok = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION) & (ay > 0)
-    ratio = np.where(ok, ax / np.where(ok, ay, 1.0), 1.0)
-    weight = np.where(ok, rel ** 2, 0.0)
+    scale, ratio, weight = swing_ratios(ax, ay, a_max)
     # y_old (W, S, c): static own angles carried into W_0; the targets in A_max units
     target = static_reading(gain, k_old, carry, force) * ratio / scale[:, None, None]
     # design (W, S, c, m, j): C[c, m] 1000 / k_new[m] f_j, in A_max units
@@ -281,12 +288,7 @@ def dynamic_gain_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, ca
     Gauss-Newton steps (A is piecewise linear in G), each branch keeping a step only where it
     lowers that sum.
     """
-    scale = np.where(a_max > 0, a_max, 1.0)                                    # (W,)
-    ax, ay = np.transpose(ax, (0, 2, 1)), np.transpose(ay, (0, 2, 1))          # (W, S, c)
-    rel = ax / scale[:, None, None]
-    ok = (a_max[:, None, None] > 0) & (rel >= COUNTED_AMPLITUDE_FRACTION) & (ay > 0)
-    ratio = np.where(ok, ax / np.where(ok, ay, 1.0), 1.0)
-    weight = np.where(ok, rel ** 2, 0.0)
+    scale, ratio, weight = swing_ratios(ax, ay, a_max)
     modelled, _ = swing_amplitudes(h_old, own_swings(gain, k_old, carry, force))
     target = modelled * ratio / scale[:, None, None]
     g0 = gain.reshape(-1, 6)
