@@ -94,9 +94,8 @@ def test_identity_gain_is_the_original_model_bit_for_bit():
     assert np.array_equal(a.bend, b.bend) and np.array_equal(a.rot, b.rot)
 
 
-def test_gain_static_angle_closed_form():
-    """A single branch with G under a steady leaf force settles at 1000 G f / k per component."""
-    text = """\
+# one branch with a gain matrix and one leaf (k_fp 1, no drag): its force is the leaf's
+ONE_GAIN_BRANCH = """\
 name: one
 derivation_length: 0
 branching_angle: 30
@@ -109,7 +108,11 @@ axiom: F[/(30)+(50)L]
 overrides:
   0: g_bx=0.004 g_by=0.003 g_bz=0.002 g_rx=0.001 g_ry=0.005 g_rz=-0.003
 """
-    tree = build(parse_lsys(text, "one.lsys")).tree
+
+
+def test_gain_static_angle_closed_form():
+    """A single branch with G under a steady leaf force settles at 1000 G f / k per component."""
+    tree = build(parse_lsys(ONE_GAIN_BRANCH, "one.lsys")).tree
     v = np.array([0.3, 0.2, 0.1])              # small: the frame barely moves
     n = np.asarray(tree.leaf_normal[0])        # branch frame = world at rest (no turn)
     f = 0.02 * (v @ n) * n                     # leaf force, k_fp = 1, S = I at rest

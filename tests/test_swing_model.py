@@ -14,6 +14,7 @@ from plantlod.sim.damping import Damping
 from plantlod.sim.run import simulate_arrays
 from plantlod.sim.wind import ConstantWind
 from plantlod.simplify.swing_model import step_responses, swing_amplitudes
+from test_gain_damping import ONE_GAIN_BRANCH
 
 DT = 0.01
 
@@ -35,20 +36,7 @@ def test_a_damped_step_response_is_what_the_simulator_swings():
     """One branch with a gain matrix under a weak steady leaf force (its frame barely turns):
     each own angle over its static angle 1000 (G f)_m / k_m follows the step response, damping
     ratio included."""
-    text = """\
-name: one
-derivation_length: 0
-branching_angle: 30
-force_absorbed: 0.01
-force_propagated: 1
-drag_coefficient: 0
-branch F: length=1 radius=0.02 bend_strength=200 rotation_strength=100
-leaf L: area=0.02
-axiom: F[/(30)+(50)L]
-overrides:
-  0: g_bx=0.004 g_by=0.003 g_bz=0.002 g_rx=0.001 g_ry=0.005 g_rz=-0.003
-"""
-    tree = build(parse_lsys(text, "one.lsys")).tree
+    tree = build(parse_lsys(ONE_GAIN_BRANCH, "one.lsys")).tree
     v = np.array([0.03, 0.02, 0.01])
     n = np.asarray(tree.leaf_normal[0])
     f = 0.02 * (v @ n) * n
