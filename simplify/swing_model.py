@@ -1,5 +1,5 @@
 """How far a level branch swings, read in its group root's frame W_0, from its gain matrix:
-the motion fit's model of a branch's swing (`motion_fit.gain_matrix_step`).
+the motion fit's model of a branch's swing in its second fit (`motion_fit.dynamic_gain_step`).
 
 Below the small-angle limit a branch's force hardly changes as it swings, so each of its own
 angles m (bend, rotation) answers a steady wind as model.md 4's oscillator answers a constant
