@@ -200,5 +200,8 @@ MOTION_FIT_SWING_ITERATIONS = 6   # Gauss-Newton steps of the motion fit's secon
                               # swing's (motion_fit.dynamic_gain_step; session 41: family tuning range, levels
                               # 1 / 2, 3665 / 3581 -> 3667 / 3586 cases, seeds 2000-2399 sympodial and bush3d
                               # level 1, 1538 -> 1558, no tree losing a level-1 case in either)
+SWING_MIX = 1e-3              # a carry map whose diagonal and off-diagonal entries both pass this mixes a
+                              # level branch's own angles (motion_fit.swings_differ: where none does, the second
+                              # fit is not run; abop_1_24c's chain reads at most 2e-15)
 MEMBER_STATICS_KEPT = 4       # the original's per-branch static angles kept for this many direction sets (`targets`)
 REPORTS_KEPT = 6              # a Runs keeps the reports of this many trees (the motion fit's rounds, then the measurement)

@@ -77,7 +77,7 @@ from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMP
                         MOTION_FIT_BOTH_WAYS, MOTION_FIT_GAIN_RIDGE, MOTION_FIT_GOOD,
                         MOTION_FIT_MIN_GAIN, MOTION_FIT_ROUNDS, MOTION_FIT_STEP,
                         MOTION_FIT_SWING_ITERATIONS, MOTION_FIT_TURN, SMALL_ANGLE_LIMIT,
-                        STALK_BOUNDS)
+                        STALK_BOUNDS, SWING_MIX)
 from .evaluate import Runs, WindCase
 from .swing_model import step_responses, swing_amplitudes
 
@@ -355,8 +355,21 @@ def improves(rank: tuple, best: tuple) -> bool:
 
 def dominates(rank: tuple, other: tuple) -> bool:
     """Whether a `form_rank` (winds missed, worst ratio) is no worse than ``other`` on both
-    counts and better on one: where the motion fit's second fit replaces its first."""
-    return rank[0] <= other[0] and rank[1] <= other[1] and tuple(rank) != tuple(other)
+    counts and worth a round against it (`improves`: a wind fewer, or a worst ratio
+    MOTION_FIT_MIN_GAIN lower): where the motion fit's second fit replaces its first."""
+    return rank[0] <= other[0] and rank[1] <= other[1] and improves(rank, other)
+
+
+def swings_differ(carry: np.ndarray, bend_strength: np.ndarray,
+                  rotation_strength: np.ndarray) -> np.ndarray:
+    """(S,) the level branches whose modelled swing (`swing_model`) is not their static W_0
+    reading times one constant per component: those whose carry map (S, 2, 2) mixes their two
+    own angles (a diagonal and an off-diagonal entry both above SWING_MIX) and whose two
+    strengths differ, so that the two swing at two periods. Elsewhere the second fit would
+    repeat the first (family abop_1_24c's chain: no such branch at any level)."""
+    c = np.abs(carry)
+    mix = np.minimum(np.maximum(c[:, 0, 0], c[:, 1, 1]), np.maximum(c[:, 0, 1], c[:, 1, 0]))
+    return (mix > SWING_MIX) & (bend_strength != rotation_strength)
 
 
 def swing_amplification(gain: np.ndarray, strength: np.ndarray, carry: np.ndarray,
@@ -594,7 +607,9 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         return best[0], (first if best[2] == 0 else rebuild(best[1]))
 
     rank, level_text = fit(None)
-    if gains and rank is not None and rank[0] > 0:    # misses a fit wind: the modelled swing
+    if (gains and rank is not None and rank[0] > 0     # misses a fit wind: the modelled swing,
+            and swings_differ(carry, values["bend_strength"][to_group],
+                              values["rotation_strength"][to_group]).any()):
         second_rank, second = fit(runs)
         if second_rank is not None and dominates(second_rank, rank):
             return second

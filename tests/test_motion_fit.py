@@ -284,6 +284,20 @@ def test_the_second_fit_replaces_the_first_only_where_no_count_is_worse():
     assert not dominates((4, 4.96), (6, 2.93))
     assert not dominates((7, 1.0), (6, 2.93))
     assert not dominates((3, 2.5), (3, 2.5))            # the same rank: the first stays
+    assert not dominates((1, 1.0100662020534), (1, 1.0100662020540))   # a tie within roundoff
+
+
+def test_the_second_fit_runs_only_where_a_branch_swings_at_two_periods_across_w0():
+    """`swings_differ`: a carry map that mixes the two own angles (both a diagonal and an
+    off-diagonal entry above SWING_MIX) and two different strengths; a turn of 0 or 90° about
+    the axis, or tied strengths, leave the modelled swing the static reading times a constant."""
+    from plantlod.simplify.motion_fit import swings_differ
+
+    carry = np.concatenate([_rotation(0.0), _rotation(math.pi / 2), _rotation(0.3),
+                            _rotation(0.3), _rotation(1e-5)])
+    kb = np.array([20.0, 20.0, 20.0, 25.0, 20.0])
+    kr = np.array([25.0, 25.0, 25.0, 25.0, 25.0])
+    assert swings_differ(carry, kb, kr).tolist() == [False, False, True, False, False]
 
 
 @pytest.mark.parametrize("kind, seed", [("sympodial", 245), ("stalk", 0)])
