@@ -35,11 +35,13 @@ scales it by exp of the mean of the two rows' ρ_A, clipped as above.
 That static model of a swing fails where a component's static reading cancels between the
 branch's two own angles (C mixes them): the group still swings there, and so does the branch,
 at its two periods (`swing_model`), but the static fit reads a swing of many times its static
-angle and scales rows. So where the rounds still miss in some fit wind, the fit runs once
+angle and scales rows. So where the rounds still miss in some fit wind and some branch's
+carry map mixes two own angles of different strengths (`swings_differ`; elsewhere the
+modelled swing is the static reading times a constant), the fit runs once
 more from the same start with the modelled swing in place of the static angle
 (`dynamic_gain_step`; the amplification read against it, so only a branch driven by its
 frame's turning has its rows scaled), and that second fit replaces the first only where it
-ranks no worse on both of `form_rank`'s counts and better on one (`dominates`): fewer winds
+ranks no worse on both of `form_rank`'s counts and worth a round against it (`dominates`): fewer winds
 missed at a higher worst ratio is a trade the fit winds cannot judge (family sympodial-29:
 4 winds missed at 4.96 the bounds against 6 at 2.93, and worse in the family's winds).
 
