@@ -197,9 +197,9 @@ MOTION_FIT_GAIN_RIDGE = 0.1   # the motion fit's gain-matrix step: pull toward t
                               # normal matrix's mean diagonal (family seeds 0-35, level 1: 1e-3
                               # 460, 0.03 464, 0.1 466, 0.3 466, 1 457 of 667; 459 without the step)
 MOTION_FIT_SWING_ITERATIONS = 6   # Gauss-Newton steps of the motion fit's second gain step, the modelled
-                              # swing's (motion_fit.dynamic_gain_step; session 41: family tuning range, levels
-                              # 1 / 2, 3665 / 3581 -> 3667 / 3586 cases, seeds 2000-2399 sympodial and bush3d
-                              # level 1, 1538 -> 1558, no tree losing a level-1 case in either)
+                              # swing's (motion_fit.dynamic_gain_step; session 41's second fit: family tuning
+                              # range, levels 1 / 2, 3665 / 3581 -> 3665 / 3586 cases, seeds 2000-2399 sympodial
+                              # and bush3d level 1, 1538 -> 1557, no tree losing a level-1 case in either)
 SWING_MIX = 1e-3              # a carry map whose diagonal and off-diagonal entries both pass this mixes a
                               # level branch's own angles (motion_fit.swings_differ: where none does, the second
                               # fit is not run; abop_1_24c's chain reads at most 2e-15)
