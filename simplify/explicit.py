@@ -47,6 +47,7 @@ from plantlod.compare.constants import COUNTED_AMPLITUDE_FRACTION, MAJOR_AMPLITU
 from plantlod.compare.groups import main_paths
 from .grouping import Grouping, merge_levels  # noqa: F401  (callers import them from here too)
 from .static import rest_frames
+from .swing_model import carry_mixing, unit_response  # noqa: F401  (tests import it from here)
 from .finite import finite_fit
 
 
@@ -289,28 +290,6 @@ def principal_leaves(areas: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray
     return values[keep][::-1], vectors[:, keep].T[::-1]
 
 
-def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: float = 0.0
-                  ) -> np.ndarray:
-    """(steps + 1, n) angle of a branch of each ``strength`` (k, model units) started at rest
-    under a constant force whose equilibrium angle is 1, by model.md 4's step itself:
-    v <- v + s (1 - theta) - c v, theta <- theta + v dt, with s = k dt / 1000 ... per step
-    (the velocity gain k/1000 times (theta_eq - theta)); c from the damping ratio ζ
-    (`plantlod.sim.damping.ratio_coefficient`)."""
-    from plantlod.sim.damping import ratio_coefficient
-
-    k = np.asarray(strength, dtype=np.float64) / 1000.0
-    damping = ratio_coefficient(k, dt, damping_ratio)
-    theta = np.zeros_like(k)
-    v = np.zeros_like(k)
-    out = np.empty((steps + 1, k.size))
-    out[0] = 0.0
-    for step in range(1, steps + 1):
-        v = v + k * (1.0 - theta) - damping * v
-        theta = theta + v * dt
-        out[step] = theta
-    return out
-
-
 @dataclass
 class GroupSwing:
     """How each group swings from rest in its root's frame W_0 (`dominant_strengths`).
@@ -450,9 +429,7 @@ def own_strengths(swing: GroupSwing, carry: np.ndarray, dt: float, duration: flo
     c = np.abs(carry)
     w0 = np.stack([swing.kb, swing.kr], axis=1)                            # (S, 2)
     own = np.take_along_axis(w0, c.argmax(axis=1), axis=1)                 # W_0 comp. per own
-    diagonal = np.maximum(c[:, 0, 0], c[:, 1, 1])
-    off = np.maximum(c[:, 0, 1], c[:, 1, 0])
-    mixed = np.minimum(diagonal, off) > MIXED_CARRY
+    mixed = carry_mixing(carry) > MIXED_CARRY
     same = c[:, :, 0].argmax(axis=1) == c[:, :, 1].argmax(axis=1)          # both onto one
     search = np.flatnonzero(mixed | same)
     if search.size:
@@ -517,7 +494,7 @@ def searched_strengths(swing: GroupSwing, carry: np.ndarray, a_max: np.ndarray, 
             grid = np.exp(np.log(best)[:, :, None]
                           + np.linspace(-1.0, 1.0, q)[None, None, :] * step[:, None, None])
         response = unit_response(strength_of_period(grid, dt).reshape(-1), dt, steps,
-                                 damping_ratio)[::STRENGTH_SEARCH_EVERY]
+                                 damping_ratio, every=STRENGTH_SEARCH_EVERY)
         response = response.reshape(len(t), len(own), 2, q)                # (T, n, m, Q)
         for i in range(len(own)):
             if weight[i].sum() <= 0:

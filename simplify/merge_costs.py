@@ -25,6 +25,7 @@ from .constants import (SHARE_SPREAD_FLOOR, SIMPLIFY_DT, SIMPLIFY_DURATION, SIMP
                         SIMPLIFY_WIND_RANGE, SMALL_ANGLE_LIMIT)
 from .static import (RestFrames, horizontal_directions, rest_frames, rotation_parts, static_angles_at,
                      static_parts)
+from .swing_model import unit_response
 
 
 def _dot(a, b) -> float:
@@ -329,7 +330,7 @@ class CrossingSkew:
     step, so over a window of a few periods its two paces differ (family stalk-0, members of
     k_rs 48.4 and 56.4: 2.81 s upward, 2.96 s downward). No strength serves both within the
     stalks' 1 % then. In the linear regime member j swings from rest as its static part times
-    the unit response of its strength (`explicit.unit_response`), so the group's component c
+    the unit response of its strength (`swing_model.unit_response`), so the group's component c
     in loading l is
 
         x_c(t; l) = Σ_j Σ_m (e_c · ω_m,j(l)) u(t; k_m,j)
@@ -342,15 +343,13 @@ class CrossingSkew:
     """
 
     def __init__(self, shares: ShareSpread, tree: Tree, parent: list[int]):
-        from .explicit import unit_response          # (explicit imports grouping, which imports this)
-
         self.shares = shares
         self.parent = parent
         steps = int(round(SIMPLIFY_DURATION / SIMPLIFY_DT))
         k = np.stack([np.asarray(tree.bend_strength, dtype=np.float64),
                       np.asarray(tree.rotation_strength, dtype=np.float64)], axis=1)   # (B, m)
         values, index = np.unique(k, return_inverse=True)
-        response = unit_response(values, SIMPLIFY_DT, steps)[::SIMPLIFY_EVERY]          # (K, U)
+        response = unit_response(values, SIMPLIFY_DT, steps, every=SIMPLIFY_EVERY)     # (K, U)
         self.times = np.arange(response.shape[0]) * (SIMPLIFY_DT * SIMPLIFY_EVERY)
         self.response = response
         self.index = index.reshape(k.shape)                                            # (B, m)

@@ -81,7 +81,7 @@ from .constants import (COUNTED_AMPLITUDE_FRACTION, LEVEL_BOUNDS, MOTION_FIT_AMP
                         MOTION_FIT_SWING_ITERATIONS, MOTION_FIT_TURN, SMALL_ANGLE_LIMIT,
                         STALK_BOUNDS, SWING_MIX)
 from .evaluate import Runs, WindCase
-from .swing_model import step_responses, swing_amplitudes
+from .swing_model import carry_mixing, step_responses, swing_amplitudes
 
 
 def shared_runs(original: Tree, winds: list[WindCase], dt: float, steps: int, every: int,
@@ -307,10 +307,11 @@ def dynamic_gain_step(gain: np.ndarray, k_old: np.ndarray, k_new: np.ndarray, ca
 
     g = g0.copy()
     value, r, jac = misfit(g)
-    normal = np.einsum("wsc,wsck,wscl->skl", weight, jac, jac)                 # (S, 6, 6)
-    lam = ridge * np.maximum(np.trace(normal, axis1=1, axis2=2) / 6.0, 1e-300)  # (S,)
+    lam = None                                # (S,) from the first step's normal matrix
     for _ in range(iterations):
-        normal = np.einsum("wsc,wsck,wscl->skl", weight, jac, jac)
+        normal = np.einsum("wsc,wsck,wscl->skl", weight, jac, jac)             # (S, 6, 6)
+        if lam is None:
+            lam = ridge * np.maximum(np.trace(normal, axis1=1, axis2=2) / 6.0, 1e-300)
         rhs = -np.einsum("wsc,wsck,wsc->sk", weight, jac, r) - lam[:, None] * (g - g0)
         trial = g + np.linalg.solve(normal + lam[:, None, None] * np.eye(6)[None],
                                     rhs[:, :, None])[:, :, 0]
@@ -369,9 +370,7 @@ def swings_differ(carry: np.ndarray, bend_strength: np.ndarray,
     own angles (a diagonal and an off-diagonal entry both above SWING_MIX) and whose two
     strengths differ, so that the two swing at two periods. Elsewhere the second fit would
     repeat the first (family abop_1_24c's chain: no such branch at any level)."""
-    c = np.abs(carry)
-    mix = np.minimum(np.maximum(c[:, 0, 0], c[:, 1, 1]), np.maximum(c[:, 0, 1], c[:, 1, 0]))
-    return (mix > SWING_MIX) & (bend_strength != rotation_strength)
+    return (carry_mixing(carry) > SWING_MIX) & (bend_strength != rotation_strength)
 
 
 def swing_amplification(gain: np.ndarray, strength: np.ndarray, carry: np.ndarray,
@@ -389,11 +388,11 @@ def swing_amplification(gain: np.ndarray, strength: np.ndarray, carry: np.ndarra
     swings as its own two oscillators do, in place of the static angle."""
     ay = np.transpose(ay, (0, 2, 1))                                           # (W, S, c)
     if h is None:
-        static = np.abs(static_reading(gain, strength, carry, force))
+        reference = np.abs(static_reading(gain, strength, carry, force))
     else:
-        static = swing_amplitudes(h, own_swings(gain, strength, carry, force))[0]
+        reference = swing_amplitudes(h, own_swings(gain, strength, carry, force))[0]
     counted = (a_max[:, None, None] > 0) & (ay >= COUNTED_AMPLITUDE_FRACTION * a_max[:, None, None])
-    ratio = np.where(counted, ay / np.maximum(static, 1e-300), 0.0)
+    ratio = np.where(counted, ay / np.maximum(reference, 1e-300), 0.0)
     return ratio.max(axis=(0, 2), initial=0.0)
 
 
@@ -573,6 +572,8 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
 
     forces: list[np.ndarray] = []             # `fit_wind_forces`, once a round corrects gains
 
+    start = rank_of(values)                   # round 0 of either fit: the level as it came
+
     def fit(swing: Runs | None) -> tuple[tuple | None, tuple[str, Tree]]:
         """(its `form_rank` or None, the level) of rounds from ``values`` with the static
         (``swing`` None) or the modelled swing (``swing``: the fit winds' runs) in the gain
@@ -582,7 +583,7 @@ def motion_fit(original: Tree, values: dict[str, np.ndarray], rebuild: Callable[
         best_score = np.full(s_count, np.inf)     # each level branch's best score so far
         kept = {k: v.copy() for k, v in values.items()}   # each group's values of that round
         for round_ in range(MOTION_FIT_ROUNDS + 1):
-            ranked = rank_of(current)
+            ranked = start if round_ == 0 else rank_of(current)
             if ranked is None:                # the corrected level diverges: keep the best
                 break
             rank, reports, down = ranked

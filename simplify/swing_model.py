@@ -15,38 +15,56 @@ range) is
 Where the two own angles differ in period and C mixes them, A_c is not |static reading| times
 a constant: a component whose static reading cancels between the two (a group that swings
 across its own frame) still swings, as the group it stands for does. `swing_amplitudes`
-gives A and its derivatives in the θ*_m (A is piecewise linear in them).
+gives A and its derivatives in the θ*_m (A is piecewise linear in them). `unit_response`, the
+one step response of model.md 4's scheme, also serves the group swing model
+(`explicit.dominant_strengths`, the strength search) and the merge costs' crossing skew.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from plantlod.sim.damping import Damping, coefficients
+from plantlod.sim.damping import Damping, ratio_coefficient
+
+
+def unit_response(strength: np.ndarray, dt: float, steps: int, damping_ratio: float = 0.0,
+                  every: int = 1) -> np.ndarray:
+    """(steps // every + 1, n) angle of a branch of each ``strength`` (n,) (k, model units)
+    started at rest under a constant force whose equilibrium angle is 1, by model.md 4's step
+    itself: v <- v + s (1 - theta) - c v, theta <- theta + v dt, with s = k dt / 1000 ... per
+    step (the velocity gain k/1000 times (theta_eq - theta)); c from the damping ratio ζ
+    (`plantlod.sim.damping.ratio_coefficient`); every ``every``-th step kept (row 0 at rest),
+    as `evaluate.run_times` samples a run."""
+    k = np.asarray(strength, dtype=np.float64) / 1000.0
+    damping = ratio_coefficient(k, dt, damping_ratio)
+    theta = np.zeros_like(k)
+    v = np.zeros_like(k)
+    out = np.empty((steps // every + 1, k.size))
+    out[0] = 0.0
+    for step in range(1, steps + 1):
+        v = v + k * (1.0 - theta) - damping * v
+        theta = theta + v * dt
+        if step % every == 0:
+            out[step // every] = theta
+    return out
 
 
 def step_responses(strength: np.ndarray, dt: float, steps: int, every: int,
                    damping: Damping) -> np.ndarray:
-    """(K, S, 2) h_m(t_k): each branch's own angle m over its static angle after a constant
-    force from rest, by model.md 4's semi-implicit Euler step, sampled as `evaluate.run_times`
-    (K = steps // every + 1, row 0 at rest).
+    """(K, S, 2) h_m(t_k): `unit_response` of each branch's k_bs and k_rs (``strength``
+    (S, 2)), sampled as `evaluate.run_times` (K = steps // every + 1, row 0 at rest). damping:
+    the runs' (simplify damps its runs by a ratio alone, `pipeline.Options.damping`)."""
+    strength = np.asarray(strength, dtype=np.float64)
+    return unit_response(strength.reshape(-1), dt, steps, damping.ratio,
+                         every).reshape((-1,) + strength.shape)
 
-    strength (S, 2): k_bs and k_rs (N m / rad scaled as model.md 4: the step's k / 1000);
-    damping: the runs' c or damping ratio (`sim.damping.coefficients`).
-    """
-    q = np.asarray(strength, dtype=np.float64) / 1000.0                     # (S, 2)
-    cb, cr = coefficients(damping, q[:, 0], q[:, 1], dt)
-    c = np.stack([cb, cr], axis=1)
-    theta = np.zeros_like(q)
-    v = np.zeros_like(q)
-    out = np.empty((steps // every + 1,) + q.shape)
-    out[0] = 0.0
-    for k in range(1, steps + 1):
-        v = v + q * (1.0 - theta) - c * v          # drive q θ* with θ* = 1
-        theta = theta + v * dt
-        if k % every == 0:
-            out[k // every] = theta
-    return out
+
+def carry_mixing(carry: np.ndarray) -> np.ndarray:
+    """(S,) how far each carry map (S, 2, 2) mixes a branch's two own angles in W_0: the
+    smaller of its largest diagonal and its largest off-diagonal entry (0 for a frame turned
+    by 0 or 90° about its axis)."""
+    c = np.abs(carry)
+    return np.minimum(np.maximum(c[:, 0, 0], c[:, 1, 1]), np.maximum(c[:, 0, 1], c[:, 1, 0]))
 
 
 def swing_amplitudes(h: np.ndarray, own: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
