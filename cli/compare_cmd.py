@@ -19,7 +19,7 @@ from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import ErrorBound, given, require_together
 from .io import (check_output_folder, check_output_kind, check_output_path, display_name,
-                 distinct_paths, is_terminal, open_output, reader_gone_after, say, warn,
+                 distinct_paths, is_terminal, large_file_angles, open_output, reader_gone_after, say, warn,
                  warn_once_running)
 from .compare_exports import is_frame_in, prepare_pictures, write_pictures
 from .loading import load_tree
@@ -284,6 +284,9 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
     if csv is not None:
         times, addresses, bend, rot = _read_csv(csv, degrees)
         bend, rot = angles_in_tree_order(tree, addresses, bend, rot, display_name(csv))
+        large = large_file_angles(times, bend, rot, tree.address, display_name(csv), degrees)
+        if large is not None:
+            warn_once_running(large)
         return Run(tree, times, bend, rot, name, angles=display_name(csv))
     from plantlod.sim.aliasing import aliased
     from plantlod.sim.run import simulate_arrays
@@ -333,9 +336,14 @@ def _summarise(comp) -> None:
         f"{counted(comp.window.stop - comp.window.start, 'sample')}; worst amplitude error "
         f"{_g(r.amplitude_error)}, period error {_g(r.period_error)}, tip error {_g(r.tip_error)}")
     if r.undefined_periods:
+        first = r.undefined_periods[0]
+        figures = next(g for g in r.groups if g.address == first.address).component(first.component)
+        side = (comp.original.name if not math.isfinite(figures.period_original)
+                else comp.simplified.name)
         warn(f"{comp.simplified.name}: {len(r.undefined_periods)} counted component(s) have no "
-             f"defined period (e.g. group {r.undefined_periods[0].address} "
-             f"{r.undefined_periods[0].component}); the period error leaves them out")
+             f"defined period (e.g. group {first.address} {first.component}: {side} crosses "
+             f"its mean upward fewer than twice in the {r.t1 - r.t0:g} s window); the period "
+             f"error leaves them out; a window of two swings or more measures them (--duration)")
 
 
 def _g(value: float) -> str:
@@ -366,7 +374,8 @@ def _compare_csvs(path_a: str, path_b: str, degrees: bool, atol: float | None, a
     if limit is not None and largest > limit:       # one line, the summary's figure in it
         raise RunFailure(f"largest angle difference {largest * scale:.4g} {unit} > --atol {atol:g} "
                          f"at branch {diff.addresses[j]} {component}, t = {t:g} s")
-    say(f"compare: {name_a} against {name_b}: {counted(len(addr_a), 'branch')}, "
+    # the new file against the reference, as trees read (SIMPLIFIED against ORIGINAL)
+    say(f"compare: {name_b} against {name_a}: {counted(len(addr_a), 'branch')}, "
         f"{counted(len(times_a), 'sample')}; "
         f"largest difference {largest * scale:.4g} {unit} at branch {diff.addresses[j]} "
         f"{component}, t = {t:g} s")

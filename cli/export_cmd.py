@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from .io import check_output_path, display_name, distinct_paths, say, warn, write_errors
+from .io import (check_output_path, display_name, distinct_paths, large_file_angles, say, warn,
+                 write_errors)
 from .loading import load_tree
 from plantlod.lsys.words import counted
 
@@ -55,21 +56,10 @@ def export(tree_path, angles_path, output, fps, frames_text, degrees):
         export_animation(output, tree, times, bend, rot, fps, frames,   # every command's -o)
                          display_name(angles_path), display_name(tree_path))
     # (after the export: an angle file it refuses gets its one error line alone)
-    _warn_large_angles(times, bend, rot, tree.address, display_name(angles_path), degrees)
+    large = large_file_angles(times, bend, rot, tree.address, display_name(angles_path), degrees)
+    if large is not None:
+        warn(large)
     span = (f"{times[-1]:g} s at {fps:g} fps" if frames is None else      # (time restarts at 0)
             f"frames {frames[0]}:{frames[1]} ({frames[1] - frames[0]:,} frames, "
             f"{(frames[1] - frames[0] - 1) / fps:g} s) at {fps:g} fps")
     say(f"export: {display_name(tree_path)}: {counted(tree.n_branches, 'branch')}, {span} -> {output}")
-
-
-def _warn_large_angles(times, bend, rot, addresses, name: str, degrees: bool) -> None:
-    """One warning where a branch tilts beyond the model's range (`sim.angle_range`), as
-    `simulate` warns of its own run: an angle CSV written with `simulate --degrees` and
-    exported without --degrees swings 57 times too far, and the file cannot say its unit."""
-    from plantlod.sim.angle_range import first_large_angle
-
-    first = first_large_angle(times, bend, rot, addresses)
-    if first is not None:
-        hint = ("" if degrees else
-                "; if the file holds degrees (simulate --degrees), give --degrees")
-        warn(first.message(name) + hint)

@@ -155,6 +155,20 @@ def end_warnings() -> None:
 _pending: list[str] = []
 
 
+def large_file_angles(times, bend, rot, addresses, name: str, degrees: bool) -> str | None:
+    """The warning where an angle file's branch tilts beyond the model's range
+    (`sim.angle_range`), as `simulate` warns of its own run, or None: a file written with
+    `simulate --degrees` and read without --degrees swings 57 times too far, and the file
+    cannot say its unit (`export`, `compare`)."""
+    from plantlod.sim.angle_range import first_large_angle
+
+    first = first_large_angle(times, bend, rot, addresses)
+    if first is None:
+        return None
+    hint = "" if degrees else "; if the file holds degrees (simulate --degrees), give --degrees"
+    return first.message(name) + hint
+
+
 def warn_once_running(message: str) -> None:
     """A warning that only matters if the command goes on: printed when it starts writing
     its output (`open_output`) or ends well, dropped when it fails, so that a refused

@@ -116,7 +116,9 @@ def assign_groups(original: Tree, simplified: Tree) -> np.ndarray:
     if orig_keys and depth_s > depth_o:
         raise InputError(
             f"the simplified tree's addresses have {depth_s} components, more than the original's "
-            f"{depth_o}; expected the simplified tree to be derived in fewer steps")
+            f"{depth_o}; expected the simplified tree to be derived in fewer steps"
+            + (" (are the original and the simplified tree given the other way round?)"
+               if simplified.n_branches > original.n_branches else ""))
 
     exact = {key: s for s, key in enumerate(simp_keys)}
     by_base: dict[tuple[int, ...], int] = {}

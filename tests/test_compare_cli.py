@@ -430,3 +430,31 @@ def test_pictures_and_figures_of_a_side_kept_every_k_steps(tmp_path, every):
     # two CSVs of one tree (`--angles`) are not thinned, and the message says so
     diff = run_cli("compare", "--angles", csv["o1"], csv["ok"], exit_code=2)
     assert "the same --dt, span and --every" in diff.stderr and "simulate --every" not in diff.stderr
+
+
+def test_first_hour_messages(runner, stalks):
+    """A new user's first hour (session 42): an angle CSV in degrees read as radians is named
+    with the --degrees hint (as export names it); an undefined period says which run lacks it
+    and why; swapped trees are asked about; --angles reads the new file against the
+    reference, as trees read."""
+    simulate_csv(runner, "stalk8.lsys", "rad.csv")
+    deg = runner.invoke(cli, ["simulate", "stalk8.lsys", *RUN, "--degrees", "-o", "deg.csv"])
+    assert deg.exit_code == 0
+    # stalk8 at 20 m/s bends its top branch past 57.3° = 1 rad: in degrees, far past 1 "rad"
+    both = invoke(runner, ["stalk8.lsys", "stalk8.lsys", "--original-angles", "rad.csv",
+                           "--simplified-angles", "deg.csv"])
+    warnings = [line for line in both.stderr.splitlines() if "tilts" in line]
+    assert len(warnings) == 1 and warnings[0].startswith("warning: deg.csv: branch")
+    assert "give --degrees" in warnings[0]
+    # 1 s holds less than one swing (4.44 s): the original has no period, and is named
+    short = invoke(runner, ["stalk8.lsys", "stalk8_level1.lsys", "--dt", "0.01", "--steps",
+                            "100", "--wind-speed", "5"])
+    assert short.exit_code == 0
+    line = next(x for x in short.stderr.splitlines() if "no defined period" in x)
+    assert "stalk8.lsys crosses its mean upward fewer than twice in the 1 s window" in line
+    assert "--duration" in line
+    swapped = invoke(runner, ["stalk8_level1.lsys", "stalk8.lsys", *RUN])
+    assert swapped.exit_code == 2 and swapped.stderr.count("\n") == 1
+    assert "given the other way round?" in swapped.stderr
+    order = invoke(runner, ["--angles", "rad.csv", "deg.csv"])
+    assert "compare: deg.csv against rad.csv:" in order.stderr

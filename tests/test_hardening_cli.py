@@ -471,7 +471,9 @@ def test_a_folder_output_needs_a_folder_name(tmp_path, args, name, said):
     (["compare", STALK8, STALK8, "--dt", "0.01", "--steps", "0", "--wind-speed", "5"],
      "compare needs a run of at least one step (two samples); --steps 0 gives none"),
     (["compare", STALK8, STALK8, "--dt", "0.01", "--duration", "0.001", "--wind-speed", "5"],
-     "--duration 0.001 s at --dt 0.01 s gives none"),
+     "--duration 0.001 s at --dt 0.01 s gives no time step (less than half of one)"),
+    (["simulate", STALK8, "--dt", "0.01", "--duration", "0.001", "--wind-speed", "5"],
+     "--duration 0.001 s at --dt 0.01 s gives no time step (less than half of one)"),
     (["simulate", STALK8, "--dt", "0.01", "--steps", "5", "--wind-speed", "5",
       "--damping-ratio", "100.0001"], "must be a number in [0, 100], got 100.0001"),
     (["simulate", STALK8, "--dt", "0.01", "--steps", "5", "--wind", "1000,1,0"],
@@ -481,7 +483,9 @@ def test_a_folder_output_needs_a_folder_name(tmp_path, args, name, said):
 ])
 def test_messages_say_what_was_given(args, fragment):
     """Session 34's fuzzing: compare --steps 0 spoke of a window nobody gave; a value just
-    past a limit was rounded onto it ("in [0, 100], got 100"); "the limit at undamped"."""
+    past a limit was rounded onto it ("in [0, 100], got 100"); "the limit at undamped".
+    Session 42: a duration shorter than half a step ran 0 steps without a word (a new user's
+    first hour); --duration 0 still asks for the rest pose alone."""
     one_line(run_cli(*args, exit_code=None), 2, fragment)
 
 
