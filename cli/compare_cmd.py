@@ -17,7 +17,7 @@ import click
 
 from plantlod.lsys.errors import InputError, RunFailure
 
-from .discipline import ErrorBound, given, require_together
+from .discipline import ErrorBound, Metres, given, require_together
 from .io import (check_output_folder, check_output_kind, check_output_path, display_name,
                  distinct_paths, is_terminal, large_file_angles, open_output, reader_gone_after, say, warn,
                  warn_once_running)
@@ -80,7 +80,7 @@ def _numbers(text: str | None, option: str, allow_empty: bool = False) -> list[f
 @click.option("--max-period-error-major", type=ErrorBound(), default=None,
               help="Exit 1 when the period error of the major components is above this "
                    "(a fraction or a percentage).")
-@click.option("--max-tip-error-m", type=click.FloatRange(min=0), default=None,
+@click.option("--max-tip-error-m", type=Metres(), default=None,
               help="Exit 1 when a group tip strays farther than this many metres.")
 @click.option("--obj", "obj_dir", metavar="DIR", default=None,
               help="Write OBJ files of the posed trees side by side into DIR (with --at / --every).")
@@ -279,7 +279,7 @@ def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings
     """A `Run` of one side: its tree, with angles from its CSV or simulated here."""
     from plantlod.compare.runs import Run, angles_in_tree_order
 
-    tree, _system = load_tree(path, n)
+    tree, _system = load_tree(path, n, run=None if csv is not None else settings)
     name = display_name(path) if n is None else f"{display_name(path)} (n={n})"
     if csv is not None:
         times, addresses, bend, rot = _read_csv(csv, degrees)

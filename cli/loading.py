@@ -21,10 +21,14 @@ def looks_like_tree_file(text: str) -> bool:
     return stripped.startswith("{")
 
 
-def load_tree(path: str, steps: int | None = None, max_modules: int | None = None):
+def load_tree(path: str, steps: int | None = None, max_modules: int | None = None,
+              run=None):
     """A `Tree` from an .lsys file (derived here) or a tree file; ``-`` reads stdin.
 
-    Returns (tree, system): system is None for a tree file.
+    Returns (tree, system): system is None for a tree file. ``run``: the settings
+    (`sim_options.SimulationSettings`) the tree is about to be simulated with; where the
+    file is a level whose simplify header says it was fitted at another dt or damping
+    ratio (`formats.level_header`), a warning says so once the run goes on.
     """
     name = display_name(path)
     from plantlod.formats.npz import is_npz
@@ -47,9 +51,36 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
     system = parse_lsys_text(text, name)
+    if run is not None:
+        _warn_fitted_otherwise(text, name, run)
     built = build(system, steps, max_modules=max_modules or DEFAULT_MAX_MODULES)
     from .io import warn_once_running
 
     for message in built.warnings:
         warn_once_running(f"{name}: {message}")
     return built.tree, system
+
+
+def _warn_fitted_otherwise(text: str, name: str, run) -> None:
+    """A warning where a level's header (`formats.level_header`) names another dt or damping
+    ratio than ``run``'s: a level holds under the conditions it was fitted at (its periods
+    move with dt, model.md 4), and the file's parameters cannot say them."""
+    from plantlod.formats.level_header import fitted_conditions
+
+    fitted = fitted_conditions(text)
+    if fitted is None:
+        return
+    coefficient = float(getattr(run.damping, "c", 0.0))
+    differ = fitted.differences(run.dt, float(getattr(run.damping, "ratio", 0.0)))
+    if coefficient:                           # --damping c: neither undamped nor a ratio
+        differ = [d for d in differ if not d.startswith("--damping-ratio")]
+        differ.append(f"--damping-ratio {fitted.damping_ratio:g} in place of --damping"
+                      if fitted.damping_ratio else "no --damping")
+    if differ:
+        from .io import warn_once_running
+
+        warn_once_running(
+            f"{name}: simplify fitted and measured this level at dt {fitted.dt:g} s, "
+            + (f"damping ratio {fitted.damping_ratio:g}" if fitted.damping_ratio else "undamped")
+            + " (its header); this run differs, and the level's figures hold only under "
+            f"those: give {', '.join(differ)}")

@@ -49,7 +49,7 @@ def simulate(input_path, output, every, degrees, steps_n, progress, **kwargs):
         raise click.BadParameter(f"{every:,} is more than the run's {settings.steps:,} steps; "
                                  f"expected at most {max(settings.steps, 1):,}",
                                  param_hint="'--every'")
-    tree, _system = load_tree(input_path, steps_n)
+    tree, _system = load_tree(input_path, steps_n, run=settings)
     from plantlod.formats.angles_csv import AnglesCsvWriter
     from plantlod.sim.run import simulate as run_simulation
     from plantlod.sim.stability import check_stability

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from plantlod.formats.level_header import DAMPING_RATIO_LINE, HEADER_START, RUNS_LINE
 from plantlod.formats.lsys_file import with_header_comment, write_lsys
 from plantlod.lsys.build import build
 from plantlod.lsys.checks import did_you_mean, flag, real, whole
@@ -796,19 +797,20 @@ def _percent(x: float) -> str:
 def header_comment(system: LSystem, options: Options, reports: list[tuple[WindCase, Report]],
                    summary: Summary, form: str = "grammar",
                    branches: tuple[int, int] | None = None) -> str:
-    """The header: source, level, form, method, and the section-6 errors simplify measured."""
+    """The header: source, level, form, method, and the section-6 errors simplify measured
+    (its dt and damping ratio read back by `formats.level_header.fitted_conditions`)."""
     shape = (f"derivation length {system.derivation_length} -> {system.derivation_length - options.level}"
              if form == "grammar" else
              f"explicit form, {branches[0]:,} -> {counted(branches[1], 'branch')}" if branches
              else "explicit form")
     lines = [
-        f"plantlod simplify: level {options.level} of {system.source or '<input>'} ({shape})",
+        f"{HEADER_START}level {options.level} of {system.source or '<input>'} ({shape})",
         f"form: {form}",
         f"method: {options.method}" + (", calibrated" if options.calibrate else ""),
-        *([f"damping ratio: {options.damping_ratio:g} (fitted and measured under it; "
+        *([f"{DAMPING_RATIO_LINE}{options.damping_ratio:g} (fitted and measured under it; "
             "simulate it with --damping-ratio)"] if options.damping_ratio else []),
         "errors of this file against the original (model.md section 6), steady winds from rest,",
-        f"dt {options.dt:g} s, {options.duration:g} s, every {options.every} steps sampled:",
+        f"{RUNS_LINE}{options.dt:g} s, {options.duration:g} s, every {options.every} steps sampled:",
         "  wind m/s  toward deg  amplitude    period       tip/height   motion       period(major)",
     ]
     for wind, rep in reports:

@@ -294,3 +294,63 @@ def test_every_past_the_run_is_refused_as_the_api_refuses_it(tmp_path):
     run_cli("simulate", "examples/stalk8.lsys", "--dt", "0.01", "--steps", "10", "--every", "10",
             "--wind-speed", "5", "-o", str(out))
     assert len(out.read_text().splitlines()) == 3          # the header, t = 0 and t = 0.1
+
+
+HEADER = """\
+# plantlod simplify: level 1 of stalk8.lsys (derivation length 3 -> 2)
+# form: grammar
+# method: derived
+{damping}# errors of this file against the original (model.md section 6), steady winds from rest,
+# dt 0.02 s, 20 s, every 4 steps sampled:
+"""
+
+
+@pytest.mark.parametrize("damping, options, said", [
+    ("", ("--dt", "0.02"), None),
+    ("", ("--dt", "0.01"), "at dt 0.02 s, undamped (its header); this run differs, and the "
+     "level's figures hold only under those: give --dt 0.02"),
+    ("# damping ratio: 0.05 (fitted and measured under it; simulate it with --damping-ratio)\n",
+     ("--dt", "0.02"), "give --damping-ratio 0.05"),
+    ("# damping ratio: 0.05 (fitted and measured under it; simulate it with --damping-ratio)\n",
+     ("--dt", "0.02", "--damping-ratio", "0.05"), None),
+    ("", ("--dt", "0.02", "--damping", "0.01"), "give no --damping"),
+])
+def test_a_level_run_otherwise_than_fitted_says_so(tmp_path, damping, options, said):
+    """A new user's first hour (session 42): a level fitted with a damping ratio or at
+    another dt (its header says which) ran under other conditions without a word, though
+    its periods move with dt (model.md 4) and its fitted swing with ζ."""
+    body = open(ROOT / STALK8, encoding="utf-8").read()
+    path = tmp_path / "level.lsys"
+    path.write_text(HEADER.format(damping=damping) + "\n" + body, encoding="utf-8")
+    result = run_cli("simulate", str(path), *options, "--steps", "5", "--wind-speed", "3",
+                     "-o", os.devnull)
+    warnings = [x for x in result.stderr.splitlines() if x.startswith("warning:")]
+    if said is None:
+        assert warnings == []
+    else:
+        assert len(warnings) == 1 and said in warnings[0], warnings
+
+
+def test_only_simplify_s_own_header_is_read():
+    """Comment lines that only look like it, or a header after the first statement, say
+    nothing (`formats.level_header`)."""
+    from plantlod.formats.level_header import fitted_conditions
+
+    assert fitted_conditions("# my tree\n# dt 0.02 s, 20 s, every 4 steps sampled:\n") is None
+    assert fitted_conditions("name: x\n# plantlod simplify: level 1\n# dt 0.02 s, 1 s, x\n") is None
+    assert fitted_conditions("# plantlod simplify: level 1\n# dt nan s, 1 s,\n") is None
+    got = fitted_conditions("\n#  plantlod simplify: level 2 of a\n# damping ratio: 0.1 (x)\n"
+                            "# dt 0.005 s, 20 s, every 4 steps sampled:\nname: a\n")
+    assert (got.dt, got.damping_ratio) == (0.005, 0.1)
+
+
+def test_simplify_s_header_reads_back(tmp_path):
+    """The writer (`simplify.pipeline.header_comment`) and the reader agree: a level fitted
+    at dt 0.02 s under damping ratio 0.05 says so."""
+    from plantlod.formats.level_header import fitted_conditions
+
+    out = tmp_path / "l1.lsys"
+    run_cli("simplify", STALK8, "--level", "1", "--dt", "0.02", "--damping-ratio", "0.05",
+            "-o", str(out))
+    got = fitted_conditions(out.read_text(encoding="utf-8"))
+    assert (got.dt, got.damping_ratio) == (0.02, 0.05)

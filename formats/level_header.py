@@ -1,0 +1,85 @@
+"""What a level's header comment says it was fitted under: the time step and damping.
+
+`plantlod simplify` writes its header (`simplify.pipeline.header_comment`) first in the level
+file, as comment lines:
+
+    # plantlod simplify: level 1 of stalk8.lsys (derivation length 3 -> 2)
+    ...
+    # damping ratio: 0.05 (fitted and measured under it; simulate it with --damping-ratio)
+    # errors of this file against the original (model.md section 6), steady winds from rest,
+    # dt 0.01 s, 20 s, every 4 steps sampled:
+
+A level holds under the time step and damping it was fitted at (a branch's period depends
+on Δt, model.md 4; the swing's decay on ζ), which the file's parameters cannot say: only the
+header does. `fitted_conditions` reads them back, so that a run under other conditions can say
+so (`simulate`, `compare`). A file without that header (hand-written, or edited so that the
+first lines are no longer simplify's) gives None: nothing is assumed.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+HEADER_START = "plantlod simplify: "           # the first header line's start
+DAMPING_RATIO_LINE = "damping ratio: "          # present only where ζ > 0
+RUNS_LINE = "dt "                               # "dt 0.01 s, 20 s, every 4 steps sampled:"
+
+_NUMBER = r"([0-9.eE+-]+)"
+_DAMPING = re.compile(re.escape(DAMPING_RATIO_LINE) + _NUMBER + r"\b")
+_RUNS = re.compile(re.escape(RUNS_LINE) + _NUMBER + r" s, ")
+
+
+@dataclass(frozen=True)
+class FittedConditions:
+    """dt (s) and damping ratio ζ (0: undamped) a level was fitted and measured under."""
+
+    dt: float
+    damping_ratio: float
+
+    def differences(self, dt: float, damping_ratio: float) -> list[str]:
+        """What a run at ``dt`` and ``damping_ratio`` does otherwise, as option texts
+        (``--dt 0.01``, ``--damping-ratio 0.05``); empty where it runs as fitted."""
+        out = []
+        if not _same(dt, self.dt):
+            out.append(f"--dt {self.dt:g}")
+        if not _same(damping_ratio, self.damping_ratio):
+            out.append(f"--damping-ratio {self.damping_ratio:g}")
+        return out
+
+
+def _same(a: float, b: float) -> bool:
+    """Equal to the 6 significant digits a header writes (``:g``)."""
+    return f"{a:g}" == f"{b:g}"
+
+
+def fitted_conditions(text: str) -> FittedConditions | None:
+    """The conditions in ``text``'s leading comment lines where they are simplify's header
+    (its first line starts with HEADER_START and it has the runs' line), else None."""
+    lines = []
+    for line in text.splitlines():
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if not stripped.startswith("#"):
+            break
+        lines.append(stripped.lstrip("#").strip())
+    if not lines or not lines[0].startswith(HEADER_START):
+        return None
+    dt = ratio = None
+    for line in lines[1:]:
+        if ratio is None and (m := _DAMPING.match(line)):
+            ratio = _float(m.group(1))
+        elif dt is None and (m := _RUNS.match(line)):
+            dt = _float(m.group(1))
+    if dt is None or not dt > 0:
+        return None
+    return FittedConditions(dt, ratio if ratio is not None and ratio >= 0 else 0.0)
+
+
+def _float(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if value == value and abs(value) != float("inf") else None
