@@ -30,8 +30,9 @@ TOP_LEVEL_ARRAYS = ("accessors", "animations", "buffers", "bufferViews", "camera
 ANIMATION_PATHS = ("translation", "rotation", "scale", "weights")   # glTF 2.0 channel targets
 
 
-def check_glb_container(data: bytes, path: str) -> None:
-    """Refuse a GLB whose header or chunks do not match the file's bytes."""
+def check_glb_container(data: bytes, path: str) -> bool:
+    """Refuse a GLB whose header or chunks do not match the file's bytes; whether it holds a
+    binary chunk (`check_glb_buffer` then holds buffer 0 to it)."""
     if data[:4] != GLB_MAGIC:
         raise InputError("not a glTF file (a .glb starts with 'glTF')", path)
     if len(data) < 12:
@@ -59,6 +60,18 @@ def check_glb_container(data: bytes, path: str) -> None:
         raise InputError("the GLB's first chunk is not its JSON", path)
     if kinds.count(GLB_BIN_CHUNK) > 1 or (GLB_BIN_CHUNK in kinds and kinds[1] != GLB_BIN_CHUNK):
         raise InputError("a GLB has at most one binary chunk, right after the JSON", path)
+    return GLB_BIN_CHUNK in kinds
+
+
+def check_glb_buffer(doc, path: str) -> None:
+    """A GLB's binary chunk is buffer 0's bytes only where buffer 0 has no uri (glTF 2.0,
+    "GLB-stored Buffer"). One with both was read from the chunk and written from its uri (an
+    empty data: URI made a page whose buffer held 0 of 8,772 bytes: a fuzzer's find,
+    session 42)."""
+    buffers = doc.buffers if isinstance(doc.buffers, list) else []
+    if buffers and getattr(buffers[0], "uri", None) is not None:
+        raise InputError("buffers[0] has a uri, but the GLB's binary chunk can only be buffer "
+                         "0's bytes where it has none (glTF 2.0); expected one or the other", path)
 
 
 def buffer_files(path: str, max_bytes: int) -> list[str]:
@@ -212,13 +225,15 @@ def check_document(doc, blob_length: int, path: str) -> None:
         samplers = anim.samplers if isinstance(anim.samplers, list) else c.fail(
             f"animations[{i}].samplers must be a list")
         c.objects(samplers, f"animations[{i}].samplers")
-        channels = c.objects(anim.channels if isinstance(anim.channels, list) else [],
-                             f"animations[{i}].channels")
+        channels = anim.channels if isinstance(anim.channels, list) else c.fail(
+            f"animations[{i}].channels must be a list")
+        c.objects(channels, f"animations[{i}].channels")
         for j, sampler in enumerate(samplers):
             c.index(sampler.input, "accessors", f"animations[{i}].samplers[{j}].input")
             c.index(sampler.output, "accessors", f"animations[{i}].samplers[{j}].output")
         for j, channel in enumerate(channels):
-            if not isinstance(channel.sampler, int) or not 0 <= channel.sampler < len(samplers):
+            if (not isinstance(channel.sampler, int) or isinstance(channel.sampler, bool)
+                    or not 0 <= channel.sampler < len(samplers)):
                 c.fail(f"animations[{i}].channels[{j}].sampler is {channel.sampler!r}; expected "
                        f"0..{len(samplers) - 1}")
             target = channel.target
@@ -429,8 +444,9 @@ def check_raw_json(data: bytes, path: str) -> None:
     the wrong JSON type it casts (an accessor count of 1.5 read as 1, "3" as 3). Checked on
     the file's own JSON: counts, offsets, lengths and strides whole numbers; a node's
     rotation 4 numbers, translation and scale 3, matrix 16; a primitive's mode 0..6; an
-    animation sampler's interpolation LINEAR, STEP or CUBICSPLINE and its input a SCALAR of
-    floats (glTF 2.0, 3.6-3.11). Text that is not JSON is left to the reader."""
+    animation's channels and samplers lists, a sampler's interpolation LINEAR, STEP or
+    CUBICSPLINE and its input a SCALAR of floats; every object's name a string (glTF 2.0,
+    3.6-3.11). Text that is not JSON is left to the reader."""
     import json
 
     text = gltf_json(data)
@@ -474,6 +490,17 @@ def check_raw_json(data: bytes, path: str) -> None:
         c.fail(f"asset.version is {_json(version)}; expected \"2.0\" (glTF 2.0)"
                if isinstance(asset, dict) else "the glTF has no asset; expected "
                "{\"asset\": {\"version\": \"2.0\"}}")
+    for name in TOP_LEVEL_ARRAYS:     # a name where given is a string (the reader cast 5 to
+        for k, item in enumerate(listed(name)):   # "5" and kept {"a": 1}, on which a page's
+            label = item.get("name")              # loader calls string methods)
+            if label is not None and not isinstance(label, str):
+                c.fail(f"{name}[{k}].name is {_json(label)}; expected a string")
+    for i, anim in enumerate(listed("animations")):   # (the reader took {} for no channels)
+        for key in ("channels", "samplers"):
+            if not isinstance(anim.get(key), list):
+                c.fail(f"animations[{i}].{key} is {_json(anim.get(key))}; expected a list "
+                       "(glTF 2.0 requires it)" if key in anim else
+                       f"animations[{i}] has no {key}; expected a list (glTF 2.0 requires it)")
     for i, buffer in enumerate(listed("buffers")):
         whole(buffer.get("byteLength"), f"buffers[{i}].byteLength")
     for i, view in enumerate(listed("bufferViews")):

@@ -22,7 +22,8 @@ from plantlod.lsys.errors import InputError
 
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
 from .gltf_check import (GLB_MAGIC, buffer_files, check_animation_data, check_buffer_uris,
-                         check_document, check_glb_container, check_raw_json)
+                         check_document, check_glb_buffer, check_glb_container,
+                         check_raw_json)
 
 GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
 OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
@@ -53,7 +54,9 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
                          "plays the .glb or .gltf that `plantlod export` writes", path)
     if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
                                  and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
-        check_glb_container(data, path)
+        binary_chunk = check_glb_container(data, path)
+    else:
+        binary_chunk = False
     check_raw_json(data, path)                 # (what the reader would cast or choke on)
     try:
         with warnings.catch_warnings():        # pygltflib warns on stderr; the checks below say it
@@ -69,6 +72,8 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
         raise (other or InputError(f"not a glTF file ({_why(exc)})", path)) from None
     if doc is None or not isinstance(doc.nodes, list) or not doc.nodes:
         raise InputError("not a glTF file with nodes (expected `plantlod export` output)", path)
+    if binary_chunk:
+        check_glb_buffer(doc, path)
     check_buffer_uris(doc, path, VIEW_MAX_FILE_BYTES)
     _plain_buffer_uris(doc)
     try:

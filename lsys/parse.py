@@ -232,6 +232,12 @@ def _whole_number(cur: _Cursor, digits: str, start: int) -> int:
     return int(digits.lstrip("0") or "0")    # (int() counts leading zeros toward its limit)
 
 
+def _leaf_ordinal(cur: _Cursor, key: str, start: int) -> int:
+    """K of an ``area_K`` key found at ``start`` (`LEAF_ORDINAL_KEY`), held to what
+    `_whole_number` converts."""
+    return _whole_number(cur, key[len("area_"):], start + len("area_"))
+
+
 def _address_parts(cur: _Cursor, text: str, start: int) -> tuple[int, ...]:
     """The integers of a dotted address ``text`` (already matched) found at ``start``."""
     parts, at = [], start
@@ -925,6 +931,8 @@ class _FileParser:
                 raise cur.error(f"unknown key '{tok.text}' in {what}{did_you_mean(tok.text, keys)}; "
                                 f"expected one of {', '.join(keys)}"
                                 f"{' or area_K (K = 0, 1, ...)' if pattern else ''}", tok.start)
+            if pattern and pattern.fullmatch(tok.text):
+                _leaf_ordinal(cur, tok.text, tok.start)
             if tok.text in out:
                 raise cur.error(f"duplicate key '{tok.text}' in {what}; expected each key once",
                                 tok.start)
@@ -958,6 +966,8 @@ class _FileParser:
             value = float(m.group(2))
             if not math.isfinite(value):
                 return None
+            if pattern and pattern.fullmatch(key):
+                _leaf_ordinal(cur, key, m.start(1))
             out[key] = value
             found.append((key, value, m.start(2)))
             i = m.end()

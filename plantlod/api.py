@@ -321,6 +321,8 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
     output_target(path_or_file, kind=OUTPUT_KINDS["angles"])
     if degrees and _is_npz_path(path_or_file):
         raise InputError("degrees applies to CSV output; an .npz holds radians")
+    if not _is_npz_path(path_or_file):
+        _check_printed_times(time)
     buf = io.StringIO()
     AnglesCsvWriter(buf, addresses, degrees=degrees).write(time, bend, rot)
     if _is_npz_path(path_or_file):             # the archive `plantlod simulate -o X.npz` writes
@@ -330,6 +332,21 @@ def write_angles(angles: Angles, path_or_file: PathOrFile | None = None, *,
     else:
         _write_text(buf.getvalue(), path_or_file)
     return buf.getvalue()
+
+
+def _check_printed_times(time) -> None:
+    """Times that still increase as the CSV prints them (CSV_FLOAT_FORMAT, 10 significant
+    digits), which read_angles asks of a file: 1 + k·1e-12 s all printed as 1 (a fuzzer's
+    find, session 42). A run's own k·dt never comes that close."""
+    from plantlod.formats.constants import CSV_FLOAT_FORMAT
+
+    time = np.asarray(time, dtype=np.float64)
+    shown = np.array([float(CSV_FLOAT_FORMAT % t) for t in time.tolist()])
+    if len(shown) > 1 and not np.all(np.diff(shown) > 0):
+        k = int(np.argmax(np.diff(shown) <= 0))
+        raise InputError(f"times {float(time[k])!r} s and {float(time[k + 1])!r} s print alike in an angle "
+                         f"CSV ({CSV_FLOAT_FORMAT % time[k]}), which needs increasing times; "
+                         "write an .npz, which keeps every bit")
 
 
 # --- levels of detail ----------------------------------------------------------------------
@@ -392,19 +409,25 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
         raise InputError(f"bounds must map figure names to limits, got {type(bounds).__name__}")
     # (a report's own bound keys, "max_motion_error", name the same figures)
     limits: dict = {}
+    given: dict = {}                          # each figure's key as the caller wrote it
     for name, limit in (bounds or {}).items():
         figure = (name[4:] if isinstance(name, str) and name.startswith("max_")
                   and name[4:] in BOUND_OPTIONS else name)
         if figure in limits:
             raise InputError(f"bounds name {figure!r} twice (as {figure!r} and 'max_{figure}'); "
                              "expected one")
-        limits[figure] = limit
+        limits[figure], given[figure] = limit, name
     unknown = [name for name in limits if name not in BOUND_OPTIONS]
     if unknown:
         raise InputError(f"unknown bound {unknown[0]!r}; expected one of {', '.join(BOUND_OPTIONS)}"
                          " (or the report's max_… names of them)")
     bounds = {name: limits.get(name) for name in BOUND_OPTIONS}
-    bounds = {name: None if b is None else real(f"bounds[{name!r}]", b, low=0)
+    for name, b in bounds.items():
+        if isinstance(b, str) and b.strip().endswith("%"):   # (the CLI's "5%")
+            raise InputError(f"bounds[{given[name]!r}] is {b!r}; expected "
+                             + ("a number of metres" if name == "tip_error_max_m" else
+                                "a number (a fraction: 0.05 for 5 %)"))
+    bounds = {name: None if b is None else real(f"bounds[{given[name]!r}]", b, low=0)
               for name, b in bounds.items()}
     runs = []
     damped = _damping(damping, damping_ratio)
@@ -500,6 +523,10 @@ def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
 
     duration = 0.0 if steps is not None else real("duration", duration, low=0)
     count = step_count(dt, duration)           # (dt checked against MIN_TIME_STEP either way)
+    if steps is None and count == 0 and duration > 0:     # (as the CLI's --duration)
+        raise InputError(f"duration {duration:g} s at dt {dt:g} s gives no time step (less "
+                         "than half of one); give a longer duration, or 0 for the rest pose "
+                         "alone")
     from plantlod.sim.constants import MAX_TIME_STEPS
 
     return count if steps is None else whole("steps", steps, high=MAX_TIME_STEPS)
@@ -574,8 +601,8 @@ def _wind(wind: Any):
     try:
         if np.iscomplexobj(wind):                 # (float64 of it drops the imaginary part)
             raise TypeError("complex")
-        if not np.issubdtype(np.asarray(wind).dtype, np.number):
-            raise TypeError("not numbers")        # (strings, "1" in a list, were read as numbers)
+        if np.asarray(wind).dtype.kind not in "iuf":   # (strings, "1" in a list, were read as
+            raise TypeError("not numbers")        # numbers; timedelta64 counts as one in numpy)
         vector = np.asarray(wind, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):   # (an int past a double's range)
         vector = np.zeros(0)

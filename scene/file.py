@@ -473,7 +473,9 @@ class _Reader:
                              key, value)
         if high is not None and value > high:
             raise self.error(f"'{key}' must be <= {high:g}, got {_shown(value)}", key, value)
-        return value
+        # a float where one is asked for: a whole number past 2^64 would reach numpy as an
+        # object (a camera key's t of 1e23 written as digits, a fuzzer's find, session 42)
+        return value if integer else float(value)
 
     def vector(self, table: dict, key: str, size: int, default=None) -> tuple[float, ...]:
         if key not in table:

@@ -41,8 +41,8 @@ def step_count(dt: float, duration: float, dt_name: str = "dt",
                duration_name: str = "duration") -> int:
     """round(duration / dt): the steps of a run of ``duration`` s at ``dt`` s (finite floats).
     InputError, naming the options as the caller calls them, where dt is below MIN_TIME_STEP,
-    the duration negative, above 0 but under half a step (no step would run), or the run
-    longer than MAX_TIME_STEPS (the one check for the API and simplify)."""
+    the duration negative, or the run longer than MAX_TIME_STEPS (the one check for the API
+    and simplify)."""
     from .constants import MAX_TIME_STEPS, MIN_TIME_STEP
 
     if not MIN_TIME_STEP <= dt < math.inf:
@@ -53,12 +53,7 @@ def step_count(dt: float, duration: float, dt_name: str = "dt",
     if not duration / dt <= MAX_TIME_STEPS:
         raise InputError(f"{duration_name} {duration:g} s at {dt_name} {dt:g} s gives more than "
                          f"{MAX_TIME_STEPS:,} steps, the limit of one run")
-    steps = int(round(duration / dt))
-    if steps == 0 and duration > 0:
-        raise InputError(f"{duration_name} {duration:g} s at {dt_name} {dt:g} s gives no time "
-                         "step (less than half of one); give a longer duration, or 0 for the "
-                         "rest pose alone")
-    return steps
+    return int(round(duration / dt))
 
 
 def default_chunk(n_branches: int) -> int:

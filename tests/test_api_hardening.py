@@ -606,3 +606,28 @@ def test_the_apis_warnings_point_at_the_callers_line():
         plantlod.simulate(STALK, wind=[(300, 0, 0), (1, 0, 0)], dt=0.01, steps=400)
     assert any("tilts" in str(w.message) for w in caught)
     assert {w.filename for w in caught} == {__file__}
+
+
+def test_fuzzers_finds_of_session_42():
+    """A timedelta64 array was read as a wind in m/s (numpy counts it a number); times that
+    print alike in the CSV's 10 digits were written, and read_angles refused the file."""
+    import dataclasses
+
+    stalk = str(ROOT / "examples" / "stalk8.lsys")
+    with pytest.raises(plantlod.InputError, match="a wind is"):
+        plantlod.simulate(stalk, wind=np.array([1, 2, 3], dtype="m8[s]"), dt=0.01, steps=2)
+    angles = plantlod.simulate(stalk, wind=(5, 0, 0), dt=0.01, steps=4)
+    close = dataclasses.replace(angles, time=1.0 + np.arange(5) * 1e-12)
+    with pytest.raises(plantlod.InputError, match="print alike in an angle CSV"):
+        plantlod.write_angles(close)
+    apart = dataclasses.replace(angles, time=1.0 + np.arange(5) * 1e-9)    # 10 digits tell
+    assert plantlod.read_angles(plantlod.write_angles(apart)).time.shape == (5,)
+
+
+def test_a_percentage_bound_names_the_key_as_written():
+    """The CLI takes "5%"; the API asked for a number under another key than the caller's
+    (bounds['amplitude_error'] for 'max_amplitude_error': a new user's first hour, 42)."""
+    for key, said in (("max_amplitude_error", r"a number \(a fraction: 0.05 for 5 %\)"),
+                      ("tip_error_max_m", "a number of metres")):
+        with pytest.raises(plantlod.InputError, match=rf"bounds\['{key}'\] is '5%'; expected {said}"):
+            plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, steps=10, bounds={key: "5%"})

@@ -352,6 +352,9 @@ LONG = "9" * 5000
     (1, "seed: " + LONG + "\naxiom: F\n", HEAD_LINES + 1, 7),
     (1, "axiom: F\noverrides:\n  0." + LONG + ": length=2\n", HEAD_LINES + 3, 5),
     (1, "axiom: F\ngroups:\n  " + LONG + ": 0\n", HEAD_LINES + 3, 3),
+    # an area_K override's K (session 42, fuzzing: an internal error when leaves were matched)
+    (1, "axiom: F L\noverrides:\n  0: area_" + LONG + "=1\n", HEAD_LINES + 3, 11),
+    (1, "axiom: F L\noverrides:\n  0: area_" + LONG + "=1+0\n", HEAD_LINES + 3, 11),
 ])
 def test_whole_numbers_past_pythons_conversion_limit_are_located(n, body, line, col):
     """int() refuses more than 4300 digits with a ValueError (CPython's guard against slow

@@ -928,3 +928,20 @@ def test_a_dt_too_large_for_a_tree_names_the_scene_that_set_it(tmp_path):
     one_line(run_cli("scene", str(scene), "--no-cache", exit_code=None), 2,
              "stiff.lsys: error: time step too large", "s = k*dt/1000 = 5 >= 4",
              f"(dt 0.05 s is the scene's: {scene})")
+
+
+def test_a_camera_key_time_written_as_a_huge_whole_number_is_a_time(tmp_path):
+    """A key time of 10^23 written as digits reached numpy as an object array (an internal
+    error; 1e23 written as a float ran): a number where the scene asks for one is a float
+    (session 42, fuzzing)."""
+    stalk = str(ROOT / "examples" / "stalk8.lsys")
+    text = ("dt = 0.01\nduration = 0.1\n[wind]\nspeed = 5\n"
+            "[[camera.key]]\nt = 0\nposition = [0, -20, 1]\ntarget = [0, 0, 1]\n"
+            "[[camera.key]]\nt = {t}\nposition = [0, 20, 1]\ntarget = [0, 0, 1]\n"
+            f'[[tree]]\nfile = "{stalk}"\n')
+    reports = []
+    for t in ("99999999999999999999999", "1e23"):
+        path = tmp_path / "k.toml"
+        path.write_text(text.format(t=t))
+        reports.append(json.loads(run_cli("scene", str(path), "--no-cache").stdout))
+    assert reports[0] == reports[1]

@@ -97,6 +97,17 @@ def test_a_whole_file_still_makes_a_page(files, tmp_path):
     (lambda d: d["animations"][0]["channels"][0]["target"].update(path="zzz"), "target.path is 'zzz'"),
     (lambda d: d["meshes"][0]["primitives"][0].update(targets=[{"POSITION": 999}]),
      "primitives[0].targets[0].POSITION is 999"),
+    # values of another JSON type that the page's three.js throws on (session 42, fuzzing)
+    (lambda d: d["animations"][0]["channels"][0].update(sampler=True),
+     "channels[0].sampler is True"),
+    (lambda d: d["animations"][0].update(channels={}), "animations[0].channels is {}; expected a list"),
+    (lambda d: d["animations"][0].pop("channels"), "animations[0] has no channels"),
+    (lambda d: d["nodes"][0].update(name=5), "nodes[0].name is 5; expected a string"),
+    (lambda d: d["nodes"][1].update(name={"a": 1}), 'nodes[1].name is {"a": 1}'),
+    # a GLB's binary chunk is buffer 0's only where it has no uri: an empty data: URI was
+    # written into the page as a buffer of 0 bytes (session 42, fuzzing)
+    (lambda d: d["buffers"][0].update(uri="data:application/octet-stream;base64,"),
+     "buffers[0] has a uri, but the GLB's binary chunk"),
 ])
 def test_indices_and_lengths_are_checked(files, tmp_path, edit, fragment):
     doc, blob = glb_parts(files / "s.glb")
