@@ -23,6 +23,14 @@ def test_simplify_stalk8_level1_golden():
     assert "worst: amplitude" in result.stdout
     assert "simplify: examples/stalk8.lsys level 1, grammar form (derived): 8 -> 4 branches" in result.stderr
     assert "combined angles over this level's groups pass 0.1 rad at 15 m/s" in result.stderr   # the stalk leans far at 15 m/s
+    # the headline's worst where the bounds apply: the header's rows below 15 m/s, read back
+    rows = [line.split() for line in result.stdout.splitlines()
+            if line.startswith("#   ") and line.split()[1][0].isdigit()]
+    slow = [row for row in rows if float(row[1]) < 15]
+    assert len(slow) == 8 and len(rows) == 16
+    worst = max(float(row[3]) for row in slow)                   # amplitude, per cent
+    headline = result.stderr.splitlines()[0]
+    assert f"within 0.1 rad, where the bounds apply: amplitude error {worst:.2f} %" in headline
 
 
 def test_same_input_same_bytes(tmp_path):

@@ -512,3 +512,19 @@ def test_turtle_tree_round_trip():
     for name in (*BRANCH_FLOAT_FIELDS, "euler", "offset", "leaf_area", "leaf_normal"):
         assert bits(getattr(back, name)) == bits(getattr(tree, name)), name
     assert json.loads(text.split("\n", 1)[0])["depth"] == tree.depth()
+
+
+def test_the_docs_example_derives_as_shown(tmp_path, monkeypatch):
+    """docs/tree-format.md's example: its .lsys block, saved as examples/demo.lsys and
+    derived, gives its JSON Lines block byte for byte (a new user rebuilt the file the page
+    did not give, session 42); the block is this file's VALID, line for line."""
+    from golden_util import run_cli
+
+    text = (ROOT / "docs" / "tree-format.md").read_text(encoding="utf-8")
+    example = text[text.index("## Example"):]
+    blocks = example.split("```text\n")[1:3]
+    lsys, jsonl = (b[:b.index("```")] for b in blocks)
+    (tmp_path / "examples").mkdir()
+    (tmp_path / "examples" / "demo.lsys").write_text(lsys, encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert run_cli("derive", "examples/demo.lsys", cwd=tmp_path).stdout == jsonl == VALID
