@@ -65,22 +65,14 @@ def _warn_fitted_otherwise(text: str, name: str, run) -> None:
     """A warning where a level's header (`formats.level_header`) names another dt or damping
     ratio than ``run``'s: a level holds under the conditions it was fitted at (its periods
     move with dt, model.md 4), and the file's parameters cannot say them."""
-    from plantlod.formats.level_header import fitted_conditions
+    from plantlod.formats.level_header import CLI_SPELLING, fitted_conditions
 
     fitted = fitted_conditions(text)
     if fitted is None:
         return
-    coefficient = float(getattr(run.damping, "c", 0.0))
-    differ = fitted.differences(run.dt, float(getattr(run.damping, "ratio", 0.0)))
-    if coefficient:                           # --damping c: neither undamped nor a ratio
-        differ = [d for d in differ if not d.startswith("--damping-ratio")]
-        differ.append(f"--damping-ratio {fitted.damping_ratio:g} in place of --damping"
-                      if fitted.damping_ratio else "no --damping")
-    if differ:
+    message = fitted.said(name, run.dt, float(getattr(run.damping, "c", 0.0)),
+                          float(getattr(run.damping, "ratio", 0.0)), CLI_SPELLING)
+    if message is not None:
         from .io import warn_once_running
 
-        warn_once_running(
-            f"{name}: simplify fitted and measured this level at dt {fitted.dt:g} s, "
-            + (f"damping ratio {fitted.damping_ratio:g}" if fitted.damping_ratio else "undamped")
-            + " (its header); this run differs, and the level's figures hold only under "
-            f"those: give {', '.join(differ)}")
+        warn_once_running(message)

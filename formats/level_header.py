@@ -37,15 +37,32 @@ class FittedConditions:
     dt: float
     damping_ratio: float
 
-    def differences(self, dt: float, damping_ratio: float) -> list[str]:
-        """What a run at ``dt`` and ``damping_ratio`` does otherwise, as option texts
-        (``--dt 0.01``, ``--damping-ratio 0.05``); empty where it runs as fitted."""
-        out = []
+    def said(self, name: str, dt: float, damping_c: float, damping_ratio: float,
+             spelling: dict[str, str]) -> str | None:
+        """The warning where a run at ``dt`` with damping c ``damping_c`` or ratio
+        ``damping_ratio`` differs from these conditions, None where it runs as fitted;
+        ``spelling`` names the options as the caller gives them (`CLI_SPELLING`,
+        `API_SPELLING`)."""
+        differ = []
         if not _same(dt, self.dt):
-            out.append(f"--dt {self.dt:g}")
-        if not _same(damping_ratio, self.damping_ratio):
-            out.append(f"--damping-ratio {self.damping_ratio:g}")
-        return out
+            differ.append(spelling["dt"].format(f"{self.dt:g}"))
+        if damping_c:                          # a coefficient c: neither undamped nor a ratio
+            differ.append(spelling["ratio_for_c"].format(f"{self.damping_ratio:g}")
+                          if self.damping_ratio else spelling["no_c"])
+        elif not _same(damping_ratio, self.damping_ratio):
+            differ.append(spelling["ratio"].format(f"{self.damping_ratio:g}"))
+        if not differ:
+            return None
+        fitted = f"damping ratio {self.damping_ratio:g}" if self.damping_ratio else "undamped"
+        return (f"{name}: simplify fitted and measured this level at dt {self.dt:g} s, "
+                f"{fitted} (its header); this run differs, and the level's figures hold only "
+                f"under those: give {', '.join(differ)}")
+
+
+CLI_SPELLING = {"dt": "--dt {}", "ratio": "--damping-ratio {}",
+                "ratio_for_c": "--damping-ratio {} in place of --damping", "no_c": "no --damping"}
+API_SPELLING = {"dt": "dt={}", "ratio": "damping_ratio={}",
+                "ratio_for_c": "damping_ratio={} in place of damping", "no_c": "no damping"}
 
 
 def _same(a: float, b: float) -> bool:

@@ -209,13 +209,40 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     damping = _damping(damping, damping_ratio)
     if threads is not None:
         threads = whole("threads", threads, low=1)
+    given = tree
     tree = _as_tree(tree)
     wind = _wind_option(wind, wind_speed, wind_direction)
     steps = _step_count(dt, steps, duration)
+    _warn_fitted_otherwise(given, float(dt), damping)
     every = whole("every", every, low=1, high=max(steps, 1))
     winds, many = _winds(wind)
     winds = _gusty(winds, gust_strength, gust_seed)
     return _simulated(tree, winds, many, float(dt), steps, every, damping, threads)
+
+
+def _warn_fitted_otherwise(item: Any, dt: float, damping) -> None:
+    """A `PlantlodWarning` where ``item`` is a level whose simplify header
+    (`formats.level_header`; an `LSystem`'s ``comment``, an .lsys file's first lines) names
+    another dt or damping than the run's, as the CLI warns: a level holds under the
+    conditions it was fitted at."""
+    from plantlod.formats.level_header import API_SPELLING, fitted_conditions
+
+    if isinstance(item, LSystem):
+        text = "".join(f"# {line}\n" for line in (item.comment or "").splitlines())
+        name = item.source or item.name or "the level"
+    elif isinstance(item, (str, os.PathLike)) and not _is_text(item):
+        from plantlod.formats.npz import is_npz
+        from plantlod.formats.text_input import read_text
+
+        name = path_of(item)
+        text = "" if is_npz(name) else read_text(name)
+    else:
+        text, name = (item, "<text>") if _is_text(item) else ("", "")
+    fitted = fitted_conditions(text) if text else None
+    message = None if fitted is None else fitted.said(name, dt, damping.c, damping.ratio,
+                                                      API_SPELLING)
+    if message is not None:
+        warn_caller(message)
 
 
 def _simulated(tree: Tree, winds: list, many: bool, dt: float, steps: int, every: int, damping,
@@ -431,6 +458,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
               for name, b in bounds.items()}
     runs = []
     damped = _damping(damping, damping_ratio)
+    for item in items:
+        _warn_fitted_otherwise(item, float(dt), damped)
     for tree, label in zip(trees, _labels(items)):
         a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))

@@ -631,3 +631,21 @@ def test_a_percentage_bound_names_the_key_as_written():
                       ("tip_error_max_m", "a number of metres")):
         with pytest.raises(plantlod.InputError, match=rf"bounds\['{key}'\] is '5%'; expected {said}"):
             plantlod.compare(STALK, STALK, wind=(5, 0, 0), dt=0.01, steps=10, bounds={key: "5%"})
+
+
+def test_a_level_run_otherwise_than_fitted_warns_the_caller(tmp_path):
+    """As the CLI warns (test_cli_simulate): a level from `simplify` with a damping ratio,
+    simulated or compared without it, says so at the caller's line (session 42)."""
+    level = plantlod.simplify(STALK, level=1, damping_ratio=0.05, duration=5)
+    with pytest.warns(plantlod.PlantlodWarning, match="give damping_ratio=0.05$"):
+        plantlod.simulate(level, wind=(3, 0, 0), dt=0.01, steps=5)
+    with pytest.warns(plantlod.PlantlodWarning, match="give damping_ratio=0.05$"):
+        plantlod.compare(STALK, level, wind=(3, 0, 0), dt=0.01, steps=10)
+    path = tmp_path / "l1.lsys"
+    plantlod.write_lsystem(level, path)
+    with pytest.warns(plantlod.PlantlodWarning, match="give dt=0.01, damping_ratio=0.05"):
+        plantlod.simulate(path, wind=(3, 0, 0), dt=0.02, steps=5)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")            # as fitted: nothing said
+        plantlod.simulate(path, wind=(3, 0, 0), dt=0.01, steps=5, damping_ratio=0.05)
