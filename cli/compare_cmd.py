@@ -19,8 +19,8 @@ from plantlod.lsys.errors import InputError, RunFailure
 
 from .discipline import ErrorBound, Metres, given, require_together
 from .io import (check_output_folder, check_output_kind, check_output_path, display_name,
-                 distinct_paths, is_terminal, large_file_angles, open_output, reader_gone_after, say, warn,
-                 warn_once_running)
+                 distinct_paths, is_terminal, large_file_angles, open_output, reader_gone_after,
+                 say, warn, warn_once_running)
 from .compare_exports import is_frame_in, prepare_pictures, write_pictures
 from .loading import load_tree
 from .sim_options import SIMULATION_PARAMS, settings_from_kwargs, simulation_options

@@ -151,11 +151,12 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     # the measures of model.md 6 for the kind of tree: a stalk's per-component amplitude and
     # period, a branching tree's motion error and major period (a 70 % error on a component
     # at 1 % of the largest swing, invisible, led the line; a helper's first hour, session 36)
-    def figures(s) -> str:
-        return (f"amplitude error {_pct(s.amplitude)}, period {_pct(s.period)}"
+    def figures(worst) -> str:
+        """A `Summary`'s figures for the kind of tree."""
+        return (f"amplitude error {_pct(worst.amplitude)}, period {_pct(worst.period)}"
                 if is_stalk(result.original) else
-                f"motion error {_pct(s.motion)}, period (major) {_pct(s.period_major)}") \
-            + f", tip {_pct(s.tip)} of height"
+                f"motion error {_pct(worst.motion)}, period (major) "
+                f"{_pct(worst.period_major)}") + f", tip {_pct(worst.tip)} of height"
 
     # where some winds pass 0.1 rad the bounds do not apply there: the worst where they do
     # too (stalk8's 2.49 % at 15-20 m/s led the line, and then it "meets the bounds": a new

@@ -12,12 +12,13 @@ file, as comment lines:
 A level holds under the time step and damping it was fitted at (a branch's period depends
 on Δt, model.md 4; the swing's decay on ζ), which the file's parameters cannot say: only the
 header does. `fitted_conditions` reads them back, so that a run under other conditions can say
-so (`simulate`, `compare`). A file without that header (hand-written, or edited so that the
+so (the commands `simulate` and `compare`, and the API's). A file without that header (hand-written, or edited so that the
 first lines are no longer simplify's) gives None: nothing is assumed.
 """
 
 from __future__ import annotations
 
+import io
 import re
 from dataclasses import dataclass
 
@@ -74,7 +75,7 @@ def fitted_conditions(text: str) -> FittedConditions | None:
     """The conditions in ``text``'s leading comment lines where they are simplify's header
     (its first line starts with HEADER_START and it has the runs' line), else None."""
     lines = []
-    for line in text.splitlines():
+    for line in io.StringIO(text):            # (the leading lines only, not a whole level)
         stripped = line.strip()
         if not stripped:
             continue
