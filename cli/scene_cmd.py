@@ -42,11 +42,13 @@ from .io import (check_output_folder, check_output_kind, check_output_path, dist
               "verified) per frame.")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Engine threads (default: every core, or $PLANTLOD_THREADS); same output for any.")
+@click.option("--progress/--no-progress", "show_progress", default=None,
+              help="Progress bar on stderr (default: only when stderr is a terminal).")
 @click.option("--run-info", is_flag=True,
               help="Add \"run\" to the report: chains from the cache, wall seconds, simulated "
                    "seconds per wall second (facts of this run, not the same from run to run).")
 def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cache, angles_path,
-          plot_path, scheduler, frame_rate, threads, run_info):
+          plot_path, scheduler, frame_rate, threads, show_progress, run_info):
     """Run a scene of many trees, each at the coarsest level within the pixel budget.
 
     SCENE.toml places trees (explicitly or scattered), the wind and a camera
@@ -109,7 +111,7 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     if spec.wind.speed == 0:                 # (a missing [wind] is no wind: a still forest)
         warn_once_running("the wind is zero, so the trees stay at rest; give [wind] speed = S "
                           "(m/s) in the scene")
-    show = is_terminal(sys.stderr)
+    show = is_terminal(sys.stderr) if show_progress is None else show_progress
     bar = _ProgressBar() if show else None
 
     def progress(stage: str, done: int, total: int, what: str) -> None:

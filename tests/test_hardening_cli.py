@@ -874,3 +874,20 @@ def test_a_warning_at_a_deep_address_still_says_what_to_do(tmp_path):
     assert warnings and all(len(w) <= len("warning: ") + 400 for w in warnings)
     assert "branch 0.0.0" in warnings[0] and "…" in warnings[0]
     assert warnings[0].endswith("check the units (metres), the wind and the strengths")
+
+
+def test_scene_takes_progress_as_simulate_and_simplify_do(tmp_path):
+    """`scene` had no --progress/--no-progress (a new user's first hour, session 42): forced
+    on a file it draws the bar (its batches), and --no-progress draws none."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'dt = 0.01\nduration = 0.5\n[wind]\nspeed = 5\n[camera]\n'
+                     f'position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n'
+                     f'[[tree]]\nfile = "{ROOT / STALK8}"\n')
+    for flag, bar in (("--progress", True), ("--no-progress", False)):
+        err = tmp_path / f"err{bar}.txt"
+        done = subprocess.run(["bash", "-c", f"{PLANTLOD} scene {scene} --no-cache {flag} "
+                               f"> {tmp_path / 'r.json'} 2> {err}"],
+                              cwd=ROOT, capture_output=True, text=True, timeout=300)
+        text = err.read_text()
+        assert done.returncode == 0, text
+        assert ("batches" in text and "\x1b[" in text) == bar, text[:200]
