@@ -207,10 +207,11 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     to_file = output not in (None, "-")
     gone = None
     with contextlib.ExitStack() as landing:
-        if to_file:
-            _write_report(comparisons, bounds, violations, as_json, output, landing)
         lines = ([] if pictures is None
                  else write_pictures(runs, obj_dir, every, plot_path, pictures, landing))
+        if to_file:     # entered last, so it lands first: a device written in place (-o
+            # /dev/full) fails at its flush before the frames and the picture land (42)
+            _write_report(comparisons, bounds, violations, as_json, output, landing)
         if not to_file:
             gone = reader_gone_after(
                 lambda: _write_report(comparisons, bounds, violations, as_json, output))

@@ -324,7 +324,7 @@ def open_output(path: str | None, binary: bool = False) -> Iterator[IO]:
         raise _folder_gone(path)
     check_output_path(path)
     with write_errors(path), atomic_path(path) as tmp:    # (a device or a pipe: in place)
-        with _open_stream(tmp, binary) as out:
+        with _open_stream(tmp, binary, display_name(path)) as out:
             yield out
 
 
@@ -365,6 +365,9 @@ class WholeWrites:
         self.close()
 
 
+_FULL_ERRORS = (errno.ENOSPC, errno.EDQUOT)     # a write's own failures: no file to name
+
+
 @contextlib.contextmanager
 def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[str]:
     """A new, empty temporary folder ``.plantlod-*SUFFIX`` to fill, beside ``path`` (or
@@ -381,19 +384,31 @@ def output_folder(path: str, suffix: str = "", merge: bool = False) -> Iterator[
         raise InputError("the output folder name is empty")
     if os.path.lexists(path) and not (merge and os.path.isdir(path)):
         raise InputError("is not a folder" if merge else "exists; expected a new path", path)
-    base = os.path.dirname(os.path.abspath(path))
-    while not os.path.lexists(base):
-        base = os.path.dirname(base)
-    if not os.path.isdir(base):
-        raise InputError(f"{base} is not a folder", path)
+    if merge and os.path.isdir(path):
+        # inside the folder filled, so that the moves stay on its file system (beside it,
+        # a folder that is a mount point failed them all after the work: session 42)
+        base = os.path.abspath(path)
+    else:
+        base = os.path.dirname(os.path.abspath(path))
+        while not os.path.lexists(base):
+            base = os.path.dirname(base)
+        if not os.path.isdir(base):
+            raise InputError(f"{base} is not a folder", path)
     with write_errors(path):
         tmp = new_temporary(base, suffix, is_folder=True)   # (registered for remove_pending)
     try:
         try:
             yield tmp
-        except (InputError, RunFailure, OSError):
+        except (InputError, RunFailure, OSError) as exc:
             if not os.path.isdir(tmp):       # (named as the user named it, not as tmp)
                 raise _folder_gone(path) from None
+            if isinstance(exc, OSError) and (       # (a full disk's write names no file)
+                    str(getattr(exc, "filename", "")).startswith(tmp)
+                    or (not getattr(exc, "filename", None) and exc.errno in _FULL_ERRORS)):
+                raise RunFailure(f"cannot write {display_name(path)}: "
+                                 f"{exc.strerror or exc}") from None
+            if isinstance(exc, RunFailure) and tmp in str(exc):    # (a full disk, mid-fill)
+                raise RunFailure(str(exc).replace(tmp, display_name(path))) from None
             raise
         with write_errors(path):
             if merge and os.path.isdir(path):
@@ -473,6 +488,8 @@ def _folder_gone(path: str) -> RunFailure:
 _BAD_NAME_ERRORS = {errno.ENAMETOOLONG, errno.ENOTDIR, errno.ENOENT, errno.EISDIR}
 
 
-def _open_stream(target, binary: bool) -> WholeWrites:
-    """Open a path for writing: bytes, or UTF-8 text with \\n line ends; every write whole."""
-    return WholeWrites(io.open(target, "wb"), text=not binary)
+def _open_stream(target, binary: bool, name: str | None = None) -> WholeWrites:
+    """Open a path for writing: bytes, or UTF-8 text with \\n line ends; every write whole.
+    ``name``: what an error names (the output as the user gave it, not its temporary: an API
+    writer said "cannot write the stream", session 42's fuzzing)."""
+    return WholeWrites(io.open(target, "wb"), text=not binary, name=name)

@@ -99,15 +99,18 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
     spec = read_scene(scene_path)
     if budget_px is not None:
         spec = dataclasses.replace(spec, budget_px=budget_px)
-    # the tree files the scene reads are inputs too (`--report treeA` replaced one)
+    # the tree files the scene reads are inputs too (`--report treeA` replaced one; one key
+    # per file: a key shared by every file checked only the last, session 42's fuzzing)
     distinct_paths({report_name: report_path, "--plot": plot_path},
-                   {f"tree file of {scene_path}": str(p)
-                    for p in dict.fromkeys(t.source[0] for t in spec.trees)})
+                   {f"tree file {k + 1} of {scene_path}": str(p)
+                    for k, p in enumerate(dict.fromkeys(t.source[0] for t in spec.trees))})
     check_scene(spec)
     check_frame_rate(spec, frame_rate, given=given(click.get_current_context(), "frame_rate"))
     cache = None if no_cache else (pathlib.Path(cache_dir) if cache_dir else default_cache())
     if cache is not None:
         check_cache_folder(cache)
+        if angles_path is not None:
+            _apart(cache, angles_path)
     if spec.wind.speed == 0:                 # (a missing [wind] is no wind: a still forest)
         warn_once_running("the wind is zero, so the trees stay at rest; give [wind] speed = S "
                           "(m/s) in the scene")
@@ -126,6 +129,12 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
             report = run_scene(spec, cache=cache, threads=threads, verify=verify,
                                progress=progress, store_path=tmp, scheduler=scheduler,
                                frame_rate=frame_rate, sample=sample)
+        except BaseException:
+            if tmp is not None:             # the store's writes in flight end before it goes
+                from plantlod.scene.store import settle_writes
+
+                settle_writes()
+            raise
         finally:
             if bar is not None:
                 bar.stop()
@@ -223,3 +232,16 @@ def check_cache_folder(cache) -> None:
                 raise InputError(f"{parent} is not a folder, so no cache can be made in it; "
                                  f"{why}", str(cache))
             return
+
+
+def _apart(cache, angles_path: str) -> None:
+    """Refuse, before any work, a cache folder and a new --angles store at one path or one
+    inside the other: the cache made the store's folder first, and the whole scene ran
+    before the store could not be placed (session 42's fuzzing)."""
+    import pathlib
+
+    a, c = pathlib.Path(angles_path).resolve(), pathlib.Path(cache).resolve()
+    if a == c or a in c.parents or c in a.parents:
+        raise click.UsageError(f"--cache {cache} and --angles {angles_path} share a path; "
+                               "expected the cache outside the store and the store outside the "
+                               "cache")

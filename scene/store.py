@@ -18,6 +18,8 @@ own chunks, so workers of a cluster never write the same chunk.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from plantlod.formats.atomic import uninterrupted
@@ -36,10 +38,17 @@ def open_store(path: str, levels: np.ndarray, files: list[tuple[str, list[int], 
     """
     import zarr
 
+    from .rooted_store import RootedStore
+
     # each write held against a signal until its chunks have landed (`uninterrupted`), one
-    # tree level at a time, so that a signal waits milliseconds, not the whole store
+    # tree level at a time, so that a signal waits milliseconds, not the whole store; the
+    # store never makes its folder again once it is removed (`rooted_store`: a full disk
+    # failed one chunk, the temporary store was removed, and zarr's other chunk writes, still
+    # running, made its folders again: session 42's fuzzing)
     with uninterrupted():
-        group = zarr.open_group(path, mode="w-")
+        if not os.path.isdir(path):       # (a new folder: its parent there, as zarr's "w-")
+            os.mkdir(path)
+        group = zarr.open_group(RootedStore(path), mode="w-")
         group.attrs["dt"] = float(dt)
         arr = group.create_array("levels", shape=levels.shape, dtype="int16",
                                  chunks=(min(max(len(levels), 1), STORE_BATCH_TREES),
@@ -83,5 +92,31 @@ def write_block(group, file_index: int, level: int, first: int, row0: int,
     n, k = bend.shape[:2]
 
     with uninterrupted():                 # (chunks in flight land before a signal ends it)
-        lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
-        lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)
+        try:
+            lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
+            lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)
+        except BaseException:
+            settle_writes()
+            raise
+
+
+def settle_writes() -> None:
+    """Wait for the chunk writes still in flight on zarr's event loop, their failures
+    retrieved. A write that fails (a full disk) raises at once, while zarr's other chunk
+    writes of the same assignment run on: the caller would remove the temporary store under
+    them, and at exit asyncio printed the tasks destroyed pending (session 42's fuzzing)."""
+    import asyncio
+
+    from zarr.core.sync import sync
+
+    async def pending() -> None:
+        while True:                       # (a write in flight may start others)
+            others = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+            if not others:
+                return
+            await asyncio.gather(*others, return_exceptions=True)
+
+    try:
+        sync(pending())
+    except Exception:                     # (the loop gone: nothing is left in flight)
+        pass

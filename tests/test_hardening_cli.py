@@ -143,7 +143,8 @@ def test_disk_full_while_writing_leaves_nothing(tmp_path, monkeypatch):
         def __exit__(self, *exc):
             self.stream.close()
 
-    monkeypatch.setattr(cli_io, "_open_stream", lambda target, binary: Full(real(target, binary)))
+    monkeypatch.setattr(cli_io, "_open_stream",
+                        lambda target, binary, name=None: Full(real(target, binary, name)))
     for args in (("derive", STALK8), ("simulate", STALK8, *SIM)):
         one_line(run_cli(*args, "-o", str(tmp_path / "out"), exit_code=None), 1,
                  "No space left on device")
