@@ -185,16 +185,21 @@ def test_a_reader_of_stderr_that_goes_away_changes_nothing(tmp_path, progress):
     assert len(out.read_text().splitlines()) == 20002             # header, t = 0, 20,000 steps
 
 
+def _stderr_to_a_file(tmp_path, args: str):
+    """(the finished process, its stderr) of ``plantlod ARGS`` run with stderr on a file."""
+    err = tmp_path / "err.txt"
+    done = subprocess.run(["bash", "-c", f"{PLANTLOD} {args} 2> {err}"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+    return done, err.read_text()
+
+
 def test_progress_forced_on_a_file_draws_the_bar(tmp_path):
     """README: `--progress` forces the progress bar, which by default shows only on a
     terminal. On a file rich drew nothing (a new user saw one blank line, session 33): the
     bar is drawn as on a terminal; without the option a file gets the one summary line."""
     for flag, bar in (("--progress", True), ("", False)):
-        err = tmp_path / f"err{bool(flag)}.txt"
-        done = subprocess.run(["bash", "-c", f"{PLANTLOD} simulate {STALK8} --dt 0.01 --steps "
-                               f"200000 --wind-speed 5 -o {tmp_path / 'a.csv'} {flag} 2> {err}"],
-                              cwd=ROOT, capture_output=True, text=True, timeout=300)
-        text = err.read_text()
+        done, text = _stderr_to_a_file(tmp_path, f"simulate {STALK8} --dt 0.01 --steps 200000 "
+                                       f"--wind-speed 5 -o {tmp_path / 'a.csv'} {flag}")
         last = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", text.splitlines()[-1])  # (the bar erased)
         assert done.returncode == 0 and last.startswith("simulate: ")
         assert ("simulating" in text and "\x1b[" in text) == bar, text[:200]
@@ -885,10 +890,7 @@ def test_scene_takes_progress_as_simulate_and_simplify_do(tmp_path):
                      f'position = [0, -40, 1.7]\ntarget = [0, 0, 1.7]\n'
                      f'[[tree]]\nfile = "{ROOT / STALK8}"\n')
     for flag, bar in (("--progress", True), ("--no-progress", False)):
-        err = tmp_path / f"err{bar}.txt"
-        done = subprocess.run(["bash", "-c", f"{PLANTLOD} scene {scene} --no-cache {flag} "
-                               f"> {tmp_path / 'r.json'} 2> {err}"],
-                              cwd=ROOT, capture_output=True, text=True, timeout=300)
-        text = err.read_text()
+        done, text = _stderr_to_a_file(tmp_path, f"scene {scene} --no-cache {flag} "
+                                       f"--report {tmp_path / 'r.json'}")
         assert done.returncode == 0, text
         assert ("batches" in text and "\x1b[" in text) == bar, text[:200]

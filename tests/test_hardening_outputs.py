@@ -18,16 +18,10 @@ import pytest
 
 from golden_util import ROOT, run_cli
 from test_hardening_cli import one_line
+from test_hardening_scene import HEAD
 
 STALK = str(ROOT / "examples" / "stalk8.lsys")
-SCENE = """dt = 0.01
-duration = 0.2
-[wind]
-speed = 5
-[camera]
-position = [0, -40, 1.7]
-target = [0, 0, 1.7]
-[[tree]]
+SCENE = HEAD.format(duration="0.2") + """[[tree]]
 file = "a.txt"
 [[tree]]
 file = "b.json"
@@ -74,7 +68,6 @@ def test_compares_frames_and_picture_do_not_land_when_its_table_cannot(tmp_path)
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full on this system")
 def test_a_page_on_a_full_device_is_named(tmp_path):
-    run_cli("export", STALK, "--help")                    # (cheap: the CLI loads)
     glb = tmp_path / "s.glb"
     import plantlod
 
