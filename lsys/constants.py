@@ -18,8 +18,9 @@ DEFAULT_MAX_MODULES = 5_000_000
 # how the module limit is named in its errors, which every command that derives can raise
 # (only derive has the option, the API's build functions max_modules; a scene neither:
 # fewer steps is what every command can be given)
-MODULE_LIMIT_SAID = ("more than the {:,} modules allowed; expected a smaller derivation_length "
-                     "(or derive --max-modules, the API's max_modules)")
+MODULE_LIMIT_SAID = ("more than the {:,} modules allowed; expected a smaller derivation length "
+                     "(the file's derivation_length, or -n / --steps where given; or derive "
+                     "--max-modules, the API's max_modules)")
 
 
 # --- tolerances ------------------------------------------------------------------

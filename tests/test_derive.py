@@ -440,8 +440,9 @@ def test_max_modules_guard_message():
     with pytest.raises(InputError) as err:
         derive(system, 5, max_modules=100)
     assert err.value.message == ("step 3 would produce 125 modules, more than the 100 modules "
-                                 "allowed; expected a smaller derivation_length (or derive --max-modules, "
-                                 "the API's max_modules)")
+                                 "allowed; expected a smaller derivation length (the file's "
+                                 "derivation_length, or -n / --steps where given; or derive "
+                                 "--max-modules, the API's max_modules)")
     assert len(derive(system, 2, max_modules=25)) == 25
 
 
@@ -450,7 +451,7 @@ def test_max_modules_guard_checks_before_building(fast):
     system = make_system("F", ["F -> " + "F" * 125])
     with pytest.raises(InputError, match=r"^step 4 would produce 244,140,625 modules, "
                                          r"more than the 5,000,000 modules allowed; expected a smaller "
-                                         r"derivation_length \("):
+                                         r"derivation length \("):
         derive(system, 6, fast=fast)
 
 
