@@ -22,7 +22,8 @@ class LargeAngle:
 
     def message(self, what: str = "") -> str:
         where = f"{what}: " if what else ""
-        return (f"{where}branch {self.address} tilts {self.tilt:.3g} rad at t = {self.time:g} s, "
+        return (f"{where}branch {self.address} tilts {_above(self.tilt, LARGE_ANGLE_RAD)} rad "
+                f"at t = {self.time:g} s, "
                 f"beyond {LARGE_ANGLE_RAD:g} rad: the small-angle model (docs/model.md) is far "
                 "outside its range there; check the units (metres), the wind and the strengths")
 
@@ -62,3 +63,13 @@ def first_large_angle(times: np.ndarray, bend: np.ndarray, rot: np.ndarray,
     watch = LargeAngleWatch(addresses)
     watch.see(times, bend, rot)
     return watch.first
+
+
+def _above(value: float, limit: float) -> str:
+    """``value`` to 3 significant digits, or as many more as show it above ``limit`` ("tilts
+    1 rad … beyond 1 rad" read as no excess: a helper's reading, session 42)."""
+    for digits in range(3, 18):
+        text = f"{value:.{digits}g}"
+        if float(text) > limit:
+            return text
+    return repr(value)

@@ -309,3 +309,15 @@ def test_pose_matches_reference_pose_and_batches(tree, data):
         np.testing.assert_allclose(batch.swing[t], np.array(swings), atol=1e-12)
         single = pose(tree, bend[t], rot[t])
         np.testing.assert_array_equal(single.tip, batch.tip[t])
+
+
+
+def test_a_tilt_past_the_limit_reads_past_it():
+    """"tilts 1 rad … beyond 1 rad" read as no excess (session 42): the tilt is shown with
+    as many digits as show it above the limit, 3 at least."""
+    from plantlod.sim.angle_range import LargeAngle
+
+    for tilt, shown in ((1.0004, "1.0004"), (1.2345, "1.23"), (57.29578, "57.3")):
+        message = LargeAngle(time=2.5, address="0.1", tilt=tilt).message("a.csv")
+        assert message.startswith(f"a.csv: branch 0.1 tilts {shown} rad at t = 2.5 s, "
+                                  "beyond 1 rad")
