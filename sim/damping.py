@@ -80,8 +80,10 @@ def step_angle(half_s) -> np.ndarray:
 
 def period_of_strength(strength, dt: float) -> np.ndarray:
     """Model.md 4's undamped period P = 2π Δt / arccos(1 - k Δt / 2000) (s) of a branch of
-    strength k (any shape), `step_angle`'s phase a step."""
-    return 2.0 * math.pi * dt / step_angle(np.asarray(strength) * dt / 2000.0)
+    strength k (any shape), `step_angle`'s phase a step; infinite where k Δt / 2000 is lost
+    to rounding (1 - s/2 is 1: the step moves nothing), without a division warning."""
+    with np.errstate(divide="ignore"):
+        return 2.0 * math.pi * dt / step_angle(np.asarray(strength) * dt / 2000.0)
 
 
 def ratio_coefficient(velocity_gain: np.ndarray, dt: float, ratio: float) -> np.ndarray:

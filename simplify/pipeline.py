@@ -603,6 +603,11 @@ def _period_notes(original: Tree, reports: list[tuple[WindCase, Report]],
 
     weakest = min(float(np.min(original.bend_strength)), float(np.min(original.rotation_strength)))
     slowest = float(period_of_strength(weakest, options.dt)) / math.sqrt(1.0 - zeta * zeta)
+    if not math.isfinite(slowest):           # (k dt / 2000 below rounding: 1 - s/2 is 1)
+        return [f"warning: no period was measured in any wind: at dt = {options.dt:g} s the "
+                f"weakest branch (strength {weakest:g}) has no period the scheme can step "
+                "(k dt / 2000 is lost to rounding), so the level's periods are not checked; "
+                "give stiffer branches or a larger --dt"]
     longer = max(math.ceil(3 * slowest), math.floor(options.duration) + 1)
     return [f"warning: no period was measured in any wind: the runs of {options.duration:g} s "
             f"hold fewer than two swings of the tree's slowest branch ({slowest:.3g} s at dt = "

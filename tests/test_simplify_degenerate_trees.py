@@ -307,3 +307,19 @@ def test_a_chain_deeper_than_the_recursion_limit_is_simplified():
         sys.setrecursionlimit(old)
     tree = plantlod.derive(level)
     assert tree.n_branches == 150 and tree.depth() == 150
+
+
+def test_a_branch_too_weak_for_the_step_to_move_has_no_period_and_no_internal_error(tmp_path):
+    """k Δt / 2000 below rounding (k = 1e-6, Δt = 1e-9 s): 1 - s/2 is exactly 1, the period
+    2π Δt / arccos(1) is infinite, and the "run longer" advice took ceil(inf), an internal
+    error (a fuzzing helper, session 42). Now a warning says why no period was measured."""
+    path = tmp_path / "weak.lsys"
+    path.write_text("derivation_length: 3\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+                    "force_propagated: 0.7\nbranch F: length=1 radius=0.02 bend_strength=1e-06 "
+                    "rotation_strength=1e-06\nleaf L: area=0.01\naxiom: F L\nproductions:\n"
+                    "  F -> F[+FL]F[-FL]F\n", encoding="utf-8")
+    assert 1.0 - 1e-6 * 1e-9 / 4000.0 == 1.0                    # (the premise: s/2 is lost)
+    result = run_cli("simplify", str(path), "--level", "1", "--dt", "1e-9", "--duration",
+                     "1e-8", "-o", str(tmp_path / "l1.lsys"))
+    said = [x for x in result.stderr.splitlines() if "warning" in x]
+    assert len(said) == 1 and "has no period the scheme can step" in said[0], result.stderr
