@@ -110,10 +110,9 @@ class SimulationSettings:
                 raise click.UsageError(f"--duration {duration:g} / --dt {dt:g} gives more than "
                                        f"{MAX_TIME_STEPS:,} steps, the limit of one run")
             steps = int(round(count))
-            if steps == 0 and duration > 0:
-                raise click.UsageError(
-                    f"--duration {duration:g} s at --dt {dt:g} s gives no time step (less than "
-                    "half of one); give a longer duration, or 0 for the rest pose alone")
+            from plantlod.sim.run import refuse_no_step
+
+            refuse_no_step(steps, dt, duration, "--dt", "--duration")
         elif steps > MAX_TIME_STEPS:
             raise click.BadParameter(f"{steps:,} is more than {MAX_TIME_STEPS:,} steps, the limit "
                                      "of one run", param_hint="--steps")

@@ -225,9 +225,8 @@ def check_document(doc, blob_length: int, path: str) -> None:
         samplers = anim.samplers if isinstance(anim.samplers, list) else c.fail(
             f"animations[{i}].samplers must be a list")
         c.objects(samplers, f"animations[{i}].samplers")
-        channels = anim.channels if isinstance(anim.channels, list) else c.fail(
-            f"animations[{i}].channels must be a list")
-        c.objects(channels, f"animations[{i}].channels")
+        channels = c.objects(anim.channels if isinstance(anim.channels, list) else [],
+                             f"animations[{i}].channels")   # (a list: `check_raw_json`)
         for j, sampler in enumerate(samplers):
             c.index(sampler.input, "accessors", f"animations[{i}].samplers[{j}].input")
             c.index(sampler.output, "accessors", f"animations[{i}].samplers[{j}].output")

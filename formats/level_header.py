@@ -81,7 +81,14 @@ def fitted_conditions(text: str) -> FittedConditions | None:
             continue
         if not stripped.startswith("#"):
             break
-        lines.append(stripped.lstrip("#").strip())
+        lines.append(stripped.lstrip("#"))
+    return comment_conditions("\n".join(lines))
+
+
+def comment_conditions(comment: str) -> FittedConditions | None:
+    """`fitted_conditions` of a header comment's text without its ``#`` (an `LSystem`'s
+    ``comment``, as `plantlod.simplify` returns it)."""
+    lines = [line.strip() for line in comment.splitlines() if line.strip()]
     if not lines or not lines[0].startswith(HEADER_START):
         return None
     dt = ratio = None

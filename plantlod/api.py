@@ -209,40 +209,15 @@ def simulate(tree: Tree | LSystem | PathOrText, wind: Any = None, dt: float = 0.
     damping = _damping(damping, damping_ratio)
     if threads is not None:
         threads = whole("threads", threads, low=1)
-    given = tree
-    tree = _as_tree(tree)
+    given = _given_tree(tree)
+    tree = given.tree
     wind = _wind_option(wind, wind_speed, wind_direction)
     steps = _step_count(dt, steps, duration)
-    _warn_fitted_otherwise(given, float(dt), damping)
+    given.warn_fitted_otherwise(float(dt), damping)
     every = whole("every", every, low=1, high=max(steps, 1))
     winds, many = _winds(wind)
     winds = _gusty(winds, gust_strength, gust_seed)
     return _simulated(tree, winds, many, float(dt), steps, every, damping, threads)
-
-
-def _warn_fitted_otherwise(item: Any, dt: float, damping) -> None:
-    """A `PlantlodWarning` where ``item`` is a level whose simplify header
-    (`formats.level_header`; an `LSystem`'s ``comment``, an .lsys file's first lines) names
-    another dt or damping than the run's, as the CLI warns: a level holds under the
-    conditions it was fitted at."""
-    from plantlod.formats.level_header import API_SPELLING, fitted_conditions
-
-    if isinstance(item, LSystem):
-        text = "".join(f"# {line}\n" for line in (item.comment or "").splitlines())
-        name = item.source or item.name or "the level"
-    elif isinstance(item, (str, os.PathLike)) and not _is_text(item):
-        from plantlod.formats.npz import is_npz
-        from plantlod.formats.text_input import read_text
-
-        name = path_of(item)
-        text = "" if is_npz(name) else read_text(name)
-    else:
-        text, name = (item, "<text>") if _is_text(item) else ("", "")
-    fitted = fitted_conditions(text) if text else None
-    message = None if fitted is None else fitted.said(name, dt, damping.c, damping.ratio,
-                                                      API_SPELLING)
-    if message is not None:
-        warn_caller(message)
 
 
 def _simulated(tree: Tree, winds: list, many: bool, dt: float, steps: int, every: int, damping,
@@ -415,7 +390,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     if not simplified:
         raise InputError("compare needs at least one simplified tree")
     items = (original,) + simplified
-    trees = [_compared_tree(item, k) for k, item in enumerate(items)]
+    givens = [_compared_tree(item, k) for k, item in enumerate(items)]
+    trees = [g.tree for g in givens]
     n = _step_count(dt, steps, duration)
     if n < 1:                               # (it said "window [-, -] s holds 1 sample(s)")
         raise InputError(f"compare needs a run of at least one step (two samples); "
@@ -458,8 +434,8 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
               for name, b in bounds.items()}
     runs = []
     damped = _damping(damping, damping_ratio)
-    for item in items:
-        _warn_fitted_otherwise(item, float(dt), damped)
+    for g in givens:
+        g.warn_fitted_otherwise(float(dt), damped)
     for tree, label in zip(trees, _labels(items)):
         a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
@@ -468,12 +444,12 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     return comparison_document(comparisons, bounds, violations)
 
 
-def _compared_tree(item: Any, k: int) -> Tree:
+def _compared_tree(item: Any, k: int) -> "_Given":
     """Argument ``k`` of `compare` (0 the original) as a tree, every one before any run: a
     wrong third argument was found after the first two had been simulated (12 s), and said
     neither which argument it was nor that a wind is given as ``wind=``."""
     try:
-        return _as_tree(item)
+        return _given_tree(item)
     except InputError as exc:
         if isinstance(item, (Tree, LSystem, str, os.PathLike)):
             raise                              # (a tree whose own reading failed says where)
@@ -548,14 +524,12 @@ def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
     dt = real("dt", dt, low=0, low_open=True)
     if (steps is None) == (duration is None):
         raise InputError("give exactly one of steps and duration")
-    from plantlod.sim.run import step_count
+    from plantlod.sim.run import refuse_no_step, step_count
 
     duration = 0.0 if steps is not None else real("duration", duration, low=0)
     count = step_count(dt, duration)           # (dt checked against MIN_TIME_STEP either way)
-    if steps is None and count == 0 and duration > 0:     # (as the CLI's --duration)
-        raise InputError(f"duration {duration:g} s at dt {dt:g} s gives no time step (less "
-                         "than half of one); give a longer duration, or 0 for the rest pose "
-                         "alone")
+    if steps is None:
+        refuse_no_step(count, dt, duration)
     from plantlod.sim.constants import MAX_TIME_STEPS
 
     return count if steps is None else whole("steps", steps, high=MAX_TIME_STEPS)
@@ -815,10 +789,38 @@ def _as_tree(item: Any) -> Tree:
     """A `Tree`: as given, derived from an `LSystem`, or read from a path (an .lsys file, a
     tree file, a tree .npz), as the commands read their TREE argument; a string with a line
     break is the text of an .lsys file or a tree file itself (as `read_lsystem` reads it)."""
+    return _given_tree(item).tree
+
+
+@dataclass(frozen=True)
+class _Given:
+    """A tree argument as read (`_given_tree`): the tree, and where it is a level, the dt and
+    damping its simplify header says it was fitted at (`formats.level_header`)."""
+
+    tree: Tree
+    name: str = ""
+    fitted: Any = None                        # FittedConditions | None
+
+    def warn_fitted_otherwise(self, dt: float, damping) -> None:
+        """A `PlantlodWarning` where a run at ``dt`` under ``damping`` differs from the
+        conditions the level was fitted at, as the CLI warns."""
+        from plantlod.formats.level_header import API_SPELLING
+
+        message = None if self.fitted is None else self.fitted.said(
+            self.name, dt, damping.c, damping.ratio, API_SPELLING)
+        if message is not None:
+            warn_caller(message)
+
+
+def _given_tree(item: Any) -> _Given:
+    """`_as_tree`'s tree with the conditions its header names (each file read once)."""
+    from plantlod.formats.level_header import comment_conditions, fitted_conditions
+
     if isinstance(item, Tree):
-        return _checked(item)
+        return _Given(_checked(item))
     if isinstance(item, LSystem):
-        return derive(item)
+        return _Given(derive(item), item.source or item.name or "the level",
+                      comment_conditions(item.comment or ""))
     if not isinstance(item, (str, os.PathLike)):
         raise InputError(f"expected a Tree, an LSystem, a path or the text of either, got "
                          f"{type(item).__name__}")
@@ -829,7 +831,7 @@ def _as_tree(item: Any) -> Tree:
         from plantlod.formats.npz import is_npz, read_npz_file, read_tree_bytes
 
         if is_npz(path):
-            return read_tree_bytes(read_npz_file(path), path).named(path)
+            return _Given(read_tree_bytes(read_npz_file(path), path).named(path))
         from plantlod.formats.text_input import read_text
 
         text = read_text(path)
@@ -839,8 +841,8 @@ def _as_tree(item: Any) -> Tree:
     if text.lstrip().startswith("{") and text_kind(text) != "gltf":
         from plantlod.formats.treefile import read_tree_text
 
-        return read_tree_text(text, path).named(path)
-    return derive(parse_lsys_text(text, path))
+        return _Given(read_tree_text(text, path).named(path))
+    return _Given(derive(parse_lsys_text(text, path)), path, fitted_conditions(text))
 
 
 def _damping(damping: Any, damping_ratio: Any):

@@ -92,19 +92,17 @@ def write_block(group, file_index: int, level: int, first: int, row0: int,
     n, k = bend.shape[:2]
 
     with uninterrupted():                 # (chunks in flight land before a signal ends it)
-        try:
-            lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
-            lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)
-        except BaseException:
-            settle_writes()
-            raise
+        lv["bend"][first:first + n, row0:row0 + k, :] = bend.astype(np.float32)
+        lv["rotation"][first:first + n, row0:row0 + k, :] = rot.astype(np.float32)
 
 
 def settle_writes() -> None:
     """Wait for the chunk writes still in flight on zarr's event loop, their failures
     retrieved. A write that fails (a full disk) raises at once, while zarr's other chunk
-    writes of the same assignment run on: the caller would remove the temporary store under
-    them, and at exit asyncio printed the tasks destroyed pending (session 42's fuzzing)."""
+    writes run on (of the same assignment, of other engine threads, of the store's own
+    arrays as it is made): whoever removes the store after a failure calls this first
+    (`scene --angles`), else they ran on under the removed folder and at exit asyncio
+    printed their tasks destroyed pending (session 42's fuzzing)."""
     import asyncio
 
     from zarr.core.sync import sync

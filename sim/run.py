@@ -56,6 +56,17 @@ def step_count(dt: float, duration: float, dt_name: str = "dt",
     return int(round(duration / dt))
 
 
+def refuse_no_step(steps: int, dt: float, duration: float, dt_name: str = "dt",
+                   duration_name: str = "duration") -> None:
+    """InputError where a positive ``duration`` rounds to no step at ``dt`` (`step_count`'s
+    ``steps``): it ran 0 steps without a word (a new user's first hour, session 42). A
+    duration of 0 asks for the rest pose alone. (simplify says its own "fewer than 8 steps".)"""
+    if steps == 0 and duration > 0:
+        raise InputError(f"{duration_name} {duration:g} s at {dt_name} {dt:g} s gives no time "
+                         "step (less than half of one); give a longer duration, or 0 for the "
+                         "rest pose alone")
+
+
 def default_chunk(n_branches: int) -> int:
     """Rows per chunk for a tree of ``n_branches``: about SIM_CHUNK_VALUES values per array."""
     return max(1, SIM_CHUNK_VALUES // max(n_branches, 1))
