@@ -81,10 +81,12 @@ def buffer_files(path: str, max_bytes: int) -> list[str]:
     import json
 
     try:
-        if not stat.S_ISREG(os.stat(path).st_mode):   # (a FIFO would wait: its reader says)
-            return []
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode) or info.st_size > max_bytes:
+            return []                        # (a FIFO would wait, a large file is refused:
+                                             # its reader says, before reading it)
         with open(path, "rb") as f:
-            text = gltf_json(f.read(max_bytes + 1))
+            text = _json_part(f, max_bytes)
         doc = json.loads(text.decode("utf-8")) if text is not None else None
     except (OSError, ValueError, RecursionError):
         return []
@@ -100,6 +102,21 @@ def buffer_files(path: str, max_bytes: int) -> list[str]:
             out.append(os.path.join(os.path.dirname(os.path.abspath(path)),
                                     urllib.parse.unquote(uri)))
     return out
+
+
+def _json_part(handle, max_bytes: int) -> bytes | None:
+    """The JSON text of the glTF or GLB open in ``handle``, reading no more than it needs (a
+    GLB's header and JSON chunk; a .gltf whole, if it starts as JSON does); None otherwise."""
+    start = handle.read(20)
+    if start[:4] == GLB_MAGIC:
+        if len(start) < 20:
+            return None
+        return gltf_json(start + handle.read(min(struct.unpack_from("<I", start, 12)[0],
+                                                  max_bytes)))
+    if start.lstrip()[:1] not in (b"{", b""):  # (a UTF-8 BOM or blanks first: read on)
+        if not start.startswith(b"\xef\xbb\xbf"):
+            return None
+    return start + handle.read(max_bytes + 1 - len(start))
 
 
 def check_buffer_uris(doc, path: str, max_bytes: int) -> None:

@@ -44,19 +44,20 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
     """
     import pygltflib as g
 
-    data = _read_bytes(path)
-    head = data[:SNIFF_CHARS].decode("utf-8", errors="replace")
-    if data.startswith(USDC_MAGIC) or text_kind(head) == "usd":
+    start = _read_bytes(path, SNIFF_CHARS)     # (its kind from its start: not a 1 GiB read)
+    head = start.decode("utf-8", errors="replace")
+    if start.startswith(USDC_MAGIC) or text_kind(head) == "usd":
         raise InputError("an OpenUSD file, not a glTF; `plantlod view` plays glTF only: export "
                          "the tree to .glb or .gltf", path)
-    if data.startswith(ZIP_MAGIC):
+    if start.startswith(ZIP_MAGIC):
         raise InputError("a zip archive (a tree or angles .npz?), not a glTF; `plantlod view` "
                          "plays the .glb or .gltf that `plantlod export` writes", path)
-    if data[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
-                                 and not data.lstrip()[:1] == b"{"):   # JSON named .glb: below
-        binary_chunk = check_glb_container(data, path)
-    else:
-        binary_chunk = False
+    glb = start[:4] == GLB_MAGIC or (path.lower().endswith(".glb")
+                                     and not start.lstrip()[:1] == b"{")  # JSON named .glb: below
+    if glb and start[:4] != GLB_MAGIC:
+        check_glb_container(start, path)       # (refuses it by its magic)
+    data = _read_bytes(path)
+    binary_chunk = check_glb_container(data, path) if glb else False
     check_raw_json(data, path)                 # (what the reader would cast or choke on)
     try:
         with warnings.catch_warnings():        # pygltflib warns on stderr; the checks below say it
@@ -129,8 +130,9 @@ def _why(exc: BaseException) -> str:
     return str(exc) or "unreadable"
 
 
-def _read_bytes(path: str) -> bytes:
-    """The file's bytes, refused beyond VIEW_MAX_FILE_BYTES before it is read."""
+def _read_bytes(path: str, count: int | None = None) -> bytes:
+    """The file's bytes (its first ``count`` where given), refused beyond VIEW_MAX_FILE_BYTES
+    before it is read."""
     from plantlod.formats.text_input import reading
 
     # /dev/zero or a pipe has no size to check (and opening a pipe waits for a writer), and
@@ -145,7 +147,7 @@ def _read_bytes(path: str) -> bytes:
         if info.st_size > VIEW_MAX_FILE_BYTES:
             raise InputError(f"the file has {info.st_size:,} bytes, more than the limit of "
                              f"{VIEW_MAX_FILE_BYTES:,}", path)
-        data = handle.read(VIEW_MAX_FILE_BYTES + 1)
+        data = handle.read(VIEW_MAX_FILE_BYTES + 1 if count is None else count)
     if len(data) > VIEW_MAX_FILE_BYTES:              # (grew while it was read)
         raise InputError(f"the file has more than {VIEW_MAX_FILE_BYTES:,} bytes, the limit", path)
     return data

@@ -16,7 +16,9 @@ import dataclasses
 import io
 import lzma
 import math
+import os
 import re
+import stat
 import tokenize
 import zipfile
 import zlib
@@ -36,6 +38,8 @@ ARCHIVE_VERSION = 1          # `version` of both archives (read: exactly this)
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
 # where an .lsys wrote each group, where a tree file held each branch (messages), not the tree
 _NOT_STORED = ("group_line", "first_record_line")
+# a zip file's first bytes: a local file header, or the end record of an empty archive
+ZIP_SIGNATURES = (b"PK\x03\x04", b"PK\x05\x06")
 ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
 # What a damaged member raises while it is decompressed or laid out (zlib's and lzma's own
 # errors escaped as internal errors; bz2 raises OSError), besides zipfile's and numpy's
@@ -67,16 +71,37 @@ def tree_bytes(tree: Tree) -> bytes:
 
 def read_npz_file(path: str) -> bytes:
     """The bytes of the archive ``path`` (``-``: stdin), refused beyond MAX_NPZ_BYTES; a file
-    that cannot be read is an `InputError` naming it, as for text inputs."""
+    that cannot be read is an `InputError` naming it, as for text inputs.
+
+    Refused before it is read: a regular file larger than the limit (its size), and any
+    input whose first bytes are not a zip file's (`ZIP_SIGNATURES`), so that /dev/zero or a
+    large file of something else is not read whole (2 GiB) only to be refused."""
     name = source_name(path)
     with reading(name):
         if path == "-":
-            data = stdin_bytes(name).read(MAX_NPZ_BYTES + 1)
+            data = _read_archive(stdin_bytes(name), name)
         else:
             with open(path, "rb") as handle:
-                data = handle.read(MAX_NPZ_BYTES + 1)
+                size = os.fstat(handle.fileno())
+                if stat.S_ISREG(size.st_mode) and size.st_size > MAX_NPZ_BYTES:
+                    raise _too_large(name)
+                data = _read_archive(handle, name)
+    return data
+
+
+def _too_large(name: str) -> InputError:
+    return InputError(f"the archive is larger than the limit of {MAX_NPZ_BYTES:,} bytes", name)
+
+
+def _read_archive(handle, name: str) -> bytes:
+    """At most MAX_NPZ_BYTES from ``handle``, the zip signature checked on its first bytes."""
+    head = handle.read(len(ZIP_SIGNATURES[0]))
+    if not any(head == sig for sig in ZIP_SIGNATURES):
+        raise InputError("not a readable archive: File is not a zip file (an .npz starts with "
+                         "the bytes 'PK')", name)
+    data = head + handle.read(MAX_NPZ_BYTES + 1 - len(head))
     if len(data) > MAX_NPZ_BYTES:
-        raise InputError(f"the archive is larger than the limit of {MAX_NPZ_BYTES:,} bytes", name)
+        raise _too_large(name)
     return data
 
 

@@ -134,6 +134,32 @@ def test_an_archive_file_too_large_is_refused(tmp_path, monkeypatch):
              "big.npz: error: the archive is larger than the limit of 1,000 bytes")
 
 
+def test_an_endless_or_foreign_input_is_refused_by_its_first_bytes(tmp_path, monkeypatch):
+    """/dev/zero (or /dev/urandom, or a large file of something else) named .npz was read to
+    the limit, 2 GiB and 6-10 s, only to be refused (a fuzzing round); a zip file starts
+    with 'PK', so the first four bytes decide. The limit is made small here so that the old
+    reading would have refused it by size instead."""
+    import os
+
+    import plantlod.formats.npz as npz
+
+    monkeypatch.setattr(npz, "MAX_NPZ_BYTES", 1000)
+    zero = tmp_path / "z.npz"
+    os.symlink("/dev/zero", zero)
+    for args in (("simulate", str(zero), *SIM), ("export", STALK, str(zero), "-o",
+                                                  str(tmp_path / "x.glb"))):
+        one_line(run_cli(*args, exit_code=None), 2,
+                 "z.npz: error: not a readable archive: File is not a zip file (an .npz "
+                 "starts with the bytes 'PK')")
+    assert not (tmp_path / "x.glb").exists()
+    empty_zip = io.BytesIO()
+    zipfile.ZipFile(empty_zip, "w").close()      # (an empty archive: its end record only)
+    empty = tmp_path / "empty.npz"                # (passes the signature; refused as a tree)
+    empty.write_bytes(empty_zip.getvalue())
+    one_line(run_cli("simulate", str(empty), *SIM, exit_code=None), 2,
+             "empty.npz: error: not a plantlod-tree-npz archive")
+
+
 def test_an_object_array_is_bad_input_not_an_internal_error(tmp_path):
     data = archive(angles_members(address=npy(np.array(["0", None], dtype=object))))
     refused(data, "'address' in the archive is an array of object; expected numbers or text")

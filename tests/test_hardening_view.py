@@ -439,3 +439,29 @@ def test_a_gltf_whose_json_is_broken_names_the_line_and_column(tmp_path):
     result = run_cli("view", str(path), "-o", str(tmp_path / "p.html"), exit_code=2)
     assert result.stderr == (f"{path}:{line}:{col}: error: not a glTF file: its JSON is not "
                              "valid (Expecting value)\n")
+
+
+def test_a_large_file_of_another_kind_is_refused_by_its_start(tmp_path):
+    """A 900 MB file of zeros named .glb was read whole (twice: once to find the glTF's own
+    buffer files, once to play it) only to be refused by its first four bytes, and /dev/zero
+    named .npz was read to the 2 GiB limit (a fuzzing round: 1.9-2.1 GB, 6-10 s). Under a
+    700 MB address-space cap that reading ran out of memory (exit 1); read by their starts,
+    both are refused as what they are, exit 2."""
+    import subprocess
+
+    glb = tmp_path / "d.glb"
+    with open(glb, "wb") as f:
+        f.truncate(900 << 20)                    # (sparse: no disk used)
+    os.symlink("/dev/zero", tmp_path / "z.npz")
+    capped = ["bash", "-c", 'ulimit -v 700000 && exec "$@"', "bash",
+              str(ROOT / ".venv" / "bin" / "plantlod")]
+    for args, message in ((("view", "d.glb", "-o", "v.html"),
+                           "d.glb: error: not a glTF file (a .glb starts with 'glTF')"),
+                          (("simulate", "z.npz", "--dt", "0.01", "--steps", "5",
+                            "--wind-speed", "1"),
+                           "z.npz: error: not a readable archive: File is not a zip file")):
+        done = subprocess.run(capped + list(args), cwd=tmp_path, capture_output=True, text=True,
+                              timeout=120)
+        assert done.returncode == 2, done.stderr
+        assert done.stderr.startswith(message) and done.stderr.count("\n") == 1, done.stderr
+    assert not (tmp_path / "v.html").exists()
