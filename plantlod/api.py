@@ -249,7 +249,8 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
                threads: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """All winds in one pass of the lanes engine: times (T,), bend and rot (W, T, B).
     One wind runs on the single-run kernel (the same values, without lanes' padding)."""
-    from plantlod.sim.lanes import LaneModel, run_lanes
+    from plantlod.sim.constants import SIM_CHUNK_VALUES
+    from plantlod.sim.lanes import LaneModel, new_state, run_lanes
 
     if len(winds) == 1:
         from plantlod.sim.run import simulate_arrays
@@ -262,15 +263,29 @@ def _run_winds(tree: Tree, winds: list, dt: float, steps: int, every: int, dampi
 
     # (before the winds' samples and the lanes' state: 20,000 winds were refused after 46 s)
     check_held_angles(steps // every, tree.n_branches, len(winds))
-    ks = np.arange(steps, dtype=np.float64)          # step k uses V(t_{k-1})
-    samples = (np.stack([wind_samples(w, ks * dt) for w in winds]) if steps
-               else np.zeros((len(winds), 0, 3)))
-    bend, rot = run_lanes(LaneModel.from_tree(tree, damping), samples, dt, steps, every=every,
-                          threads=threads, addresses=tree.address,
-                          lane_names=[f"wind {k + 1} of {len(winds)}" for k in range(len(winds))])
-    rest = np.zeros((len(winds), 1, tree.n_branches))
-    time = np.arange(steps // every + 1, dtype=np.float64) * every * dt
-    return time, np.concatenate([rest, bend], axis=1), np.concatenate([rest, rot], axis=1)
+    model = LaneModel.from_tree(tree, damping)
+    names = [f"wind {k + 1} of {len(winds)}" for k in range(len(winds))]
+    state = None
+    rows = steps // every
+    bend = np.zeros((len(winds), rows + 1, tree.n_branches))    # row 0: the rest pose
+    rot = np.zeros_like(bend)
+    # the winds sampled a piece of steps at a time (about SIM_CHUNK_VALUES values), the lanes'
+    # state carried between pieces: a long run's samples, (W, steps, 3), were all made first
+    # (37 winds of 10^7 steps: 8 GiB for 1,001 rows kept)
+    piece = max(every, SIM_CHUNK_VALUES // (3 * len(winds)) // every * every)
+    for first in range(1, steps + 1, piece):
+        count = min(piece, steps - first + 1)
+        ks = np.arange(first - 1, first - 1 + count, dtype=np.float64)   # step k: V(t_{k-1})
+        samples = np.stack([wind_samples(w, ks * dt) for w in winds])
+        if state is None:
+            state = new_state(model, len(winds))
+        b, r = run_lanes(model, samples, dt, count, every=every, state=state, threads=threads,
+                         first_step=first, addresses=tree.address, lane_names=names)
+        at = (first - 1) // every + 1
+        bend[:, at:at + b.shape[1]] = b
+        rot[:, at:at + r.shape[1]] = r
+    time = np.arange(rows + 1, dtype=np.float64) * every * dt
+    return time, bend, rot
 
 
 def read_angles(path_or_file: PathOrFile, *, degrees: bool = False) -> Angles:
