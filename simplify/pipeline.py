@@ -215,7 +215,6 @@ def simplify(system: LSystem, options: Options,
     # to the calibrated grammar form's 15 %, with no word of why)
     explicit_options = replace(options, calibrate=False) if options.form == "auto" else options
     calibrate = options.spelled("calibrate", True)
-    calibrated = f" ({calibrate} refines the grammar form only)" if options.calibrate else ""
 
     def run_explicit(grouping: int | None = None) -> Result:
         return simplify_explicit(system, explicit_options, progress, grouping=grouping,
@@ -269,12 +268,15 @@ def simplify(system: LSystem, options: Options,
     if explicit_rank < form_rank(grammar.reports, options.level, grammar.largest_angles, stalk):
         if explicit_rank[0] == 0:
             explicit.notes.insert(0, "explicit form: the grammar form misses the level's bounds "
-                                     f"({_bounds_text(grammar.reports)}){calibrated}")
+                                     f"({_bounds_text(grammar.reports)})")
         else:                               # (form_rank: the winds missed first, then by how much)
             explicit.notes.insert(0, "explicit form: both forms miss the level's bounds, the "
                                      "explicit form in fewer winds or by less (grammar: "
                                      f"{_bounds_text(grammar.reports)}; explicit: "
-                                     f"{_bounds_text(explicit.reports)}){calibrated}")
+                                     f"{_bounds_text(explicit.reports)})")
+        if options.calibrate:               # (the API heard nothing of it: a warning is said)
+            explicit.notes.insert(1, f"warning: {calibrate} was not applied: it refines the "
+                                     f"grammar form only, and the explicit form was chosen")
         return explicit
     grammar.notes.insert(0, "grammar form: both forms miss the level's bounds, the grammar form "
                             f"less ({_bounds_text(grammar.reports)}; explicit: "

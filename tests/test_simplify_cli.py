@@ -8,6 +8,7 @@ import math
 import pytest
 from golden_util import ROOT, assert_golden, run_cli
 
+import plantlod
 from plantlod.formats.lsys_file import read_lsys
 from plantlod.lsys.build import build
 from plantlod.lsys.parse import parse_lsys
@@ -88,7 +89,12 @@ def test_calibrate_under_auto_competes_with_the_explicit_form(tmp_path):
     result = run_cli("simplify", "examples/eval/sympodial.lsys", "--level", "1", "--calibrate",
                      "--evaluations", "4", "-o", str(out))
     assert "level 1, explicit form (derived)" in result.stderr     # no ", calibrated"
-    assert "(--calibrate refines the grammar form only)" in result.stderr
+    assert ("warning: --calibrate was not applied: it refines the grammar form only, and the "
+            "explicit form was chosen") in result.stderr
+    with pytest.warns(plantlod.PlantlodWarning, match="calibrate=True was not applied"):
+        level = plantlod.simplify("examples/eval/sympodial.lsys", level=1, calibrate=True,
+                                  max_evaluations=4)               # (the API heard nothing)
+    assert "form: explicit" in level.comment and "calibrated" not in level.comment
     assert "groups:" in out.read_text() and "calibrated" not in out.read_text()
     past = run_cli("simplify", "examples/stalk8.lsys", "--level", "3", "--calibrate",
                    "-o", str(tmp_path / "l3.lsys"), exit_code=2)
