@@ -680,3 +680,19 @@ def test_many_winds_are_sampled_a_piece_at_a_time(monkeypatch):
             np.testing.assert_array_equal(both.time, alone.time)
             np.testing.assert_array_equal(both.bend[k], alone.bend)
             np.testing.assert_array_equal(both.rotation[k], alone.rotation)
+
+
+def test_a_spawned_process_pool_runs_after_the_lanes_engine():
+    """docs/api.md: after several winds in this process (numba's OpenMP threads started), a
+    fork-started pool's child is ended by libgomp (an API fuzzing round); a spawned one, as
+    the page says to start it, gives the parent's values."""
+    import concurrent.futures as cf
+    import multiprocessing
+
+    tree = plantlod.derive(STALK)
+    winds = [(2.0, 0.0, 0.0), (3.0, 0.0, 0.0)]
+    here = plantlod.simulate(tree, wind=winds, dt=0.01, steps=20)
+    with cf.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        there = pool.submit(plantlod.simulate, tree, wind=winds, dt=0.01, steps=20).result(300)
+    np.testing.assert_array_equal(here.bend, there.bend)
+    np.testing.assert_array_equal(here.rotation, there.rotation)
