@@ -37,7 +37,7 @@ def real(name: str, value: Any, *, low: float | None = None, low_open: bool = Fa
          high: float | None = None) -> float:
     """``value`` as a finite float in [low, high] (``low_open``: above low)."""
     if isinstance(value, bool) or not isinstance(value, _REAL):
-        raise InputError(f"{name} must be a number, got {shown_value(value)}")
+        raise InputError(f"{name} must be a number (an int or a float), got {shown_value(value)}")
     x = float(value) if finite(value) else math.inf
     if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)) \
             or (high is not None and x > high):

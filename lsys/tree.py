@@ -15,6 +15,8 @@ import unicodedata
 
 import numpy as np
 
+from .errors import InputError
+
 
 # Addresses a0.a1...ak as derive writes them; a branch's may end in ":j" (a repeat, `Tree`).
 # Numbers without leading zeros: tree files, archives and groups: sections match addresses
@@ -164,6 +166,13 @@ class Tree:
         where it was read from one, else the .lsys it was derived from ("" for neither)."""
         return self.read_from or self.source
 
+    def broken(self, exc: BaseException):
+        """The InputError for a Tree whose arrays break its invariants (``exc`` says which).
+        A Tree read or derived holds them, so it was changed since: the file it came from is
+        named as its origin, not blamed with its place (an API fuzzing round)."""
+        origin = f" (a Tree changed since it came from {self.where})" if self.where else ""
+        return InputError(f"the Tree breaks its invariants: {exc}{origin}")
+
     def record_line(self, i: int) -> int | None:
         """The line of branch ``i``'s record in the JSON-lines tree file this tree was read
         from, for messages; None for a tree read otherwise."""
@@ -207,7 +216,9 @@ class Tree:
             raise ValueError("euler and offset must have shape (B, 3)")
         idx = np.arange(b)
         if np.any(self.parent >= idx) or np.any(self.parent < -1):
-            raise ValueError("branches must be stored parent-before-child")
+            i = int(np.flatnonzero((self.parent >= idx) | (self.parent < -1))[0])
+            raise ValueError(f"branches must be stored parent-before-child (parent[i] < i, -1 "
+                             f"for a root): branch {i} has parent {int(self.parent[i])}")
         if self.force_gain is not None and np.shape(self.force_gain) != (b, 6):
             raise ValueError(f"force_gain must have shape ({b}, 6)")
         if self.swing_roll is not None and np.shape(self.swing_roll) != (b,):

@@ -550,11 +550,24 @@ def _step_count(dt: float, steps: int | None, duration: float | None) -> int:
     return count if steps is None else whole("steps", steps, high=MAX_TIME_STEPS)
 
 
+def _is_wind_object(wind: Any) -> bool:
+    """A wind object (`plantlod.sim.wind`'s or the caller's): it has a ``sample(times)``. One
+    whose ``sample`` is no method is refused here (its run failed: "'int' object is not
+    callable", a RunFailure for what is bad input)."""
+    if not hasattr(wind, "sample"):
+        return False
+    if not callable(wind.sample):
+        raise InputError(f"wind has a sample that is not a method (got "
+                         f"{type(wind.sample).__name__}); a wind object needs sample(times) -> "
+                         f"(K, 3) m/s")
+    return True
+
+
 def _winds(wind: Any) -> tuple[list, bool]:
     """The winds ``wind`` gives, and whether it gives several (a lane axis): one wind is a
     wind object, a vector (vx, vy, vz) as a tuple, a list of three numbers or an array of
     shape (3,); several are a list or tuple of winds, or an array of shape (W, 3)."""
-    if hasattr(wind, "sample"):
+    if _is_wind_object(wind):
         return [wind], False
     if isinstance(wind, np.ndarray):
         if wind.ndim == 2 and wind.shape[1:] == (3,):
@@ -614,7 +627,7 @@ def _wind(wind: Any):
     from plantlod.lsys.errors import shown
     from plantlod.sim.wind import ConstantWind
 
-    if hasattr(wind, "sample"):
+    if _is_wind_object(wind):
         return wind
     try:
         if np.iscomplexobj(wind):                 # (float64 of it drops the imaginary part)
@@ -796,7 +809,7 @@ def _checked(tree: Tree) -> Tree:
         if len(set(tree.address)) != len(tree.address):
             raise ValueError("its branch addresses must be distinct")
     except (ValueError, TypeError, AttributeError, IndexError) as exc:
-        raise InputError(f"the Tree breaks its invariants: {exc}", tree.where or None) from None
+        raise tree.broken(exc) from None
     return tree
 
 

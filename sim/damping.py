@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from plantlod.lsys.checks import real
 from plantlod.lsys.errors import InputError
 
 from .constants import MAX_DAMPING_RATIO
@@ -53,12 +54,12 @@ def as_damping(damping: "float | Damping | None" = 0.0, ratio: float | None = No
     if isinstance(damping, Damping):
         base = damping
     else:
-        c = 0.0 if damping is None else float(damping)
+        c = 0.0 if damping is None else real("damping", damping)
         if not (math.isfinite(c) and 0.0 <= c < 2.0):
             raise InputError(f"damping must be a number in [0, 2), got {c:g}")
         base = Damping(c=c)
     if ratio is not None:
-        z = float(ratio)
+        z = real("the damping ratio", ratio)
         if not (math.isfinite(z) and 0.0 <= z <= MAX_DAMPING_RATIO):
             raise InputError(f"the damping ratio must be a number in [0, {MAX_DAMPING_RATIO:g}], "
                              f"got {z:.12g}")

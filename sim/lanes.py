@@ -22,10 +22,10 @@ from plantlod.lsys.checks import real, real_array, shown_value, whole
 from plantlod.lsys.errors import InputError, RunFailure
 from plantlod.lsys.tree import Tree
 
-from .engine_env import check_jit_enabled, env_threads
+from .engine_env import check_environment, check_jit_enabled, env_threads
 from .damping import Damping
 from .kernel import KernelModel, prepare   # numba: the engine compiles on first use
-from .constants import MAX_WIND_SPEED, SPEED_ROUNDING
+from .constants import MAX_TIME_STEPS, MAX_WIND_SPEED, SPEED_ROUNDING
 from .run import check_held_angles
 
 LANE_PARAMETERS = ("absorbed", "propagated", "bend_k", "rot_k", "drag", "leaf_scale")
@@ -48,7 +48,7 @@ class LaneModel(KernelModel):
         try:
             tree.check()
         except (ValueError, TypeError, AttributeError) as exc:
-            raise InputError(f"the Tree breaks its invariants: {exc}", tree.where or None) from None
+            raise tree.broken(exc) from None
         k = prepare(tree, damping)
         return cls(**{f: getattr(k, f) for f in cls.__dataclass_fields__})
 
@@ -182,7 +182,8 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     stopped being finite, and `InputError` before any step for a dt at which some lane is
     unstable (`check_lane_stability`, model.md 4) or a steady wind past MAX_WIND_SPEED.
     """
-    check_jit_enabled()
+    check_environment()          # (the API's callers too: NUMBA_NUM_THREADS=0 met numba's own
+    check_jit_enabled()          # 28-line traceback where the commands refused it)
     from . import lanes_kernel   # numba, compiled on first use
 
     import numba
@@ -190,7 +191,7 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
     if not isinstance(model, LaneModel):
         raise InputError(f"model must be a LaneModel (LaneModel.from_tree(tree)), got "
                          f"{type(model).__name__}")
-    steps = whole("steps", steps)
+    steps = whole("steps", steps, high=MAX_TIME_STEPS)
     every = whole("every", every, low=1)
     first_step = whole("first_step", first_step, low=1)
     dt = real("dt", dt, low=0.0, low_open=True)
@@ -204,6 +205,12 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
         got = (f"{state.dtype} of shape {state.shape}" if isinstance(state, np.ndarray)
                else shown_value(state))
         raise InputError(f"state must be a float64 array of shape ({lanes}, 4, {b}), got {got}")
+    if not state.flags.writeable:               # (it is updated in place: numpy's own error)
+        raise InputError("state must be a writeable array (it is updated in place), got a "
+                         "read-only one")
+    if not np.isfinite(state).all():            # (reported as a divergence, with its advice)
+        raise InputError("state must hold finite angles and velocities, got "
+                         f"{float(state[~np.isfinite(state)][0])} in it")
     # lane index last in the kernel: (B, Wp) planes, Wp = W padded to whole blocks;
     # padding lanes repeat the last lane (their results are dropped)
     padded = -(-lanes // lanes_kernel.BLOCK) * lanes_kernel.BLOCK

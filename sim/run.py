@@ -63,7 +63,7 @@ def refuse_no_step(steps: int, dt: float, duration: float, dt_name: str = "dt",
     duration of 0 asks for the rest pose alone. (simplify says its own "fewer than 8 steps".)"""
     if steps == 0 and duration > 0:
         raise InputError(f"{duration_name} {duration:g} s at {dt_name} {dt:g} s gives no time "
-                         "step (less than half of one); give a longer duration, or 0 for the "
+                         "step (duration / dt rounds to 0); give a longer duration, or 0 for the "
                          "rest pose alone")
 
 

@@ -696,3 +696,49 @@ def test_a_spawned_process_pool_runs_after_the_lanes_engine():
         there = pool.submit(plantlod.simulate, tree, wind=winds, dt=0.01, steps=20).result(300)
     np.testing.assert_array_equal(here.bend, there.bend)
     np.testing.assert_array_equal(here.rotation, there.rotation)
+
+
+def test_api_fuzzing_messages_say_what_is_wrong():
+    """Session 43's API fuzzing round: a wind whose sample is no method ran and failed
+    (RunFailure "'int' object is not callable"); an edited Tree blamed the .lsys it came from
+    (its place where no line is at fault) and an out-of-range parent read as an order
+    problem; Decimal("0.01") was told it "must be a number"."""
+    import dataclasses
+    from decimal import Decimal
+
+    class NoMethod:
+        sample = 5
+
+    with pytest.raises(InputError, match="wind has a sample that is not a method"):
+        plantlod.simulate(STALK, wind=NoMethod(), dt=0.01, steps=3)
+    tree = plantlod.derive(STALK)
+    parent = tree.parent.copy()
+    parent[-1] = 100
+    with pytest.raises(InputError) as err:
+        plantlod.simulate(dataclasses.replace(tree, parent=parent), wind=(1, 0, 0), dt=0.01,
+                          steps=3)
+    assert err.value.file is None
+    assert str(err.value).startswith("the Tree breaks its invariants: branches must be stored "
+                                     "parent-before-child (parent[i] < i, -1 for a root): "
+                                     "branch 7 has parent 100 (a Tree changed since it came "
+                                     "from ")
+    with pytest.raises(InputError, match=r"dt must be a number \(an int or a float\), got "
+                                         r"Decimal\('0.01'\)"):
+        plantlod.simulate(STALK, wind=(1, 0, 0), dt=Decimal("0.01"), steps=3)
+
+
+def test_numba_environment_is_checked_for_the_api_too():
+    """NUMBA_NUM_THREADS=0 gave the API numba's own 28-line traceback from its import (the
+    commands refuse it first, cli/main.py); run_lanes now checks the environment as they do."""
+    import subprocess
+    import sys
+
+    code = ("import plantlod\n"
+            "try:\n"
+            "    plantlod.simulate('examples/stalk8.lsys', wind=[(2, 0, 0), (3, 0, 0)], dt=0.01,"
+            " steps=3)\n"
+            "except plantlod.InputError as exc:\n"
+            "    print(exc)\n")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                          env={**os.environ, "NUMBA_NUM_THREADS": "0"}, timeout=300)
+    assert done.stdout == "NUMBA_NUM_THREADS='0': expected a whole number >= 1\n", done.stderr

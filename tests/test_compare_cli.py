@@ -456,5 +456,11 @@ def test_first_hour_messages(runner, stalks):
     swapped = invoke(runner, ["stalk8_level1.lsys", "stalk8.lsys", *RUN])
     assert swapped.exit_code == 2 and swapped.stderr.count("\n") == 1
     assert "given the other way round?" in swapped.stderr
+    # unrelated trees are not asked so (an API fuzzing round): abop_1_24a's addresses do not
+    # begin with stalk8's
+    shutil.copy(ROOT / "examples" / "abop_1_24a.lsys", "abop.lsys")
+    unrelated = invoke(runner, ["stalk8.lsys", "abop.lsys", *RUN])
+    assert unrelated.exit_code == 2 and "more than the original's" in unrelated.stderr
+    assert "other way round" not in unrelated.stderr
     order = invoke(runner, ["--angles", "rad.csv", "deg.csv"])
     assert "compare: deg.csv against rad.csv:" in order.stderr

@@ -116,6 +116,11 @@ def test_bad_shapes_are_input_errors():
         model.with_lane_parameters(absorbed=np.ones((model.n_branches + 2, 2)))
 
 
+def read_only(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
+
+
 @pytest.mark.parametrize("call, said", [
     (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, threads="2"), "thread count must be"),
     (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, threads=2.5), "thread count must be"),
@@ -126,6 +131,18 @@ def test_bad_shapes_are_input_errors():
     (lambda m, t: run_lanes(t, [[1.0, 0.0, 0.0]], DT, 5), "model must be a LaneModel"),
     (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5.0), "steps must be a whole number"),
     (lambda m, t: LaneModel.from_tree(None), "expected a Tree"),
+    # (session 43's API fuzzing: "abc" a ValueError, [0.1] a TypeError, "0.1" taken as 0.1)
+    (lambda m, t: LaneModel.from_tree(t, "abc"), r"damping must be a number \(an int"),
+    (lambda m, t: LaneModel.from_tree(t, [0.1]), r"damping must be a number \(an int"),
+    (lambda m, t: LaneModel.from_tree(t, "0.1"), r"damping must be a number \(an int"),
+    # a read-only state: numpy's "assignment destination is read-only"; a NaN state: "diverged
+    # … lower force_absorbed, the wind or dt"; 10^12 steps ran on past a minute
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, state=read_only(new_state(m, 1))),
+     "state must be a writeable array"),
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 5, state=np.full((1, 4, 3), np.nan)),
+     "state must hold finite angles and velocities, got nan"),
+    (lambda m, t: run_lanes(m, [[1.0, 0.0, 0.0]], DT, 10**12, every=10**12),
+     "steps must be a whole number in"),
     (lambda m, t: LaneModel.from_tree(dataclasses.replace(t, length=t.length[:1])),
      "the Tree breaks its invariants: length must have shape"),
 ])

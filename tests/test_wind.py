@@ -140,8 +140,8 @@ def test_gust_rejects_bad_parameters():
     (lambda b: KeyframeWind("a", "b"), "keyframe wind needs numbers: K times and one (vx, vy, vz) "
                                        "per time, got 'a' and 'b'"),
     (lambda b: KeyframeWind([0, 1], [[1, 0, 0], [2, 0]]), "keyframe wind needs numbers"),  # ragged
-    (lambda b: GustyWind(b, strength="x"), "gust strength must be a number, got 'x'"),
-    (lambda b: GustyWind(b, strength=None), "gust strength must be a number, got None"),
+    (lambda b: GustyWind(b, strength="x"), "gust strength must be a number (an int or a float), got 'x'"),
+    (lambda b: GustyWind(b, strength=None), "gust strength must be a number (an int or a float), got None"),
     (lambda b: GustyWind(b, components="x"), "gust components must be a whole number in [1, inf)"),
     (lambda b: GustyWind(b, components=2.5), "gust components must be a whole number"),
     (lambda b: GustyWind(b, seed=True), "gust seed must be a whole number in [0, inf), got True"),
