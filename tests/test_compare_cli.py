@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import pathlib
 import shutil
 
@@ -189,6 +190,10 @@ def test_visible_motion_bounds(runner, stalks, figure, option):
     assert invoke(runner, base + [option, str(value * 1.01)]).exit_code == 0
     bad = invoke(runner, base + [option, str(value * 0.99)])
     assert bad.exit_code == 1 and json.loads(bad.stdout)["comparisons"][0]["exceeded"][0]["bound"] == option
+    # with a picture too: still one line, which says the picture was written (two before)
+    pictured = invoke(runner, base + [option, str(value * 0.99), "--plot", "p.png"])
+    assert pictured.exit_code == 1 and pictured.stderr.count("\n") == 1
+    assert pictured.stderr.rstrip().endswith("; wrote p.png") and os.path.exists("p.png")
 
 
 def test_usage_errors_exit_2(runner, stalks):
