@@ -141,13 +141,20 @@ def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int,
         first = chunk.find(b"\n")
         if first < 0:
             run += len(chunk)
+            end = total + len(chunk)          # (where the bytes counted in run end)
         else:
             run += first
+            end = total + first
             if run <= max_line_bytes:
                 run = len(chunk) - chunk.rfind(b"\n") - 1
-        if run > max_line_bytes:
+        if run > max_line_bytes:              # (placed at the first character past the cap)
+            data = b"".join(chunks) + chunk
+            start = end - run
+            start += len(_BOM) if start == 0 and data.startswith(_BOM) else 0
+            within = data[start:start + max_line_bytes].decode("utf-8", errors="ignore")
             raise InputError(f"line longer than {max_line_bytes:,} bytes; expected shorter "
-                             "lines (docs/errors.md, \"Limits\")", name, lines + 1)
+                             "lines (docs/errors.md, \"Limits\")", name, lines + 1,
+                             len(within) + 1)
         lines += chunk.count(b"\n")
         chunks.append(chunk)
         fed = chunk[len(_BOM):] if total == 0 and chunk.startswith(_BOM) else chunk

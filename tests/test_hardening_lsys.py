@@ -267,6 +267,27 @@ def test_long_line_stops_reading_early():
     with pytest.raises(InputError, match="line longer than 1,000 bytes") as info:
         _read_capped(data, "x.lsys", 1000)
     assert info.value.line == 1 and data.tell() <= 2000     # read at most two chunks
+    assert info.value.col == 1001                         # (no column before: a fuzzing round)
+
+
+@pytest.mark.parametrize("before, line, prefix, column", [
+    (b"", 1, b"", 101),                       # the first line, one chunk
+    (b"# a\n# b\n", 3, b"", 101),             # after lines
+    (b"a\n", 2, "\u00e9".encode() * 30, 71),  # 30 two-byte characters then 40 bytes: 70 chars
+    (b"", 1, "\U0001f332".encode() * 10, 71),  # 10 four-byte characters, then 60 bytes
+])
+def test_a_long_line_is_placed_at_the_first_character_past_the_cap(before, line, prefix,
+                                                                    column):
+    """FILE:LINE:COL: the column is the first character (not byte) past the line cap, as
+    every other message places its column; chunks of 7 bytes make it run across chunks."""
+    from plantlod.formats import text_input
+
+    data = io.BytesIO(before + prefix + b"x" * 500 + b"\n")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(text_input, "READ_CHUNK_BYTES", 7)
+        with pytest.raises(InputError) as info:
+            _read_capped(data, "x.lsys", 100)
+    assert (info.value.line, info.value.col) == (line, column)
 
 
 
