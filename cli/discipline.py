@@ -32,7 +32,7 @@ from typing import Callable
 
 import click
 
-from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning, cut_middle
+from plantlod.lsys.errors import InputError, PlantlodError, PlantlodWarning, cut_middle, shown
 from plantlod.formats.atomic import defer_signal, end_deferred, remove_pending
 from plantlod.sim.constants import CAUGHT_SIGNALS  # (cli.io reads it from here too)
 
@@ -283,7 +283,9 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
     if isinstance(exc, click.exceptions.Abort):
         return 128 + signal.SIGINT, f"{where}: interrupted"
     if isinstance(exc, InputError) and exc.file:
-        loc = ":".join(str(p) for p in (exc.file, exc.line, exc.col) if p is not None)
+        # (a file name with a line break is shown quoted, as the API's str() shows it: its
+        # \n was shown as a space, the name of another file; a fuzzing round)
+        loc = ":".join(shown(str(p)) for p in (exc.file, exc.line, exc.col) if p is not None)
         return 2, f"{_one_line(loc)}: error: {_one_line(exc.message)}"
     if isinstance(exc, PlantlodError):
         return exc.exit_code, f"{where}: error: {_one_line(str(exc))}"

@@ -12,6 +12,7 @@ import contextlib
 import errno
 import io
 import os
+import stat
 import sys
 import threading
 from typing import IO, Callable, Iterator
@@ -205,10 +206,24 @@ def check_output_path(path: str | None, folder: bool = False) -> None:
                          "output")
     if not folder and path.endswith(("/", os.sep)):   # (abspath drops it: found after the work)
         raise InputError("names a folder (it ends in /); expected a file name", path)
-    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
         raise InputError("output directory does not exist", path)
+    if not os.access(folder, os.W_OK | os.X_OK) and not _writable_in_place(path):
+        # (a read-only folder failed after all the work, exit 1, where a folder that cannot
+        # be entered was refused first, exit 2: a fuzzing round; both now before any work)
+        raise InputError("cannot write in its folder: permission denied", path)
     special_target(path)
     _checked.add(os.path.abspath(path))
+
+
+def _writable_in_place(path: str) -> bool:
+    """A device or other file that is written where it is (not replaced by a temporary beside
+    it): /dev/full, /dev/null or a FIFO in a folder the user cannot write in."""
+    try:
+        return not stat.S_ISREG(os.stat(path).st_mode) and os.access(path, os.W_OK)
+    except OSError:
+        return False
 
 
 # outputs whose folder `check_output_path` found before the command's work: one missing when
@@ -231,6 +246,15 @@ def check_output_folder(path: str, option: str, writes: str, parents: bool = Tru
                                "one; expected the name of a folder")
     if not parents and not os.path.lexists(path):
         check_output_path(path, folder=True)
+    made_in = os.path.abspath(path)            # the folder itself, or the first that exists on
+    while not os.path.isdir(made_in):          # its way (where it is made)
+        above = os.path.dirname(made_in)
+        if above == made_in or (os.path.lexists(made_in) and not os.path.isdir(made_in)):
+            return                             # (a file on the way: the writer says)
+        made_in = above
+    if not os.access(made_in, os.W_OK | os.X_OK):   # (found after all the work before)
+        raise InputError(f"cannot write in {'it' if made_in == os.path.abspath(path) else made_in}"
+                         f": permission denied", path)
 
 
 def check_output_kind(path: str | None, option: str, writes: str, accepted: tuple[str, ...]) -> None:
@@ -263,6 +287,14 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
     if len(from_stdin) > 1:
         raise click.UsageError(f"{from_stdin[0]} and {from_stdin[1]} both read standard input (-), "
                                "which can be read once; give one of them a file")
+    piped: dict[tuple[int, int], str] = {}  # (the same named pipe twice: the second open
+    for what, source in (inputs or {}).items():     # waited for a writer for ever)
+        pipe = _pipe_identity(source)
+        if pipe is not None and pipe in piped:
+            raise click.UsageError(f"{piped[pipe]} and {what} both read the pipe {source}, "
+                                   "which can be read once; give one of them a file")
+        if pipe is not None:
+            piped[pipe] = what
     seen: dict[str, str] = {}
     for option, path in outputs.items():
         if path is None or path == "-":
@@ -281,10 +313,19 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
                                        "expected another path")
 
 
+def _pipe_identity(path: str | None) -> tuple[int, int] | None:
+    """(device, inode) of the named pipe (FIFO) at ``path``; None for anything else."""
+    if path is None or path == "-":
+        return None
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino) if stat.S_ISFIFO(info.st_mode) else None
+
+
 def _device(path: str) -> bool:
     """Whether ``path`` is a device or a pipe (not a file, not a folder, not missing)."""
-    import stat
-
     try:
         mode = os.stat(path).st_mode
     except (OSError, ValueError):

@@ -16,8 +16,10 @@ def load_system(path: str):
 
 
 def looks_like_tree_file(text: str) -> bool:
-    """Tree files are JSON Lines: their first non-blank character is ``{``."""
-    stripped = text.lstrip()
+    """Tree files are JSON Lines: their first non-blank character is ``{`` (a stray
+    byte-order mark, U+FEFF, left after the one the reader drops, counted as blank: the
+    tree reader then places it; a file of two read as an .lsys said it was a tree file)."""
+    stripped = text.lstrip().lstrip("\ufeff").lstrip()
     return stripped.startswith("{")
 
 

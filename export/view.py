@@ -18,6 +18,7 @@ from importlib import resources
 from typing import Sequence
 
 from plantlod.formats.kinds import SNIFF_CHARS, USDC_MAGIC, other_kind, text_kind
+from plantlod.formats.text_input import not_utf8
 from plantlod.lsys.errors import InputError
 
 from .constants import VIEW_MAX_FILE_BYTES, VIEW_TITLE
@@ -58,6 +59,11 @@ def glb_from_file(path: str) -> tuple[bytes, int | None]:
         check_glb_container(start, path)       # (refuses it by its magic)
     data = _read_bytes(path)
     binary_chunk = check_glb_container(data, path) if glb else False
+    if not glb:                                # a .gltf's bytes that are not UTF-8, placed
+        try:                                   # as every text reader places them
+            data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise not_utf8(data, exc.start, path, "a .gltf file (JSON text)") from None
     check_raw_json(data, path)                 # (what the reader would cast or choke on)
     try:
         with warnings.catch_warnings():        # pygltflib warns on stderr; the checks below say it

@@ -74,7 +74,7 @@ def read_text(path: str, max_line_bytes: int = MAX_LINE_BYTES,
             return _read_capped(handle, name, max_line_bytes, max_bytes, expected)
 
 
-def _not_utf8(data: bytes, offset: int, name: str, expected: str = LSYS_TEXT) -> InputError:
+def not_utf8(data: bytes, offset: int, name: str, expected: str = LSYS_TEXT) -> InputError:
     """The error for the byte at ``offset`` of ``data`` (the file's bytes up to and past it),
     located at its line and column (characters, a leading byte-order mark not counted)."""
     if data.startswith(ZIP_MAGIC) and name.lower().endswith(".npz"):
@@ -161,12 +161,12 @@ def _read_capped(handle: BinaryIO, name: str, max_line_bytes: int,
         try:
             text.append(decoder.decode(fed))
         except UnicodeDecodeError as exc:   # exc.object: the decoder's carried bytes + fed
-            raise _not_utf8(b"".join(chunks), total + len(chunk) - len(exc.object) + exc.start,
+            raise not_utf8(b"".join(chunks), total + len(chunk) - len(exc.object) + exc.start,
                             name, expected) from None
         total += len(chunk)
     try:
         text.append(decoder.decode(b"", final=True))
     except UnicodeDecodeError as exc:       # a sequence cut short by the end of the file
-        raise _not_utf8(b"".join(chunks), total - len(exc.object) + exc.start, name,
+        raise not_utf8(b"".join(chunks), total - len(exc.object) + exc.start, name,
                         expected) from None
     return "".join(text)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
+import os
 import pathlib
 import re
 import tomllib
@@ -530,6 +531,8 @@ class _Reader:
                 raise error(f"tree file {name!r} is not a regular file; expected an .lsys file")
             raise error(f"tree file {name!r} not found"
                         + ("" if pathlib.Path(name).is_absolute() else f" (looked in {folder})"))
+        if not os.access(path, os.R_OK):          # (named at its own path, not the scene's)
+            raise error(f"tree file {name!r} cannot be read: permission denied")
         other = _other_kind_of(path)
         if other is not None:
             raise error(f"tree file {name!r} is {other}; expected an .lsys file")
@@ -616,11 +619,12 @@ def read_scene(path: str) -> Scene:
     file = pathlib.Path(path)
     text = read_text(path, expected="a scene file, TOML")   # missing, unreadable, not UTF-8,
     # a line too long: exit 2
-    refuse_empty(text, source_name(path), "a scene (docs/scene.md)")   # ("missing [camera]" before)
+    shown_as = source_name(path)      # (stdin was named "-" where other readers say <stdin>)
+    refuse_empty(text, shown_as, "a scene (docs/scene.md)")   # ("missing [camera]" before)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        other = other_kind(text, path, "scene")    # an L-system or angle CSV given for a scene
+        other = other_kind(text, shown_as, "scene")    # an L-system or angle CSV given for a scene
         if other is not None:
             raise other from None
         m = re.search(r"line (\d+), column (\d+)", str(exc))
@@ -641,15 +645,15 @@ def read_scene(path: str) -> Scene:
                           if name in LISTED_TABLES else "expected it once"))
         if twice is None and line is not None:
             message, col = _toml_hint(str(exc).split(" (at")[0], text, line, col, message)
-        raise InputError(message, path, line, col) from None
+        raise InputError(message, shown_as, line, col) from None
     except RecursionError:              # arrays or tables nested thousands deep
         at = _too_deep(text)
         raise InputError(f"not valid here: TOML nested too deeply for a scene (more than "
                          f"{MAX_SCENE_NESTING} arrays or inline tables inside each other)",
-                         path, *((None, None) if at is None else _line_col(text, at))) from None
+                         shown_as, *((None, None) if at is None else _line_col(text, at))) from None
     except ValueError:                  # an integer past Python's digit limit (tomllib's int())
-        raise _long_integer(text, path) from None
-    r = _Reader(text, path)
+        raise _long_integer(text, shown_as) from None
+    r = _Reader(text, shown_as)
     r.keys(data, TOP_KEYS, "the scene")
     folder = file.resolve().parent
     dt = r.number(data, "dt", 0.01, low=0, low_open=True)

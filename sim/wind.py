@@ -151,8 +151,8 @@ class KeyframeWind:
     def from_csv(cls, stream: TextIO, source: str | None = None) -> "KeyframeWind":
         """Read keyframes ``t,vx,vy,vz`` (s, m/s), one per line.
 
-        The first non-blank line may be a header (a line whose first field is
-        not a number, e.g. ``t,vx,vy,vz``). Blank lines and lines starting with ``#``
+        The first non-blank line may be a header (a line of which no field is a
+        number, e.g. ``t,vx,vy,vz``). Blank lines and lines starting with ``#``
         are skipped. Times must be finite and strictly increasing. Errors are
         `InputError` at the line and column of the offending field.
         """
@@ -169,8 +169,9 @@ class KeyframeWind:
             starts = _field_starts(fields)
             if first_content:
                 first_content = False
-                if _parse_float(fields[0]) is None:
-                    continue   # header line
+                if all(_parse_float(f) is None for f in fields):
+                    continue   # header line (no field a number: a row whose time alone is
+                    # not, as after a second byte-order mark, was dropped as one)
             if len(fields) != 4:
                 raise InputError(f"expected 4 numbers t,vx,vy,vz, got {len(fields)} field(s)",
                                  source, line_no, 1)

@@ -465,3 +465,12 @@ def test_a_large_file_of_another_kind_is_refused_by_its_start(tmp_path):
         assert done.returncode == 2, done.stderr
         assert done.stderr.startswith(message) and done.stderr.count("\n") == 1, done.stderr
     assert not (tmp_path / "v.html").exists()
+
+
+def test_a_gltf_that_is_not_utf8_is_placed(tmp_path):
+    """A .gltf with a Latin-1 byte was "not a glTF file (its JSON is not UTF-8 text)", with
+    no place, where every other reader gives LINE:COL (a fuzzing round)."""
+    path = tmp_path / "l.gltf"
+    path.write_bytes(b'{"asset": {"version": "2.0"},\n  "nodes": [{"name": "caf\xe9"}]}\n')
+    one_line(run_cli("view", str(path), "-o", str(tmp_path / "v.html"), exit_code=None), 2,
+             f"{path}:2:26: error: not UTF-8 text (byte 55), 0xe9 cannot be decoded")
