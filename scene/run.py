@@ -35,7 +35,7 @@ from .constants import (
 )
 from .file import Scene, Source, seed_named, source_name, sources
 from .levels import Chain, Gusts, chain_from_texts, level_chains
-from .schedule import distances, frame_times, schedules
+from .schedule import distances, frame_ends, frame_times, schedules
 from .switch import Transfer, switch_errors
 
 
@@ -488,8 +488,9 @@ def _verify(scene: Scene, chain: Chain, batch: Batch, winds: np.ndarray, every: 
         return out
     full_tree = chain.trees[0]
     model = chain.lane_model(0)
-    times = frame_times(scene, every)
-    d, ahead = distances(scene, batch.members, times)
+    # the distance when each row's pose is shown: its frame's end (the frame's start, before
+    # session 43, left a camera jumping nearer within a frame unmeasured)
+    d, ahead = distances(scene, batch.members, frame_ends(scene, frame_times(scene, every)))
     for lo in range(0, len(need), VERIFY_LANES):
         part = need[lo:lo + VERIFY_LANES]
         lanes = [batch.members[i] for i in part]

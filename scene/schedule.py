@@ -43,6 +43,13 @@ def frame_times(scene: Scene, every: int) -> np.ndarray:
     return np.arange(frames) * every * scene.dt
 
 
+def frame_ends(scene: Scene, times: np.ndarray) -> np.ndarray:
+    """(F,) s: the end of each frame that starts at ``times`` (`frame_times`), the time of
+    the pose it shows (a store's row, a verified tip): the next frame's start, the scene's
+    end for the last."""
+    return np.append(np.asarray(times, dtype=np.float64)[1:], scene.steps * scene.dt)
+
+
 def distances(scene: Scene, members: list[int], times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance (n, F) m from the camera to each member's base, and whether it is ahead."""
     pos, tgt = scene.camera.at(times)                                      # (F, 3) each
@@ -69,10 +76,19 @@ def seen_scale(scene: Scene, members: list[int], times: np.ndarray, look_ahead: 
                ) -> np.ndarray:
     """(n, F) px per metre of tip error (model.md 7, times the member's scale) at each
     frame, 0 while the tree is behind the camera, infinite where the camera stands on its
-    base. ``look_ahead``: at the nearest the tree comes from then on."""
-    d, ahead = distances(scene, members, times)
+    base. ``look_ahead``: at the nearest the tree comes from then on.
+
+    A frame is judged at both its ends, the nearer counting: its level runs from its start
+    and shows its pose at its end (`frame_ends`), so a camera that jumps nearer within a
+    frame (keys 1 ms apart) had the frame's pose shown near at the level chosen far (a
+    scene fuzzing round: 4.6 px against a 1 px budget, verified as 0.51 px at the start's
+    distance)."""
     scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0) * scale
+    seen = None
+    for at in (times, frame_ends(scene, times)):
+        d, ahead = distances(scene, members, at)
+        here = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0) * scale
+        seen = here if seen is None else np.maximum(seen, here)
     if look_ahead:
         seen = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]        # nearest from f on
     return seen

@@ -155,7 +155,8 @@ def test_a_camera_driving_in_switches_finer_and_stays_within_budget(tmp_path, ch
 def test_two_way_schedule_by_hand(tmp_path):
     """Approach from 100 m to 10 m and back out: the level each frame is the coarsest within
     1 px at its current distance on the way in, and on the way out it coarsens only where
-    the next level is within 0.8 px (HYSTERESIS), worked out from model.md 7."""
+    the next level is within 0.8 px (HYSTERESIS), worked out from model.md 7. A frame is
+    judged at the nearer of its two ends: it runs from its start and shows its end."""
     from plantlod.scene.constants import HYSTERESIS
     from plantlod.scene.schedule import two_way_schedule
 
@@ -164,8 +165,13 @@ def test_two_way_schedule_by_hand(tmp_path):
     scene = replace(scene, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
     times = np.arange(60) / 30.0
     got = two_way_schedule(scene, [0], errors, times, 1.0)[0]
-    d = np.where(times <= 1.0, 100.0 - 90.0 * times, 10.0 + 140.0 * (times - 1.0))
-    ppm = 1080 / (2 * d * math.tan(math.radians(30)))
+    ends = np.append(times[1:], 2.0)
+
+    def ppm_at(t):
+        d = np.where(t <= 1.0, 100.0 - 90.0 * t, 10.0 + 140.0 * (t - 1.0))
+        return 1080 / (2 * d * math.tan(math.radians(30)))
+
+    ppm = np.maximum(ppm_at(times), ppm_at(ends))
     expect, level = [], max(k for k, e in enumerate(errors) if e * ppm[0] <= 1.0)
     for p in ppm:
         if errors[level] * p > 1.0:
@@ -175,6 +181,27 @@ def test_two_way_schedule_by_hand(tmp_path):
         expect.append(level)
     assert got.tolist() == expect
     assert got[0] == 3 and got.min() == 2 and got[-1] == 3     # in, finer, and out again
+
+
+def test_a_camera_jumping_nearer_within_a_frame_is_judged_at_the_frame_s_end(tmp_path):
+    """Keys 1 ms apart take the camera from 300 m to 5 m inside the frame [5, 5.033) s. The
+    frame runs from its start and its pose is shown (stored, verified) at its end, with the
+    camera at 5 m: it must run a level within 1 px at 5 m (model.md 7: p = e H / (2 d tan
+    30°)). Judged at its start (before session 43) it kept the 300 m level: 4.6 px shown, and
+    verified as 0.51 px at the start's distance (a scene fuzzing round)."""
+    from plantlod.scene.schedule import two_way_schedule
+
+    errors = np.array([0.0, 0.001, 0.01, 0.1])
+    scene = _keyed_scene(tmp_path, [(0.0, -300.0), (5.0, -300.0), (5.001, -5.0),
+                                    (10.0, -5.0)], duration=10.0)
+    scene = replace(scene, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
+    times = np.arange(300) / 30.0
+    got = two_way_schedule(scene, [0], errors, times, 1.0)[0]
+    ppm = [1080 / (2 * d * math.tan(math.radians(30))) for d in (300.0, 5.0)]
+    far, near = (max(k for k, e in enumerate(errors) if e * p <= 1.0) for p in ppm)
+    assert (far, near) == (3, 1)
+    jump = int(np.flatnonzero(times >= 5.0)[0])                  # the frame [5, 5.033) s
+    assert got[jump - 1] == far and got[jump] == near and (got[jump:] == near).all()
 
 
 @pytest.mark.parametrize("away_s", [1.0, 6.0])
@@ -206,7 +233,9 @@ def test_a_tree_the_camera_turns_back_to_is_held_where_its_switch_would_overspen
                   position=keys[0], target=target[0])
     scene = replace(scene, camera=cam, trees=[replace(scene.trees[0], position=(0.0, 0.0, 1.7))])
     free = schedules(scene, [0], errors, times, 5.0)[0][0]
-    assert free.tolist() == np.where(behind, 3, 2).tolist() and finer_switches(free[None]) == {2}
+    shown_behind = behind & np.append(behind[1:], behind[-1])   # (at both ends of its frame)
+    assert free.tolist() == np.where(shown_behind, 3, 2).tolist()
+    assert finer_switches(free[None]) == {2}
     got = schedules(scene, [0], errors, times, 5.0, np.array([0.0, 0.0, switch_m, 0.0]))[0][0]
     assert got.tolist() == ([2] * 300 if held else free.tolist())
 
