@@ -84,3 +84,26 @@ def run(report) -> None:
            "<= 1", command)
     report("forest 10,000 trees: trees verified (stratified sample)", doc["verified_trees"], "",
            "", command)
+    _scene_reading(report)
+
+
+def _scene_reading(report) -> None:
+    """Reading a scene of 20,000 [[tree]] entries (each its own table): linear in the entries
+    since session 43 (49 s before, 1.1 s after, a fuzzing round's finding)."""
+    import tempfile
+
+    from plantlod.scene.file import read_scene
+
+    count = 20_000
+    body = ("dt = 0.01\nduration = 1\n\n[camera]\nposition = [0, -20, 1.7]\ntarget = [0, 0, 1.7]"
+            "\n\n[wind]\nspeed = 5\n")
+    body += "".join(f"\n[[tree]]\nfile = \"{ROOT / 'examples' / 'stalk8.lsys'}\"\n"
+                    f"position = [{k % 200}, {k // 200}, 0]\n" for k in range(count))
+    with tempfile.TemporaryDirectory() as folder:
+        path = pathlib.Path(folder) / "trees.toml"
+        path.write_text(body)
+        begin = time.perf_counter()
+        read_scene(str(path))
+        wall = time.perf_counter() - begin
+    report(f"scene file of {count:,} [[tree]] tables: read", wall, "s", "",
+           "read_scene on a generated file (bench/bench_scene.py _scene_reading)")

@@ -382,6 +382,11 @@ class _Reader:
     def __init__(self, text: str, source: str):
         self.text, self.source = text, source
         self.tables = _table_spans(text)
+        # each name's sections in file order, found once: `table` looked them up by a scan of
+        # every section per call, quadratic in [[tree]] entries (12 s at 10,000; a fuzzing round)
+        self.sections: dict[str, list[tuple[int, int]]] = {}
+        for n, start, end in self.tables:
+            self.sections.setdefault(n, []).append((start, end))
         # the keys before the first header (`tree = [...]`, `camera.key = [...]`)
         self.top = (0, self.tables[0][1] if self.tables else len(text))
         # the section being read: the top, until `table` says
@@ -394,7 +399,7 @@ class _Reader:
         """Errors inside name the lines of the ``index``-th ``[name]`` / ``[[name]]`` section
         (a key several tables set, each its own; a missing key at the header's line); where
         the file has no such header (an inline table), the first line that sets the key."""
-        sections = [(start, end) for n, start, end in self.tables if n == name]
+        sections = self.sections.get(name, [])
         outer = self.span, self.name, self.index
         self.span, self.name = sections[index] if index < len(sections) else None, name
         self.index = index
