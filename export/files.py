@@ -43,8 +43,8 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     if float(times[-1]) > GLTF_MAX_TIME:           # glTF keeps times as float32
         raise InputError(f"the angles run to {float(times[-1]):g} s, past the {GLTF_MAX_TIME:g} s "
                          "a glTF or OpenUSD time can hold; expected a shorter run", angles_name)
+    count = int(math.floor(span + 1e-9)) + 1
     if frames is not None:
-        count = int(math.floor(span + 1e-9)) + 1
         if not 0 <= frames[0] < frames[1] <= count:
             raise InputError(f"frames {shown_value(frames[0])}:{shown_value(frames[1])} are "
                              f"outside the run's {count} frames (0:{count} at {fps:g} fps)")
@@ -58,6 +58,15 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
                          f"{MAX_USD_DEPTH:,} an OpenUSD export nests (a prim per branch inside "
                          f"its parent's: the file grows with the square of the depth); expected "
                          f"a .glb or .gltf for this tree", path)
+    if (count if frames is None else frames[1] - frames[0]) == 1:
+        # (a glTF with no animation and its time accessor unused, said to run "0.01 s at 30
+        # fps": a scene fuzzing round)
+        from plantlod.lsys.errors import warn_caller
+
+        what = (f"the run, {float(times[-1]):g} s, is shorter than one frame" if frames is None
+                else f"frames {frames[0]}:{frames[1]}")
+        warn_caller(f"one frame: {what} at {fps:g} fps, so the file holds one pose and no "
+                    "animation; expected a longer run, a higher fps or more frames")
     from plantlod.formats.atomic import atomic_path, write_whole
 
     with atomic_path(path, suffix=ext) as tmp, _angles_named(angles_name):

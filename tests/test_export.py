@@ -276,3 +276,25 @@ def test_angles_beyond_the_models_range_warn_and_name_degrees(tmp_path):
         if warned:
             assert "beyond 1 rad" in lines[0] and lines[0].endswith(
                 "if the file holds degrees (simulate --degrees), give --degrees")
+
+
+def test_an_export_of_one_frame_says_it_holds_no_animation(tmp_path):
+    """A run shorter than one frame, or --frames A:A+1, wrote a glTF with one pose and no
+    animation, said to run "0.01 s at 30 fps" (a scene fuzzing round): now a warning. Two
+    frames are an animation, and say nothing."""
+    stalk = str(ROOT / "examples" / "stalk8.lsys")
+    for steps, frames, warned in ((1, None, "the run, 0.01 s, is shorter than one frame"),
+                                  (300, "60:61", "frames 60:61"), (300, "60:62", None)):
+        csv = tmp_path / f"a{steps}.csv"
+        run_cli("simulate", stalk, "--dt", "0.01", "--steps", str(steps), "--wind-speed", "5",
+                "-o", str(csv))
+        out = tmp_path / "x.glb"
+        result = run_cli("export", stalk, str(csv), "-o", str(out),
+                         *(("--frames", frames) if frames else ()))
+        doc = json.loads(out.read_bytes()[20:20 + int.from_bytes(out.read_bytes()[12:16],
+                                                                   "little")])
+        assert bool(doc.get("animations")) == (warned is None)
+        lines = [x for x in result.stderr.splitlines() if x.startswith("warning:")]
+        assert lines == ([] if warned is None else
+                         [f"warning: one frame: {warned} at 30 fps, so the file holds one pose "
+                          "and no animation; expected a longer run, a higher fps or more frames"])
