@@ -384,6 +384,10 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
         # switching free: what the switching rule costs is speedup_bound / speedup
         "speedup_bound": full / bound if bound else None,
         "level_share": {str(k): float(np.mean(levels == k)) for k in range(top + 1)},
+        # per chain, what the choice was made from and what it chose: each level's branches,
+        # its tip error (max, m, at level_wind_speed) and its share of the chain's
+        # tree-frames (level_share pooled level numbers across chains of other lengths)
+        "chain_levels": _chain_levels(scene, chains, levels),
         "switches": int(switches),
         "simulated_seconds_per_wall_second": scene.duration / simulate_s if simulate_s > 0 else None,
         "wall_s": time.perf_counter() - begin,
@@ -401,6 +405,25 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
     report["_levels"] = levels
     report["_branches_in_use"] = in_use
     return report
+
+
+def _chain_levels(scene: Scene, chains: dict, levels: np.ndarray) -> list[dict]:
+    """The report's ``chain_levels``: for each chain (`file.sources` order) its file (and
+    seed), its trees, and per level its branches, tip error (max, m) and share of the
+    chain's tree-frames."""
+    members: dict[Source, list[int]] = {}
+    for k, t in enumerate(scene.trees):
+        members.setdefault(t.source, []).append(k)
+    out = []
+    for source in sources(scene.trees):
+        rows = members[source]
+        chain, mine = chains[source], levels[rows]
+        out.append({"file": source_name(source), "trees": len(rows), "levels": [
+            {"level": k, "branches": int(tree.n_branches),
+             "tip_error_m": float(chain.tip_error_m[k]),
+             "share": float(np.mean(mine == k)) if mine.size else 0.0}
+            for k, tree in enumerate(chain.trees)]})
+    return out
 
 
 def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batch: Batch,

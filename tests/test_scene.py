@@ -510,6 +510,21 @@ def test_report_cache_threads_and_verified_budget(tmp_path):
     assert first["speedup"] == pytest.approx(first["branch_steps_full"] / first["branch_steps_spent"])
     assert first["max_error_px"] <= first["budget_px"] + 1e-9           # what --verify measured
     assert sum(first["level_share"].values()) == pytest.approx(1.0)
+    # chain_levels: what each chain's choice was made from; its shares pooled over the trees
+    # give level_share, and its branches the branches spent
+    chains = first["chain_levels"]
+    assert sum(c["trees"] for c in chains) == first["trees"] and len(chains) == first["chains"]
+    for k, pooled in first["level_share"].items():
+        assert pooled == pytest.approx(sum(c["trees"] * level["share"] for c in chains
+                                           for level in c["levels"] if level["level"] == int(k))
+                                       / first["trees"])
+    assert first["branches_spent"] == pytest.approx(sum(
+        c["trees"] * level["share"] * level["branches"] for c in chains for level in c["levels"]),
+        abs=1e-3)
+    for c in chains:
+        branches = [level["branches"] for level in c["levels"]]
+        tips = [level["tip_error_m"] for level in c["levels"]]
+        assert branches == sorted(branches, reverse=True) and tips[0] == 0.0
     second = json.loads(run_cli("scene", path, "--cache", str(cache), "--threads", "1",
                                 "--run-info").stdout)
     assert second["run"]["chains_from_cache"] == 2                       # nothing simplified again
