@@ -32,14 +32,18 @@ def scene_png(scene: Scene, levels: np.ndarray, in_use: np.ndarray, full: int,
     fig.colorbar(shown, ax=top, label="level (0 = full tree)")
     cam = scene.camera
     view = (cam.target - cam.position)[:2]
-    heading = math.atan2(view[1], view[0])
     # the horizontal half-angle from the vertical field of view at a 16:9 image
     half = math.atan(math.tan(math.radians(cam.fov_deg) / 2) * 16 / 9)
     reach = float(np.abs(xy - cam.position[:2]).max()) * 1.5 if len(xy) else 10.0
-    for side in (-1, 1):
-        a = heading + side * half
-        top.plot([cam.position[0], cam.position[0] + reach * math.cos(a)],
-                 [cam.position[1], cam.position[1] + reach * math.sin(a)], color="tab:red", lw=1)
+    if np.hypot(*view) > 1e-9 * max(1.0, float(np.linalg.norm(cam.target - cam.position))):
+        heading = math.atan2(view[1], view[0])
+        for side in (-1, 1):
+            a = heading + side * half
+            top.plot([cam.position[0], cam.position[0] + reach * math.cos(a)],
+                     [cam.position[1], cam.position[1] + reach * math.sin(a)], color="tab:red",
+                     lw=1)
+    # (a camera looking straight down or up has no heading in the plan: its cone was drawn
+    # along +x, atan2(0, 0); a scene fuzzing round. Only its place is drawn)
     top.plot(*cam.position[:2], marker="^", color="tab:red", ms=9)
     if cam.moving:                                     # the camera's path, keys marked
         top.plot(cam.key_position[:, 0], cam.key_position[:, 1], color="tab:red", lw=1,

@@ -709,6 +709,28 @@ def test_plot_is_a_png_and_refused_before_anything_runs_when_unwritable(tmp_path
     assert bad.exit_code in (1, 2) and len(bad.stderr.strip().splitlines()) >= 1
 
 
+def test_a_camera_looking_straight_down_draws_no_view_cone(tmp_path, chains, monkeypatch):
+    """Its view has no heading in the plan: the cone was drawn along +x (atan2(0, 0) = 0; a
+    scene fuzzing round). Every line the plot draws from the camera is recorded: a camera
+    looking along y draws two (the cone's sides, toward +y), one looking down none."""
+    import matplotlib.axes
+
+    drawn = []
+    plot = matplotlib.axes.Axes.plot
+    monkeypatch.setattr(matplotlib.axes.Axes, "plot",
+                        lambda self, *a, **k: drawn.append(a) or plot(self, *a, **k))
+    for target, cone in (("[0, 0, 1.7]", 2), ("[0, -40, 0]", 0)):
+        body = BASE.replace("target = [0, 0, 1.7]", f"target = {target}").replace(
+            "position = [0, -40, 1.7]", "position = [0, -40, 30]")
+        drawn.clear()
+        run_cli("scene", _scene(tmp_path, body), "--cache", str(chains), "--plot",
+                str(tmp_path / "s.png"), "--report", str(tmp_path / "r.json"))
+        sides = [a for a in drawn if len(a) == 2 and np.size(a[0]) == 2 and a[0][0] == 0
+                 and a[1][0] == -40]
+        assert len(sides) == cone
+        assert all(a[1][1] > -40 for a in sides)             # (toward +y, the target)
+
+
 @pytest.mark.parametrize("module", ["simplify/explicit.py", "simplify/constants.py",
                                     "compare/measures.py", "sim/lanes_kernel.py"])
 def test_a_chain_cache_key_changes_with_the_fitting_code(monkeypatch, module):
