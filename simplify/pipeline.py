@@ -464,9 +464,12 @@ def chain_share(system: LSystem, options: Options, last_checked=None,
     from .grouping import level_counts, merge_levels
 
     original = build(system).tree if built is None else built[0]
+    # the memory check first: it costs nothing, where check_moves poses the tree at rest, a
+    # loop per depth (an axiom of 999,000 F, refused by the memory check, ran past 10 min
+    # posing first; an L-system fuzzing round)
+    check_measurement_memory(original, options)
     check_moves(original, system.source or None)
     check_stability(original, options.dt, options.damping)
-    check_measurement_memory(original, options)
     last = len(level_counts(original)) - 1
     if last_checked is not None:
         last_checked(last)
@@ -687,9 +690,9 @@ def simplify_grammar(system: LSystem, options: Options,
     check_level(system, options.level)
     winds = options.winds()
     original = build(system).tree
+    check_measurement_memory(original, options)         # (first: `chain_share` says why)
     check_moves(original, source)
     check_stability(original, options.dt, options.damping)
-    check_measurement_memory(original, options)
 
     plain, _ = level_system(system, options.level, equivalent_leaves=False)
     plain_tree = build(plain).tree
