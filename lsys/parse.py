@@ -283,9 +283,12 @@ def _check_depth(expr: Expr, cur: _Cursor, start: int) -> None:
 
 
 def _too_deep(cur: _Cursor, at: int) -> InputError:
-    return cur.error(f"expression nested too deeply (more than {MAX_EXPRESSION_DEPTH} levels of "
-                     "operators, parentheses and calls); expected a simpler expression, with "
-                     "defines for its parts", at)
+    # ("nested" misled where a flat chain is long: 1+1+…+1 of 101 terms is 100 levels deep
+    # in its tree; an L-system fuzzing round)
+    return cur.error(f"expression too deep (more than {MAX_EXPRESSION_DEPTH} levels of "
+                     "operators, parentheses and calls, each operator of a chain such as "
+                     "1+1+1 one level); expected a simpler expression, with defines for its "
+                     "parts", at)
 
 
 def _subexpression(cur: _Cursor, min_prec: int = 0) -> Expr:
@@ -891,9 +894,10 @@ class _FileParser:
             raise cur.error(f"unknown symbol in a declaration: '{c}' is a turtle symbol; "
                             f"expected a symbol of your own, as in '{example}'")
         cur.i += 1
+        glued = cur.i < len(cur.text) and not cur.text[cur.i].isspace()   # (FG: two characters)
         nxt = cur.char()
         if nxt != ":":
-            if nxt and nxt not in RESERVED_CHARS:
+            if glued and nxt not in RESERVED_CHARS:
                 raise cur.error(f"unknown symbol in a declaration: a symbol is one character; "
                                 f"expected ':' after '{c}'")
             raise cur.error(f"expected ':' after '{kind} {c}', found {cur.describe()}")
@@ -941,9 +945,19 @@ class _FileParser:
             if eq.text != "=" or eq.kind != "char":
                 raise cur.error(f"expected '=' after '{tok.text}', found {_describe(eq)}", eq.start)
             cur.i = eq.end
-            if _token(cur).kind == "end":
+            value = _token(cur)
+            if value.kind == "end":
                 raise cur.error(f"expected a value after '{tok.text}='")
-            value_start = _token(cur).start
+            if value.text in ('"', "'"):            # (explained as cpfg's length multiplier)
+                raise cur.error(f"expected a number after '{tok.text}=', found a quote mark "
+                                f"({value.text}): values are numbers or expressions, written "
+                                "without quotes",
+                                value.start)
+            if value.kind == "name" and (value.text in keys or (pattern and pattern.fullmatch(
+                    value.text))) and cur.text[value.end:].lstrip().startswith("="):
+                raise cur.error(f"expected a value after '{tok.text}=', found the next key "
+                                f"'{value.text}'", value.start)   # (not "unknown name")
+            value_start = value.start
             out[tok.text] = _constant(cur, self.defines)[1]
             key = "area" if pattern and pattern.fullmatch(tok.text) else tok.text
             _check_not_negative(cur, key, out[tok.text], value_start)

@@ -413,10 +413,31 @@ def test_tree_file_integers_past_conversion_or_double_range_are_input_errors(val
 @pytest.mark.parametrize("expr", ["1" + "+1" * 150, "2" + "^2" * 150, "-" * 150 + "1",
                                   "(" * 150 + "1" + ")" * 150, "abs(" * 150 + "1" + ")" * 150])
 def test_expression_depth_cap(expr):
-    with pytest.raises(InputError, match="nested too deeply"):
+    with pytest.raises(InputError, match="expression too deep"):
         parse_expr(expr)
-    with pytest.raises(InputError, match="nested too deeply"):
+    with pytest.raises(InputError, match="expression too deep"):
         system(f"axiom: F({expr})\n")
+
+
+@pytest.mark.parametrize("line, col, message", [
+    # (each explained another mistake: cpfg's length multiplier, an unknown name 'radius',
+    # a symbol of more than one character; an L-system fuzzing round)
+    ('branch F: length="1" radius=0.02 bend_strength=20 rotation_strength=20', 18,
+     "expected a number after 'length=', found a quote mark (\"): values are numbers or "
+     "expressions, written without quotes"),
+    ("branch F: length= radius=0.02 bend_strength=20 rotation_strength=20", 19,
+     "expected a value after 'length=', found the next key 'radius'"),
+    ("branch F length=1 radius=0.02 bend_strength=20 rotation_strength=20", 10,
+     "expected ':' after 'branch F', found 'l'"),
+    ("branch FG: length=1 radius=0.02 bend_strength=20 rotation_strength=20", 9,
+     "unknown symbol in a declaration: a symbol is one character; expected ':' after 'F'"),
+])
+def test_declaration_mistakes_are_named_as_they_are(line, col, message):
+    text = ("derivation_length: 1\nbranching_angle: 30\nrotation_angle: 90\n"
+            "force_absorbed: 0.001\nforce_propagated: 0.5\n" + line + "\naxiom: F\n")
+    with pytest.raises(InputError) as info:
+        parse_lsys(text, "t.lsys")
+    assert (info.value.line, info.value.col, info.value.message) == (6, col, message)
 
 
 def test_expression_within_the_cap_parses():

@@ -498,7 +498,7 @@ def test_error_str_is_one_located_line():
 
 def test_deep_nesting_is_an_input_error():
     exc = error(HEAD + "axiom: F(" + "(" * 2000 + "1" + ")" * 2001 + "\n")
-    assert exc.line == 5 and "nested too deeply" in exc.message
+    assert exc.line == 5 and "expression too deep" in exc.message
 
 
 def test_parse_expr_rejects_trailing_text():
