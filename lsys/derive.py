@@ -133,8 +133,10 @@ def derive(system: LSystem, steps: int | None = None,
     alphabet = system_alphabet(system)
     ds = axiom_string(system, alphabet)
     if len(ds) > max_modules:
-        raise InputError(f"the axiom has {len(ds):,} modules, {MODULE_LIMIT_SAID.format(max_modules)}",
-                         system.source or None)
+        # (no derivation length makes an axiom shorter: it was advised; a fuzzing round)
+        raise InputError(f"the axiom has {len(ds):,} modules, more than the {max_modules:,} "
+                         "modules allowed; expected a shorter axiom (or derive --max-modules, "
+                         "the API's max_modules)", system.source or None)
     rewriter = _rewriter(system, system.productions, alphabet, ds.params.size > 0, fast)
     # A step that gives the string back unchanged is a fixed point when no choice
     # depends on the address (no stochastic productions): every later step is the

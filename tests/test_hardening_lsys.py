@@ -110,6 +110,8 @@ def test_the_module_limit_names_the_file(tmp_path):
             build(parse_lsys(HEAD.format(n=n) + body, "deep.lsys"), max_modules=limit)
         assert info.value.file == "deep.lsys" and info.value.message.startswith(said)
         assert str(info.value).startswith("deep.lsys: ")
+        # (the axiom is no shorter at another derivation length: not advised for it)
+        assert ("derivation length" in info.value.message) == ("axiom" not in said)
 
 
 def test_max_modules_applies_to_interpretation():
