@@ -13,6 +13,7 @@ SIM_STEPS_PER_CALL = 1 << 16  # kernel steps per call at most (bounds wind sampl
 
 # --- limits of a run (docs/errors.md, "Limits") --------------------------------------
 MIN_TIME_STEP = 1e-9          # s; a smaller --dt is refused (1e-320 overflowed the step count)
+FIRST_STEPS_DIVERGED = 3      # a run no longer finite within these steps had a force out of range
 MAX_TIME_STEPS = 10**10       # steps of one run, --steps or round(--duration / --dt)
 # Angles a whole run may hold in memory (compare, simplify; simulate streams): 4 GB.
 MAX_HELD_ANGLE_BYTES = 4_000_000_000

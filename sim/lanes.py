@@ -26,7 +26,7 @@ from .engine_env import check_environment, check_jit_enabled, env_threads
 from .damping import Damping
 from .kernel import KernelModel, prepare   # numba: the engine compiles on first use
 from .constants import MAX_TIME_STEPS, MAX_WIND_SPEED, SPEED_ROUNDING
-from .run import check_held_angles
+from .run import check_held_angles, divergence_advice
 
 LANE_PARAMETERS = ("absorbed", "propagated", "bend_k", "rot_k", "drag", "leaf_scale")
 
@@ -253,8 +253,7 @@ def run_lanes(model: LaneModel, winds, dt: float, steps: int, *, every: int = 1,
         which = (f" in {lane_names[lane]}," if lane_names is not None
                  else f" in lane {lane}," if lanes > 1 else "")
         raise RunFailure(f"simulation diverged at t={k * dt:.10g} s (step {k}){which} "
-                         f"branch {where}: an angle is no longer finite; lower force_absorbed, "
-                         f"the wind or dt")
+                         f"branch {where}: an angle is no longer finite; {divergence_advice(k)}")
     return out_bend[:lanes], out_rot[:lanes]
 
 

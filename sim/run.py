@@ -131,10 +131,25 @@ def _chunks(tree: Tree, dt: float, steps: int, wind: Wind, every: int, damping: 
                     yield Samples(_times(emitted, filled, every, dt), out_bend[:filled], out_rot[:filled])
                 raise RunFailure(f"simulation diverged at t={bad_step * dt:.10g} s (step {bad_step}) "
                                  f"in branch {tree.address[bad]}: an angle is no longer finite; "
-                                 f"lower force_absorbed, the wind or dt")
+                                 f"{divergence_advice(bad_step)}")
             step += n
         yield Samples(_times(emitted, rows, every, dt), out_bend, out_rot)
         emitted += rows
+
+
+def divergence_advice(step: int) -> str:
+    """What to change after a run diverged at ``step``: a stable step (checked before the run)
+    that is no longer finite within FIRST_STEPS_DIVERGED steps was given a force out of
+    range, a value of the tree far too large (radius = 1e300 was told to lower force_absorbed,
+    the wind or dt; an L-system fuzzing round); later, the swing grew past what the model
+    holds."""
+    from .constants import FIRST_STEPS_DIVERGED
+
+    if step <= FIRST_STEPS_DIVERGED:
+        return ("its force was out of range from the start: look for a value of the tree far "
+                "too large (a branch's radius, length or drag_coefficient, a leaf's area, "
+                "force_propagated or force_absorbed), or lower the wind")
+    return "lower force_absorbed, the wind or dt"
 
 
 def _times(first_row: int, rows: int, every: int, dt: float) -> np.ndarray:

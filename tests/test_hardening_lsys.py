@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from golden_util import run_cli
 
 from plantlod.formats.angles_csv import read_angles_csv
 from plantlod.formats.constants import MAX_JSON_DEPTH
@@ -591,3 +592,19 @@ def test_a_byte_order_mark_opening_a_file_is_still_read(tmp_path):
     path = tmp_path / "bom.lsys"
     path.write_bytes(b"\xef\xbb\xbf" + (HEAD.format(n=0) + "axiom: F F\n").encode())
     assert parse_lsys(read_text(str(path)), str(path)).axiom == system("axiom: F F\n", 0).axiom
+
+
+@pytest.mark.parametrize("change", ["radius=0.02", "force_propagated: 0.7"])
+def test_a_force_out_of_range_is_told_to_look_at_the_tree(tmp_path, change):
+    """radius=1e300 (or force_propagated 1e300) diverged at its first steps and was told to
+    lower force_absorbed, the wind or dt (an L-system fuzzing round): none of them is why.
+    A divergence within the first steps of a stable step is a force out of range."""
+    value = change.split("=" if "=" in change else ": ")[1]
+    text = (HEAD.format(n=1) + "axiom: F L\n").replace(change, change.replace(value, "1e300"))
+    assert "1e300" in text
+    path = tmp_path / "huge.lsys"
+    path.write_text(text)
+    result = run_cli("simulate", str(path), "--dt", "0.01", "--steps", "10", "--wind-speed", "5",
+                     exit_code=1)
+    assert "its force was out of range from the start: look for a value of the tree far too " \
+           "large" in result.stderr and "lower force_absorbed, the wind or dt" not in result.stderr
