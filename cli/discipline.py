@@ -286,9 +286,9 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
         # (a file name with a line break is shown quoted, as the API's str() shows it: its
         # \n was shown as a space, the name of another file; a fuzzing round)
         loc = ":".join(shown(str(p)) for p in (exc.file, exc.line, exc.col) if p is not None)
-        return 2, f"{_one_line(loc)}: error: {_one_line(exc.message)}"
+        return 2, _within_cut(f"{_one_line(loc)}: error: ", exc.message)
     if isinstance(exc, PlantlodError):
-        return exc.exit_code, f"{where}: error: {_one_line(str(exc))}"
+        return exc.exit_code, _within_cut(f"{where}: error: ", str(exc))
     if isinstance(exc, KeyboardInterrupt):
         return 128 + signal.SIGINT, f"{where}: interrupted"
     if isinstance(exc, Terminated):
@@ -325,12 +325,22 @@ def _working_directory_gone() -> bool:
     return False
 
 
-def _one_line(text: str) -> str:
+def _one_line(text: str, most: int = MAX_ERROR_CHARS) -> str:
     """``text`` on one line, control characters (a NUL read from a file) escaped, cut
-    to MAX_ERROR_CHARS (`cut_middle`)."""
+    to ``most`` characters (`cut_middle`)."""
     text = " ".join(str(text).split())
     text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
-    return cut_middle(text, MAX_ERROR_CHARS)
+    return cut_middle(text, most)
+
+
+def _within_cut(prefix: str, message: str) -> str:
+    """``prefix`` and ``message`` on one line of at most MAX_ERROR_CHARS, the message cut in
+    its middle to leave the room the prefix takes (the message alone was cut, and a 5,001-digit
+    number made a line of 1,064; an L-system fuzzing round). A prefix of more than half the
+    line (a path of 600 characters) is cut too."""
+    prefix = _one_line(prefix, MAX_ERROR_CHARS // 2) if len(prefix) > MAX_ERROR_CHARS // 2 \
+        else prefix
+    return prefix + _one_line(message, MAX_ERROR_CHARS - len(prefix))
 
 
 def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:

@@ -864,7 +864,19 @@ def test_an_error_at_a_deep_address_still_says_what_is_wrong(tmp_path):
     line = one_line(run_cli("simplify", str(tmp_path / "deep.lsys"), "--level", "1",
                             exit_code=None), 2, "deep.lsys", "F(-0.00", "…",
                     "has a negative length; expected a number >= 0")
-    assert len(line) < 1100
+    assert len(line) <= 1000                # (the whole line: it was the message alone)
+
+
+def test_an_error_line_is_cut_whole_with_its_place(tmp_path):
+    """A number of 5,001 digits: the message was cut to 1,000 characters and its place put
+    before it, a line of 1,064 (an L-system fuzzing round). errors.md: lines of at most 1,000."""
+    path = tmp_path / ("d" * 200 + ".lsys")
+    path.write_text("derivation_length: 1\nbranching_angle: 30\nforce_absorbed: 0.005\n"
+                    "force_propagated: 0.7\nbranch F: length=" + "1" * 5001 +
+                    " radius=0.02 bend_strength=20 rotation_strength=20\naxiom: F\n")
+    line = one_line(run_cli("derive", str(path), exit_code=None), 2, ".lsys:5:18: error: number",
+                    "…", "' is too large; expected a finite number")
+    assert len(line) <= 1000 and line.startswith(str(tmp_path))
 
 
 def test_a_warning_at_a_deep_address_still_says_what_to_do(tmp_path):
