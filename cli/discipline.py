@@ -285,7 +285,8 @@ def describe_failure(exc: BaseException, prog: str = "plantlod") -> tuple[int, s
     if isinstance(exc, InputError) and exc.file:
         # (a file name with a line break is shown quoted, as the API's str() shows it: its
         # \n was shown as a space, the name of another file; a fuzzing round)
-        loc = ":".join(shown(str(p)) for p in (exc.file, exc.line, exc.col) if p is not None)
+        loc = ":".join(shown(str(p), MAX_ERROR_CHARS) for p in (exc.file, exc.line, exc.col)
+                       if p is not None)       # (whole: a path cut at 200 names no file)
         return 2, _within_cut(f"{_one_line(loc)}: error: ", exc.message)
     if isinstance(exc, PlantlodError):
         return exc.exit_code, _within_cut(f"{where}: error: ", str(exc))

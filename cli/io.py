@@ -206,24 +206,40 @@ def check_output_path(path: str | None, folder: bool = False) -> None:
                          "output")
     if not folder and path.endswith(("/", os.sep)):   # (abspath drops it: found after the work)
         raise InputError("names a folder (it ends in /); expected a file name", path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(parent):
         raise InputError("output directory does not exist", path)
-    if not os.access(folder, os.W_OK | os.X_OK) and not _writable_in_place(path):
-        # (a read-only folder failed after all the work, exit 1, where a folder that cannot
-        # be entered was refused first, exit 2: a fuzzing round; both now before any work)
-        raise InputError("cannot write in its folder: permission denied", path)
+    mode = _mode(path)                          # a device or a pipe is written in place
+    if mode is None or stat.S_ISREG(mode) or not os.access(path, os.W_OK):
+        _refuse_unwritable(parent, path, "its folder")
     special_target(path)
     _checked.add(os.path.abspath(path))
 
 
-def _writable_in_place(path: str) -> bool:
-    """A device or other file that is written where it is (not replaced by a temporary beside
-    it): /dev/full, /dev/null or a FIFO in a folder the user cannot write in."""
+def _refuse_unwritable(folder: str, path: str, where: str) -> None:
+    """Before any work: ``path``'s output, made in ``folder`` (``where`` names it), cannot be
+    written there. A read-only folder failed after all the work (exit 1) where one that
+    cannot be entered was refused first (exit 2; a fuzzing round): a folder the user may not
+    write in is now bad usage (exit 2), a read-only file system a failure (exit 1, as
+    docs/errors.md has it), both before the work."""
     try:
-        return not stat.S_ISREG(os.stat(path).st_mode) and os.access(path, os.W_OK)
+        read_only = bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
     except OSError:
-        return False
+        read_only = False
+    if read_only:
+        raise RunFailure(f"cannot write {display_name(path)}: {where} is on a read-only file "
+                         "system")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write in {where}: permission denied", path)
+
+
+def _mode(path: str) -> int | None:
+    """``path``'s file mode (symbolic links followed); None where it does not exist or
+    cannot be looked at."""
+    try:
+        return os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
 
 
 # outputs whose folder `check_output_path` found before the command's work: one missing when
@@ -252,9 +268,7 @@ def check_output_folder(path: str, option: str, writes: str, parents: bool = Tru
         if above == made_in or (os.path.lexists(made_in) and not os.path.isdir(made_in)):
             return                             # (a file on the way: the writer says)
         made_in = above
-    if not os.access(made_in, os.W_OK | os.X_OK):   # (found after all the work before)
-        raise InputError(f"cannot write in {'it' if made_in == os.path.abspath(path) else made_in}"
-                         f": permission denied", path)
+    _refuse_unwritable(made_in, path, "it" if made_in == os.path.abspath(path) else made_in)
 
 
 def check_output_kind(path: str | None, option: str, writes: str, accepted: tuple[str, ...]) -> None:
@@ -314,11 +328,12 @@ def distinct_paths(outputs: dict[str, str | None], inputs: dict[str, str | None]
 
 
 def _pipe_identity(path: str | None) -> tuple[int, int] | None:
-    """(device, inode) of the named pipe (FIFO) at ``path``; None for anything else."""
-    if path is None or path == "-":
+    """(device, inode) of the named pipe (FIFO) at ``path``, standard input's for ``-``;
+    None for anything else."""
+    if path is None:
         return None
     try:
-        info = os.stat(path)
+        info = os.fstat(0) if path == "-" else os.stat(path)
     except (OSError, ValueError):
         return None
     return (info.st_dev, info.st_ino) if stat.S_ISFIFO(info.st_mode) else None
@@ -326,11 +341,8 @@ def _pipe_identity(path: str | None) -> tuple[int, int] | None:
 
 def _device(path: str) -> bool:
     """Whether ``path`` is a device or a pipe (not a file, not a folder, not missing)."""
-    try:
-        mode = os.stat(path).st_mode
-    except (OSError, ValueError):
-        return False
-    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
+    mode = _mode(path)
+    return mode is not None and not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
 
 
 @contextlib.contextmanager

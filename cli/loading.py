@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from plantlod.formats.kinds import looks_like_tree_file
 from plantlod.lsys.errors import InputError
 
 from .io import display_name, read_text
@@ -13,14 +14,6 @@ def load_system(path: str):
     from plantlod.formats.lsys_file import parse_lsys_text
 
     return parse_lsys_text(read_text(path), display_name(path))
-
-
-def looks_like_tree_file(text: str) -> bool:
-    """Tree files are JSON Lines: their first non-blank character is ``{`` (a stray
-    byte-order mark, U+FEFF, left after the one the reader drops, counted as blank: the
-    tree reader then places it; a file of two read as an .lsys said it was a tree file)."""
-    stripped = text.lstrip().lstrip("\ufeff").lstrip()
-    return stripped.startswith("{")
 
 
 def load_tree(path: str, steps: int | None = None, max_modules: int | None = None,

@@ -8,7 +8,7 @@ import os
 import numpy as np
 
 from plantlod.lsys.checks import shown_value
-from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.errors import InputError, RunFailure, warn_caller
 from plantlod.lsys.tree import Tree
 
 from .constants import GLTF_MAX_TIME, MAX_EXPORT_SAMPLES, MAX_USD_DEPTH
@@ -61,8 +61,6 @@ def export_animation(path: str, tree: Tree, times: np.ndarray, bend: np.ndarray,
     if (count if frames is None else frames[1] - frames[0]) == 1:
         # (a glTF with no animation and its time accessor unused, said to run "0.01 s at 30
         # fps": a scene fuzzing round)
-        from plantlod.lsys.errors import warn_caller
-
         what = (f"the run, {float(times[-1]):g} s, is shorter than one frame" if frames is None
                 else f"frames {frames[0]}:{frames[1]}")
         warn_caller(f"one frame: {what} at {fps:g} fps, so the file holds one pose and no "

@@ -106,16 +106,16 @@ def buffer_files(path: str, max_bytes: int) -> list[str]:
 
 def _json_part(handle, max_bytes: int) -> bytes | None:
     """The JSON text of the glTF or GLB open in ``handle``, reading no more than it needs (a
-    GLB's header and JSON chunk; a .gltf whole, if it starts as JSON does); None otherwise."""
+    GLB's header and JSON chunk; a .gltf whole, if it starts as JSON does: one that starts
+    otherwise, a byte-order mark included, `view` refuses before writing); None otherwise."""
     start = handle.read(20)
     if start[:4] == GLB_MAGIC:
         if len(start) < 20:
             return None
         return gltf_json(start + handle.read(min(struct.unpack_from("<I", start, 12)[0],
                                                   max_bytes)))
-    if start.lstrip()[:1] not in (b"{", b""):  # (a UTF-8 BOM or blanks first: read on)
-        if not start.startswith(b"\xef\xbb\xbf"):
-            return None
+    if start.lstrip()[:1] not in (b"{", b""):  # (blanks first: read on)
+        return None
     return start + handle.read(max_bytes + 1 - len(start))
 
 

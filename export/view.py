@@ -18,6 +18,7 @@ from importlib import resources
 from typing import Sequence
 
 from plantlod.formats.kinds import SNIFF_CHARS, USDC_MAGIC, other_kind, text_kind
+from plantlod.formats.constants import ZIP_MAGIC
 from plantlod.formats.text_input import not_utf8
 from plantlod.lsys.errors import InputError
 
@@ -28,7 +29,6 @@ from .gltf_check import (GLB_MAGIC, buffer_files, check_animation_data, check_bu
 
 GLTF_BUFFER_DATA_URI = "data:application/gltf-buffer;base64,"     # glTF 2.0, 3.9.2
 OCTET_STREAM_DATA_URI = "data:application/octet-stream;base64,"
-ZIP_MAGIC = b"PK\x03\x04"                                       # an .npz is a zip archive
 
 
 def files_read(path: str) -> list[str]:

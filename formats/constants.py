@@ -16,6 +16,8 @@ MAX_TEXT_BYTES = 2 << 30            # a text input in all (as MAX_NPZ_BYTES for 
 # of a few MB can declare gigabytes).
 MAX_NPZ_BYTES = 2 << 30             # the archive file, and all its members uncompressed (2 GiB)
 MAX_NPZ_MEMBERS = 64                # arrays in one archive (a tree has 20)
+ZIP_MAGIC = b"PK\x03\x04"           # a zip archive's first bytes (an .npz is one): a local file header
+ZIP_SIGNATURES = (ZIP_MAGIC, b"PK\x05\x06")   # ... or the end record of an empty archive
 NORMAL_UNIT_TOL = 1e-6        # tree files: leaf normals must be unit length within this
 DERIVED_TEXT_CHUNK_MODULES = 1 << 18  # modules per chunk of `derive --format string`
 

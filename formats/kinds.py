@@ -36,6 +36,14 @@ SNIFF_CHARS = 65536       # only the start of a text is looked at
 USDC_MAGIC = b"PXR-USDC"  # the first bytes of a binary OpenUSD file (.usdc, .usd)
 
 # kind -> (what it is, which commands read it)
+def looks_like_tree_file(text: str) -> bool:
+    """Tree files are JSON Lines: their first non-blank character is ``{`` (a stray
+    byte-order mark, U+FEFF, left after the one the readers drop, counted as blank: the
+    tree reader then places it; a file of two read as an .lsys said it was a tree file).
+    Other JSON (a glTF, a report) starts so too: `text_kind` tells them apart."""
+    return text.lstrip().lstrip("\ufeff").lstrip().startswith("{")
+
+
 KINDS = {
     "csv": ("an angle CSV", "`plantlod simulate` writes it; compare (--angles) and export read it"),
     "tree": ("a tree file (JSON Lines)", "simulate, compare and export read it"),

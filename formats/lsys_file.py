@@ -20,7 +20,7 @@ from plantlod.lsys.system import (
     BRANCH_KEYS, BranchSymbol, LeafSymbol, LSystem, Module, Override, Pattern, Production,
 )
 
-from .kinds import named_by_kind, other_kind, text_kind
+from .kinds import looks_like_tree_file, named_by_kind, other_kind, text_kind
 from .text_input import read_text, refuse_empty, source_name
 
 _INDENT = "  "
@@ -182,7 +182,7 @@ def parse_lsys_text(text: str, name: str) -> LSystem:
     """`parse_lsys` of a file's ``text``; a tree file (JSON Lines, first non-blank character
     ``{``) is refused by what it is, not as an L-system's first bad character."""
     refuse_empty(text, name, "an L-system (docs/lsys-format.md)")
-    if text.lstrip().startswith("{"):            # JSON: a tree file, a glTF, a report
+    if looks_like_tree_file(text):              # JSON: a tree file, a glTF, a report
         if text_kind(text) in ("gltf", "report"):
             raise other_kind(text, name, "lsys")
         raise InputError("a tree file (JSON Lines), not an L-system; expected an .lsys file "

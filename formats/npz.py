@@ -28,7 +28,7 @@ import numpy as np
 from plantlod.lsys.errors import InputError
 from plantlod.lsys.tree import BRANCH_FLOAT_FIELDS, Tree, is_symbol
 
-from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL
+from .constants import MAX_NPZ_BYTES, MAX_NPZ_MEMBERS, NORMAL_UNIT_TOL, ZIP_SIGNATURES
 from .text_input import reading, source_name, stdin_bytes
 from .treefile import ADDRESS_FORM, first_bad_address
 
@@ -38,8 +38,6 @@ ARCHIVE_VERSION = 1          # `version` of both archives (read: exactly this)
 _STRINGS = ("address", "symbol", "leaf_address", "group_root")
 # where an .lsys wrote each group, where a tree file held each branch (messages), not the tree
 _NOT_STORED = ("group_line", "first_record_line")
-# a zip file's first bytes: a local file header, or the end record of an empty archive
-ZIP_SIGNATURES = (b"PK\x03\x04", b"PK\x05\x06")
 ALLOWED_KINDS = "biufU"     # booleans, integers, floats, unicode text: nothing that needs pickle
 # What a damaged member raises while it is decompressed or laid out (zlib's and lzma's own
 # errors escaped as internal errors; bz2 raises OSError), besides zipfile's and numpy's

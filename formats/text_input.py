@@ -15,13 +15,12 @@ from typing import BinaryIO, Iterator
 
 from plantlod.lsys.errors import InputError
 
-from .constants import MAX_LINE_BYTES, MAX_TEXT_BYTES, READ_CHUNK_BYTES
+from .constants import MAX_LINE_BYTES, MAX_TEXT_BYTES, READ_CHUNK_BYTES, ZIP_MAGIC
 from .kinds import USDC_MAGIC
 
 _BOM = b"\xef\xbb\xbf"
 _LINE_BREAK = re.compile(rb"\r\n?|\n")     # where a line ends (lsys.parse.LINE_BREAK, in bytes)
 # Binary files a user may hand to a text reader: (magic, what it is, what to do instead).
-ZIP_MAGIC = b"PK\x03\x04"           # a zip archive's first bytes (an .npz is one)
 BINARY_KINDS = (
     (ZIP_MAGIC, "a zip archive (an .npz?)", "archives are read by their .npz extension, so "
                                                "give the file a name ending in .npz"),

@@ -863,10 +863,10 @@ def _given_tree(item: Any) -> _Given:
         from plantlod.formats.text_input import read_text
 
         text = read_text(path)
-    from plantlod.formats.kinds import text_kind
+    from plantlod.formats.kinds import looks_like_tree_file, text_kind
     from plantlod.formats.lsys_file import parse_lsys_text
 
-    if text.lstrip().startswith("{") and text_kind(text) != "gltf":
+    if looks_like_tree_file(text) and text_kind(text) != "gltf":
         from plantlod.formats.treefile import read_tree_text
 
         return _Given(read_tree_text(text, path).named(path))

@@ -536,7 +536,8 @@ class _Reader:
                 raise error(f"tree file {name!r} is not a regular file; expected an .lsys file")
             raise error(f"tree file {name!r} not found"
                         + ("" if pathlib.Path(name).is_absolute() else f" (looked in {folder})"))
-        if not os.access(path, os.R_OK):          # (named at its own path, not the scene's)
+        if not os.access(path, os.R_OK):          # (at the scene's line: its reader named it
+                                                 # alone, by its absolute path)
             raise error(f"tree file {name!r} cannot be read: permission denied")
         other = _other_kind_of(path)
         if other is not None:
@@ -737,7 +738,7 @@ def read_scene(path: str) -> Scene:
         raise r.error(f"the scene's trees come from {asked:,} distinct (file, seed) pairs, more "
                       f"than the limit of {MAX_SCENE_CHAINS:,} level chains; expected fewer "
                       "seeds", "tree_seeds" if "tree_seeds" in text else "seed")
-    return Scene(path, shared_seeds(trees), wind, camera, budget, dt, duration, damping_ratio)
+    return Scene(shown_as, shared_seeds(trees), wind, camera, budget, dt, duration, damping_ratio)
 
 
 def _long_integer(text: str, path: str) -> InputError:

@@ -408,17 +408,22 @@ def run_scene(scene: Scene, *, cache=None, threads: int | None = None, verify: b
 
 
 def _chain_levels(scene: Scene, chains: dict, levels: np.ndarray) -> list[dict]:
-    """The report's ``chain_levels``: for each chain (`file.sources` order) its file (and
-    seed), its trees, and per level its branches, tip error (max, m) and share of the
-    chain's tree-frames."""
+    """The report's ``chain_levels``: for each chain (`file.sources` order) its file
+    (relative to the scene's folder) and seed, its trees, and per level its branches, tip
+    error (max, m) and share of the chain's tree-frames."""
     members: dict[Source, list[int]] = {}
     for k, t in enumerate(scene.trees):
         members.setdefault(t.source, []).append(k)
+    # a file as the scene names it, relative to the scene's folder (the working folder for
+    # stdin): its base name alone told a/s.lsys from b/s.lsys not (a review)
+    folder = os.getcwd() if scene.source == "<stdin>" else os.path.dirname(
+        os.path.realpath(scene.source))
     out = []
     for source in sources(scene.trees):
         rows = members[source]
         chain, mine = chains[source], levels[rows]
-        out.append({"file": source_name(source), "trees": len(rows), "levels": [
+        out.append({"file": os.path.relpath(source[0], folder), "seed": source[1],
+                    "trees": len(rows), "levels": [
             {"level": k, "branches": int(tree.n_branches),
              "tip_error_m": float(chain.tip_error_m[k]),
              "share": float(np.mean(mine == k)) if mine.size else 0.0}

@@ -206,7 +206,7 @@ def test_count_words():
 
 
 def test_tree_files_are_told_by_content():
-    from plantlod.cli.loading import looks_like_tree_file
+    from plantlod.formats.kinds import looks_like_tree_file
 
     assert looks_like_tree_file('\n  {"format": "plantlod-tree"}\n')
     assert not looks_like_tree_file("# {not a tree}\nname: x\n")

@@ -49,6 +49,30 @@ def test_a_second_byte_order_mark_is_placed_in_a_tree_file(tmp_path):
         one_line(run_cli(*args, exit_code=None), 2, f"{doubled}:1:1: error: not valid JSON")
 
 
+def test_a_second_byte_order_mark_is_placed_by_the_api_too(tmp_path):
+    import plantlod
+
+    tree = tmp_path / "t.jsonl"
+    run_cli("derive", str(STALK), "-o", str(tree))
+    doubled = tmp_path / "t2.jsonl"
+    doubled.write_bytes(BOM * 2 + tree.read_bytes())
+    with pytest.raises(plantlod.InputError) as info:
+        plantlod.simulate(str(doubled), wind=(1, 0, 0), dt=0.01, steps=3)
+    assert (info.value.line, info.value.col) == (1, 1)
+    assert info.value.message.startswith("not valid JSON")
+
+
+def test_a_long_path_is_named_whole(tmp_path):
+    """A path of more than 200 characters was cut in its middle in FILE:LINE:COL (a name no
+    editor can open; a review); the line is cut to 1,000 characters as a whole."""
+    folder = tmp_path / ("a" * 120) / ("b" * 120)
+    folder.mkdir(parents=True)
+    bad = folder / "x.lsys"
+    bad.write_text("axiom: Q(\n")
+    one_line(run_cli("derive", str(bad), "-o", str(tmp_path / "x.jsonl"), exit_code=None), 2,
+             f"{bad}:1:10: error:")
+
+
 def test_a_second_byte_order_mark_in_a_wind_file_is_no_header(tmp_path):
     """The wind file's first row was taken for a header where its first field alone was no
     number (a BOM left before it), and dropped: the run went on with another wind, exit 0.
@@ -141,3 +165,41 @@ def test_one_named_pipe_given_twice_is_refused(tmp_path):
         assert done.stderr.startswith(f"plantlod {args[0]}: error: {names} both read the pipe "
                                       "p.fifo, which can be read once")
     assert sorted(os.listdir(tmp_path)) == ["p.fifo"]
+
+
+def test_standard_input_from_the_named_pipe_given_too_is_refused(tmp_path):
+    """`compare - p.fifo < p.fifo` waited for ever (a review): stdin is that pipe."""
+    fifo = tmp_path / "p.fifo"
+    os.mkfifo(fifo)
+    writer = subprocess.Popen(["bash", "-c", f"cat {STALK} > p.fifo"], cwd=tmp_path)
+    try:
+        with open(fifo, "rb") as stdin:
+            done = subprocess.run([PLANTLOD, "compare", "-", "p.fifo", "--dt", "0.01", "--steps",
+                                   "3", "--wind-speed", "1"], cwd=tmp_path, stdin=stdin,
+                                  capture_output=True, text=True, timeout=300)
+    finally:
+        writer.wait(timeout=60)
+    assert done.returncode == 2 and "both read the pipe p.fifo" in done.stderr
+
+
+def test_a_read_only_file_system_is_a_failure_before_the_work(tmp_path):
+    """os.access says no on a read-only file system too: it was refused as "permission
+    denied", exit 2 (a review); it is a failure to write (exit 1, docs/errors.md), said as
+    what it is, and still before the work. Mounts a read-only tmpfs (root only)."""
+    if os.geteuid() != 0 or shutil.which("mount") is None:
+        pytest.skip("mounting a read-only tmpfs needs root")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(ro)]).returncode:
+        pytest.skip("this machine does not let a tmpfs be mounted here")
+    try:
+        for args, said in ((("derive", str(STALK), "-o", "ro/x.jsonl"),
+                            "plantlod derive: error: cannot write ro/x.jsonl: its folder is on "
+                            "a read-only file system"),
+                           (("simplify", str(STALK), "--levels", "ro/lv"),
+                            f"plantlod simplify: error: cannot write ro/lv: {ro} is on a "
+                            "read-only file system")):
+            done = run([PLANTLOD, *args], tmp_path)
+            assert (done.returncode, done.stderr) == (1, said + "\n")
+    finally:
+        subprocess.run(["umount", str(ro)], check=True)

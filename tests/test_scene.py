@@ -514,6 +514,9 @@ def test_report_cache_threads_and_verified_budget(tmp_path):
     # give level_share, and its branches the branches spent
     chains = first["chain_levels"]
     assert sum(c["trees"] for c in chains) == first["trees"] and len(chains) == first["chains"]
+    assert sorted(os.path.normpath(os.path.join(os.path.dirname(path), c["file"]))
+                  for c in chains) == sorted(str(p) for p in (STALK, TWIN))
+    assert [c["seed"] for c in chains] == [None, None]
     for k, pooled in first["level_share"].items():
         assert pooled == pytest.approx(sum(c["trees"] * level["share"] for c in chains
                                            for level in c["levels"] if level["level"] == int(k))
@@ -1047,3 +1050,23 @@ def test_a_scene_without_wind_is_warned_of(tmp_path):
     assert "warning: the wind is zero, so the trees stay at rest" in result.stderr
     assert "warning" not in run_cli("scene", _scene(tmp_path, BASE.split("[scatter]")[0], "w.toml"),
                                     "--no-cache").stderr
+
+
+def test_verify_measures_each_row_at_its_frame_s_end(tmp_path, monkeypatch):
+    """The teleport of `test_a_camera_jumping_nearer_within_a_frame_is_judged_at_the_frame_s_end`
+    run whole with one stalk: with the schedule judging frames at their start (the rule before
+    session 43, restored here), --verify must find the frame shown near at the far level, over
+    the 1 px budget (it measured at the start too, and said 0.51 px; a scene fuzzing round);
+    with frames judged at both ends, the scene is within it."""
+    import plantlod.scene.schedule as schedule
+    from plantlod.scene.run import run_scene
+
+    body = ("dt = 0.01\nduration = 10\n[wind]\nspeed = 5\n[camera]\n" + "".join(
+        f"[[camera.key]]\nt = {t}\nposition = [0, {y}, 1.7]\ntarget = [0, 0, 1.7]\n"
+        for t, y in ((0, -300), (5, -300), (5.001, -5), (10, -5)))
+        + f'[[tree]]\nfile = "{STALK}"\nposition = [0, 0, 0]\n')
+    scene = read_scene(_scene(tmp_path, body, "jump.toml"))
+    cache = tmp_path / "cache"
+    assert run_scene(scene, cache=cache, verify=True)["max_error_px"] <= 1.0
+    monkeypatch.setattr(schedule, "frame_ends", lambda scene, times: times)
+    assert run_scene(scene, cache=cache, verify=True)["max_error_px"] > 2.0
