@@ -361,20 +361,50 @@ def run_guarded(call: Callable[[], object], prog: str = "plantlod") -> int:
     except BaseException as exc:     # noqa: BLE001 -- the one place every failure ends
         if isinstance(exc, SystemExit):
             raise
-        drop_pending_warnings()
-        end_warnings()
-        code, line = describe_failure(exc, prog)
-        if code != 0 and os.environ.get(DEBUG_VARIABLE) and not isinstance(exc, click.exceptions.Exit):
-            import traceback
-            traceback.print_exc()
+        try:
+            return _ended(exc, prog)
+        except BaseException as late:   # noqa: BLE001 -- a signal (or memory running out)
+            # while the failure was being said: its own one line, not Python's traceback of
+            # both (seen once under a parallel 5 GB run, an L-system fuzzing round)
+            return _ended_late(late, exc, prog)
+
+
+def _ended(exc: BaseException, prog: str) -> int:
+    """Say the one line for the failure ``exc`` (`describe_failure`), let what stdout holds
+    go, and give the exit code."""
+    from .io import drop_pending_warnings, end_warnings
+
+    drop_pending_warnings()
+    end_warnings()
+    code, line = describe_failure(exc, prog)
+    if code != 0 and os.environ.get(DEBUG_VARIABLE) and not isinstance(exc, click.exceptions.Exit):
+        import traceback
+        traceback.print_exc()
+    if line:
+        _say(line)
+    try:
+        _flush_stdout()          # what was written before the failure (compare's JSON)
+    except (OSError, ValueError):
+        pass
+    _discard_stdout()
+    return code
+
+
+def _ended_late(late: BaseException, first: BaseException, prog: str) -> int:
+    """The exit code and one line where ``late`` ended the saying of ``first``: a signal's
+    (`describe_failure` of it), else the first failure's kind alone."""
+    try:
+        where = _command_name(first, prog)      # (the late one was raised outside the command)
+        code, line = describe_failure(late, where)
+        if not isinstance(late, (Terminated, KeyboardInterrupt)):
+            code, line = 1, f"{where}: error: {type(first).__name__} (and {type(late).__name__} "\
+                            "while saying it)"
         if line:
             _say(line)
-        try:
-            _flush_stdout()          # what was written before the failure (compare's JSON)
-        except (OSError, ValueError):
-            pass
-        _discard_stdout()
-        return code
+    except BaseException:        # noqa: BLE001 -- nothing more can be said
+        code = 1
+    _discard_stdout()
+    return code
 
 
 @contextlib.contextmanager
