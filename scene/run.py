@@ -238,8 +238,10 @@ def verify_sample(scene: Scene, levels: np.ndarray, every: int, count: int) -> n
     if count >= n:
         return np.ones(n, dtype=bool)
     times = frame_times(scene, every)
-    d, _ahead = distances(scene, list(range(n)), times)
-    band = np.floor(np.log2(np.maximum(d.min(axis=1), 1e-3))).astype(np.int64)
+    nearest = np.minimum(distances(scene, list(range(n)), times)[0].min(axis=1),
+                         distances(scene, list(range(n)), frame_ends(scene, times))[0].min(axis=1))
+    band = np.floor(np.log2(np.maximum(nearest, 1e-3))).astype(np.int64)   # (both ends, as
+    # the schedule judges frames)
     finest = levels.min(axis=1).astype(np.int64)
     key = finest * 4096 + (band + 2048)
     strata, inverse = np.unique(key, return_inverse=True)
