@@ -151,12 +151,10 @@ def simplify(input_path, output, level, level_n, form, levels_dir, method, calib
     # the measures of model.md 6 for the kind of tree: a stalk's per-component amplitude and
     # period, a branching tree's motion error and major period (a 70 % error on a component
     # at 1 % of the largest swing, invisible, led the line; a helper's first hour, session 36)
+    stalk = is_stalk(result.original)
+
     def figures(worst) -> str:
-        """A `Summary`'s figures for the kind of tree."""
-        return (f"amplitude error {_pct(worst.amplitude)}, period {_pct(worst.period)}"
-                if is_stalk(result.original) else
-                f"motion error {_pct(worst.motion)}, period (major) "
-                f"{_pct(worst.period_major)}") + f", tip {_pct(worst.tip)} of height"
+        return _figures(worst, stalk)
 
     # where some winds pass 0.1 rad the bounds do not apply there: the worst where they do
     # too (stalk8's 2.49 % at 15-20 m/s led the line, and then it "meets the bounds": a new
@@ -236,12 +234,22 @@ def _write_levels(system, folder: str, input_path: str, wind_range, dt: float,
                 out.write(level.text)
             say(f"simplify: {display_name(input_path)} level {level.level}/{last}: "
                 f"{level.branches[0]:,} -> {counted(level.branches[1], 'branch')}; "
-                f"worst amplitude {_pct(level.amplitude)}, tip {_pct(level.tip)} of height, "
+                f"worst over every measurement wind: {_figures(level.worst, level.stalk)}, "
                 f"tip error (max) {level.tip_max_m:.4g} m at {wind_range[0]:g}-{wind_range[1]:g} m/s")
             for note in level.notes:             # as --level says them, each once
                 if note not in said:
                     said.add(note)
                     say(f"simplify: {note}")
+
+
+def _figures(worst, stalk: bool) -> str:
+    """A `Summary`'s figures for the kind of tree (model.md 6): a stalk's per-component
+    amplitude and period, a branching tree's motion error and major period, and the tip
+    error; --level and --levels say the same (--levels said "worst amplitude" of every tree,
+    23.78 % where --level said motion 7.53 % of the same file: a newcomer's first hour)."""
+    return (f"amplitude error {_pct(worst.amplitude)}, period {_pct(worst.period)}" if stalk
+            else f"motion error {_pct(worst.motion)}, period (major) "
+                 f"{_pct(worst.period_major)}") + f", tip {_pct(worst.tip)} of height"
 
 
 def _pct(x: float) -> str:

@@ -30,22 +30,27 @@ from typing import Callable, Iterator
 from plantlod.lsys.system import LSystem
 from plantlod.sim.workers import run_jobs
 
+from .evaluate import Summary
+from .explicit import is_stalk
 from .pipeline import ChainShare, Options, Result, settle_level_one, simplify_explicit
 
 
 @dataclass(frozen=True)
 class LevelOutcome:
     """What `simplify --levels` writes and prints of one level: its text, the branch counts
-    (original, level), the worst amplitude and tip errors (relative, NaN where nothing
-    counted), the largest tip error (max) in metres over the measurement winds, and the
-    notes and warnings its measurement gave (`pipeline.Result.notes`: those about the
-    original, such as aliased or missing periods, come with every level alike)."""
+    (original, level), its worst figures over the measurement winds (`evaluate.Summary`:
+    a stalk's amplitude and period, a branching tree's motion and major period, the tip
+    error; NaN where nothing counted) and whether the original is a stalk (which of them the
+    line shows, as --level's does), the largest tip error (max) in metres over the
+    measurement winds, and the notes and warnings its measurement gave
+    (`pipeline.Result.notes`: those about the original, such as aliased or missing periods,
+    come with every level alike)."""
 
     level: int
     text: str
     branches: tuple[int, int]
-    amplitude: float
-    tip: float
+    worst: Summary
+    stalk: bool
     tip_max_m: float
     notes: tuple[str, ...] = ()
 
@@ -54,8 +59,7 @@ class LevelOutcome:
         tip_m = max((r.tip_error_max_m for _w, r in result.reports
                      if math.isfinite(r.tip_error_max_m)), default=math.nan)
         return cls(level, result.text, (result.original.n_branches, result.tree.n_branches),
-                   float(result.summary.amplitude), float(result.summary.tip), float(tip_m),
-                   tuple(result.notes))
+                   result.summary, is_stalk(result.original), float(tip_m), tuple(result.notes))
 
 
 def chain_levels(system: LSystem, options: list[Options], shared: ChainShare,

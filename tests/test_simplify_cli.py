@@ -408,3 +408,20 @@ def test_a_hanging_plant_is_written_from_above_its_support(tmp_path, axiom, code
     if code:
         assert "hangs below z = 0" in result.stderr
         assert not (tmp_path / "out.lsys").exists()
+
+
+@pytest.mark.parametrize("tree", ["examples/stalk8.lsys", "examples/eval/bush3d.lsys"])
+def test_levels_and_level_say_the_same_figures_of_one_file(tmp_path, tree):
+    """--levels said "worst amplitude 23.78 %" of every tree where --level said "motion
+    error 7.53 %" of the same file (a newcomer's first hour): the measures of model.md 6 for
+    the kind of tree, a stalk's amplitude and period, a branching tree's motion and major
+    period, in both."""
+    chain = run_cli("simplify", tree, "--levels", str(tmp_path / "lv"))
+    one = run_cli("simplify", tree, "--level", "1", "--form", "explicit", "-o",
+                  str(tmp_path / "l1.lsys"))
+    assert (tmp_path / "l1.lsys").read_bytes() == (tmp_path / "lv" / "level1.lsys").read_bytes()
+    said = one.stderr.splitlines()[0].split("worst over every measurement wind: ")[1]
+    said = said.split("; within")[0]
+    first = next(x for x in chain.stderr.splitlines() if " level 1/" in x)
+    assert f"worst over every measurement wind: {said}, tip error (max)" in first
+    assert ("motion error" in said) == ("bush3d" in tree)
