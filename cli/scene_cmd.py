@@ -149,6 +149,15 @@ def scene(scene_path, report_path, verify, sample, budget_px, cache_dir, no_cach
         + (f"{report['speedup']:.1f}x fewer)" if report["branch_steps_spent"] else "no branches)")
         + (f", verified max error {report['max_error_px']:.3f} px" if verify else "")
         + f", {facts['wall_s']:.1f} s")
+    from plantlod.scene.constants import HELD_NOTE_RATIO
+
+    bound = report.get("speedup_bound")
+    if report["speedup"] and bound and report["speedup"] < HELD_NOTE_RATIO * bound:
+        # (a camera driving up to two trees ran them at full detail from 60 m, 1.0x against
+        # a bound of 1.74x, and nothing said why: a newcomer's first hour)
+        say(f"scene: {bound:.1f}x if switching were free (speedup_bound): trees start or stay "
+            "finer than their distance needs where a later switch to a finer level would "
+            "overspend the budget (docs/scene.md, \"Switching\")")
     if verify and report["max_error_px"] is not None and report["max_error_px"] > spec.budget_px:
         warn(f"the verified max error {report['max_error_px']:.3f} px is above the budget of "
              f"{spec.budget_px:g} px: a level's tip error was measured over eight headings "
