@@ -186,10 +186,22 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
     # the comparisons and the pictures pose each tree at one time
     runs = on_common_samples([_run_side(path, csv, n, degrees, settings)
                               for path, csv, n in sides])
+    others = {path: _level_of_another(path, original) for path in simplified}
+    for path, said in others.items():
+        if said is not None:
+            warn_once_running(said)
 
     # (an error of a SIMPLIFIED's groups names its file, the run's name; one of the samples or
     # the window names the files or the option at fault: `compare_runs`)
-    comparisons = [compare_runs(runs[0], run, *(window or (None, None))) for run in runs[1:]]
+    comparisons = []
+    for path, run in zip(simplified, runs[1:]):
+        try:
+            comparisons.append(compare_runs(runs[0], run, *(window or (None, None))))
+        except InputError as exc:           # (the trees do not match: say which it came from)
+            if others[path] is None:
+                raise
+            raise InputError(f"{exc.message} ({others[path].split(': ', 1)[1]})", exc.file,
+                             exc.line, exc.col) from None
     bounds = {"amplitude_error": max_amplitude_error, "period_error": max_period_error,
               "tip_error": max_tip_error, "motion_error": max_motion_error,
               "period_error_major": max_period_error_major, "tip_error_max_m": max_tip_error_m}
@@ -277,6 +289,27 @@ def _read_csv(path: str, degrees: bool):
     from plantlod.formats.angles_csv import read_angles_file
 
     return read_angles_file(path, degrees)
+
+
+def _level_of_another(path: str, original: str) -> str | None:
+    """The warning where ``path`` is a level whose simplify header names another file than
+    ``original`` as its source (by file name: a level compared with a tree it was not made
+    from gave figures of 100 % or an error about addresses; a newcomer's first hour); None
+    where it names the same, no file, or ``path`` cannot be read again (stdin)."""
+    from plantlod.formats.kinds import SNIFF_CHARS
+    from plantlod.formats.level_header import comment_source, leading_comment
+
+    if path == "-" or original == "-":
+        return None
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            source = comment_source(leading_comment(f.read(SNIFF_CHARS)))
+    except OSError:
+        return None
+    if source is None or os.path.basename(source) == os.path.basename(original):
+        return None
+    return (f"{display_name(path)}: its header says it is a level of {source}, and it is "
+            f"compared here with {display_name(original)}")
 
 
 def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):

@@ -74,15 +74,21 @@ def _same(a: float, b: float) -> bool:
 def fitted_conditions(text: str) -> FittedConditions | None:
     """The conditions in ``text``'s leading comment lines where they are simplify's header
     (its first line starts with HEADER_START and it has the runs' line), else None."""
+    return comment_conditions(leading_comment(text))
+
+
+def leading_comment(text: str) -> str:
+    """The comment lines a file's ``text`` starts with, without their ``#`` (blank lines
+    skipped): where simplify writes its header. The leading lines only, not a whole level."""
     lines = []
-    for line in io.StringIO(text):            # (the leading lines only, not a whole level)
+    for line in io.StringIO(text):
         stripped = line.strip()
         if not stripped:
             continue
         if not stripped.startswith("#"):
             break
         lines.append(stripped.lstrip("#"))
-    return comment_conditions("\n".join(lines))
+    return "\n".join(lines)
 
 
 def comment_conditions(comment: str) -> FittedConditions | None:
@@ -100,6 +106,20 @@ def comment_conditions(comment: str) -> FittedConditions | None:
     if dt is None or not dt > 0:
         return None
     return FittedConditions(dt, ratio if ratio is not None and ratio >= 0 else 0.0)
+
+
+_LEVEL_OF = re.compile(re.escape(HEADER_START) + r"level (\d+) of (.+) \((?:derivation length|"
+                       r"explicit form)[^()]*\)$")
+
+
+def comment_source(comment: str) -> str | None:
+    """The file a level says it was simplified from, as simplify was given it (the header's
+    first line: ``plantlod simplify: level 1 of stalk8.lsys (…)``), from a header comment's
+    text without its ``#`` (an `LSystem`'s ``comment``); None where there is no such line or
+    it came from standard input."""
+    first = next((line.strip() for line in comment.splitlines() if line.strip()), "")
+    m = _LEVEL_OF.match(first)
+    return m.group(2) if m and m.group(2) != "<input>" else None
 
 
 def _float(text: str) -> float | None:

@@ -451,6 +451,12 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     damped = _damping(damping, damping_ratio)
     for g in givens:
         g.warn_fitted_otherwise(float(dt), damped)
+    original = givens[0].name
+    for g in givens[1:]:                      # (as the CLI says it: a level of another file)
+        if g.level_of and original not in ("", "<text>") and \
+                os.path.basename(g.level_of) != os.path.basename(original):
+            warn_caller(f"{g.name}: its header says it is a level of {g.level_of}, and it is "
+                        f"compared here with {original}")
     for tree, label in zip(trees, _labels(items)):
         a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))
@@ -828,6 +834,7 @@ class _Given:
     tree: Tree
     name: str = ""
     fitted: Any = None                        # FittedConditions | None
+    level_of: str | None = None               # the file its header says it was made from
 
     def warn_fitted_otherwise(self, dt: float, damping) -> None:
         """A `PlantlodWarning` where a run at ``dt`` under ``damping`` differs from the
@@ -842,13 +849,14 @@ class _Given:
 
 def _given_tree(item: Any) -> _Given:
     """`_as_tree`'s tree with the conditions its header names (each file read once)."""
-    from plantlod.formats.level_header import comment_conditions, fitted_conditions
+    from plantlod.formats.level_header import (comment_conditions, comment_source,
+                                               leading_comment)
 
     if isinstance(item, Tree):
         return _Given(_checked(item))
     if isinstance(item, LSystem):
         return _Given(derive(item), item.source or item.name or "the level",
-                      comment_conditions(item.comment or ""))
+                      comment_conditions(item.comment or ""), comment_source(item.comment or ""))
     if not isinstance(item, (str, os.PathLike)):
         raise InputError(f"expected a Tree, an LSystem, a path or the text of either, got "
                          f"{type(item).__name__}")
@@ -870,7 +878,9 @@ def _given_tree(item: Any) -> _Given:
         from plantlod.formats.treefile import read_tree_text
 
         return _Given(read_tree_text(text, path).named(path))
-    return _Given(derive(parse_lsys_text(text, path)), path, fitted_conditions(text))
+    header = leading_comment(text)
+    return _Given(derive(parse_lsys_text(text, path)), path, comment_conditions(header),
+                  comment_source(header))
 
 
 def _damping(damping: Any, damping_ratio: Any):

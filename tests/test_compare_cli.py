@@ -469,3 +469,32 @@ def test_first_hour_messages(runner, stalks):
     assert "other way round" not in unrelated.stderr
     order = invoke(runner, ["--angles", "rad.csv", "deg.csv"])
     assert "compare: deg.csv against rad.csv:" in order.stderr
+
+
+def test_a_level_compared_with_another_tree_than_its_own_is_named(tmp_path):
+    """compare took a level with any original: 100 % figures, or an error about addresses
+    that named the wrong problem (a newcomer's first hour). The level's header names the
+    file it was made from: where that is another file than ORIGINAL (by name), a warning
+    says so, and an error about the trees' groups says it too. The API warns alike."""
+    import warnings
+
+    import plantlod
+
+    level = tmp_path / "l1.lsys"
+    run_cli("simplify", str(ROOT / "examples" / "stalk8.lsys"), "--level", "1", "-o", str(level))
+    copy = tmp_path / "mine.lsys"
+    shutil.copy(ROOT / "examples" / "stalk8.lsys", copy)
+    said = f"its header says it is a level of {ROOT / 'examples' / 'stalk8.lsys'}"
+    run = ("--dt", "0.01", "--duration", "1", "--wind-speed", "5")
+    renamed = run_cli("compare", str(copy), str(level), *run)
+    assert f"warning: {level}: {said}, and it is compared here with {copy}" in renamed.stderr
+    wrong = run_cli("compare", str(ROOT / "examples" / "eval" / "twin_draw.lsys"), str(level),
+                    *run, exit_code=2)
+    assert wrong.stderr.count("\n") == 1 and "stand for no branch of the original" in wrong.stderr
+    assert f"({said}, and it is compared here with " in wrong.stderr
+    own = run_cli("compare", str(ROOT / "examples" / "stalk8.lsys"), str(level), *run)
+    assert "its header says" not in own.stderr
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        plantlod.compare(str(copy), str(level), wind=(5, 0, 0), dt=0.01, duration=1)
+    assert any(said in str(w.message) for w in caught)
