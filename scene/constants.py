@@ -30,6 +30,7 @@ VERIFY_LANES = 16             # full-detail trees run at once by --verify (bound
 STORE_BATCH_TREES = 64         # --angles: trees per zarr chunk
 STORE_TIME_CHUNK = 256         # --angles: frames per zarr chunk
 HYSTERESIS = 0.8             # a tree moves to a coarser level only at <= this x the budget
+CLUSTER_TIMEOUT_S = 30.0     # --scheduler: to connect, and to wait for a first worker
 HELD_NOTE_RATIO = 0.8        # `scene` says why, where its speedup is below this x its bound
 # A switch to a finer level starts it from a predicted state (scene/switch.py); its error is
 # measured (`switch.switch_errors`) for switches every SWITCH_SAMPLE_S of a steady-wind run,

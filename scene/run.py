@@ -17,6 +17,8 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import math
 import os
 import pathlib
@@ -26,12 +28,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantlod.lsys.errors import InputError, RunFailure
+from plantlod.lsys.errors import InputError, PlantlodError, RunFailure
 from plantlod.sim.kinematics import pose
 from plantlod.simplify.constants import CHAIN_JOBS
 
 from .constants import (
-    FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES, VERIFY_LANES,
+    CLUSTER_TIMEOUT_S, FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES,
+    VERIFY_LANES,
 )
 from .file import Scene, Source, seed_named, source_name, sources
 from .levels import Chain, Gusts, chain_from_texts, level_chains
@@ -454,7 +457,10 @@ def simulate_batch(texts: list[str], tip_error_m: list[float], source: str, batc
     return result.spent, result.switches
 
 
-SCHEDULER_ADDRESS = re.compile(r"(tcp|tls|ws|wss|ucx|inproc)://([^\s/]+):([0-9]{1,5})/?\Z")
+# tcp only: tls needs a security context plantlod does not take, ucx and inproc transports
+# it does not set up, and each failed after the work with an internal error (a cluster
+# fuzzing round); a trailing '/' failed int() after the work too
+SCHEDULER_ADDRESS = re.compile(r"(tcp)://([^\s/]+):([0-9]{1,5})\Z")
 DOTTED_QUAD = re.compile(r"[0-9]+(?:\.[0-9]+){3}\Z")
 
 
@@ -486,23 +492,69 @@ def _run_on_cluster(address: str, scene: Scene, chains: dict, batches: list[Batc
     except ImportError:
         raise InputError("--scheduler needs dask.distributed: pip install 'plantlod[cluster]'") from None
     check_scheduler_address(address)
-    try:
-        client = Client(address, timeout="30s")
-    except ValueError as exc:
-        raise InputError(f"--scheduler {address}: {exc}") from None
-    except (OSError, TimeoutError) as exc:
-        raise RunFailure(f"cannot reach the scheduler at {address}: {exc or type(exc).__name__}"
-                         ) from None
-    with client:
-        futures = []
-        for batch in batches:
-            chain = chains[batch.source]
-            futures.append(client.submit(
-                simulate_batch, chain.texts, chain.tip_error_m.tolist(), batch.file, batch,
-                winds[batch.members], scene.dt, scene.steps, every, store, scene.damping_ratio,
-                pure=False))
-        done = client.gather(futures)
+    with _cluster_failures(address, store):
+        client = Client(address, timeout=f"{CLUSTER_TIMEOUT_S}s")
+        with client:
+            try:                    # (no worker: it waited for ever, without a word)
+                client.wait_for_workers(1, timeout=CLUSTER_TIMEOUT_S)
+            except TimeoutError:
+                raise RunFailure(f"the scheduler at {address} has no workers (waited "
+                                 f"{CLUSTER_TIMEOUT_S:g} s); start some with `dask worker "
+                                 f"{address}`") from None
+            futures = []
+            for batch in batches:
+                chain = chains[batch.source]
+                futures.append(client.submit(
+                    simulate_batch, chain.texts, chain.tip_error_m.tolist(), batch.file, batch,
+                    winds[batch.members], scene.dt, scene.steps, every, store,
+                    scene.damping_ratio, pure=False))
+            done = client.gather(futures)
     return int(sum(d[0] for d in done)), int(sum(d[1] for d in done))
+
+
+@contextlib.contextmanager
+def _cluster_failures(address: str, store: str | None):
+    """A failure of the cluster at ``address`` as one line, exit 1 (`RunFailure`): the
+    scheduler not reached, lost or not a scheduler, workers killed, a store the workers
+    cannot see. Before, dask.distributed's own errors reached the command as internal errors
+    and its client logged tracebacks on stderr (a cluster fuzzing round: about 30 lines where
+    the scheduler was killed mid-run; "out of memory" where the port answered with other
+    bytes). Signals and plantlod's own errors pass as they are."""
+    import logging
+
+    quiet = [logging.getLogger(name) for name in ("distributed", "distributed.client")]
+    levels = [logger.level for logger in quiet]
+    for logger in quiet:
+        logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    except (PlantlodError, KeyboardInterrupt):
+        raise
+    except FileNotFoundError as exc:    # a worker could not find the store's folder
+        if store is None or "store" not in str(exc):
+            raise RunFailure(f"the cluster at {address} failed: {_first_line(exc)}") from None
+        raise RunFailure("the cluster's workers cannot see the --angles store: they write "
+                         "it, so it must be on a file system they share with this machine"
+                         ) from None
+    except (OSError, TimeoutError) as exc:
+        raise RunFailure(f"cannot reach the scheduler at {address}: "
+                         f"{_first_line(exc) or type(exc).__name__}") from None
+    except MemoryError:                 # (another service's bytes read as a frame length)
+        raise RunFailure(f"the scheduler at {address} answered with what no Dask scheduler "
+                         "sends; is it a Dask scheduler's address?") from None
+    except (Exception, asyncio.CancelledError) as exc:   # noqa: BLE001 -- dask's own: a
+        # task cancelled as the scheduler was lost is a CancelledError, a BaseException
+        raise RunFailure(f"the cluster at {address} failed ({type(exc).__name__}: "
+                         f"{_first_line(exc)}): the scheduler or its workers went away, or it is "
+                         "not a Dask scheduler") from None
+    finally:
+        for logger, level in zip(quiet, levels):
+            logger.setLevel(level)
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else ""
 
 
 def _verify(scene: Scene, chain: Chain, batch: Batch, winds: np.ndarray, every: int,

@@ -326,7 +326,13 @@ def test_random_scene_options_follow_the_discipline(tmp_path, options):
     # (waited 30 s for the connection to fail, then exit 1: session 28's fuzzing)
     ("tcp://256.1.1.1:8786", "has host 256.1.1.1, not an IPv4 address"),
     ("tcp://127.0.0.1:99999", "has port 99999, outside 1-65535"),
-    ("tcp://localhost:0", "has port 0, outside 1-65535")])
+    ("tcp://localhost:0", "has port 0, outside 1-65535"),
+    # (each failed after the work, with an internal error or int()'s message: a cluster
+    # fuzzing round; plantlod connects to tcp:// schedulers only)
+    ("tls://127.0.0.1:8786", "is not a scheduler address"),
+    ("ucx://127.0.0.1:8786", "is not a scheduler address"),
+    ("inproc://127.0.0.1:8786", "is not a scheduler address"),
+    ("tcp://127.0.0.1:8786/", "is not a scheduler address")])
 def test_a_bad_scheduler_address_is_bad_input_before_any_work(tmp_path, address, said):
     path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
     one_line(run_cli("scene", path, "--no-cache", "--scheduler", address, exit_code=None), 2,
@@ -947,3 +953,42 @@ def test_a_camera_key_time_written_as_a_huge_whole_number_is_a_time(tmp_path):
         path.write_text(text.format(t=t))
         reports.append(json.loads(run_cli("scene", str(path), "--no-cache").stdout))
     assert reports[0] == reports[1]
+
+
+def test_what_answers_at_the_scheduler_address_is_said_in_one_line(tmp_path):
+    """A cluster fuzzing round: a port answering with another service's bytes ended in "out of
+    memory" (dask read them as a frame length); a scheduler without workers waited for ever.
+    Each is one line, exit 1. (The scheduler lost mid-run, about 30 lines of dask's logging
+    before, was checked by hand: one line.)"""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    import socket
+    import threading
+
+    import plantlod.scene.run as scene_run
+
+    path = scene_file(tmp_path, f'[[tree]]\nfile = "{STALK}"\n')
+    cache = str(tmp_path / "cache")
+    run_cli("scene", path, "--cache", cache)                  # (the chain, before the clusters)
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+
+    def answer():
+        conn, _ = server.accept()
+        conn.sendall(b"HTTP/1.0 200 OK\r\n\r\nhello" * 100)
+
+    threading.Thread(target=answer, daemon=True).start()
+    other = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    one_line(run_cli("scene", path, "--cache", cache, "--scheduler", other, exit_code=None), 1,
+             f"plantlod scene: error: the scheduler at {other} answered with what no Dask "
+             "scheduler sends")
+    server.close()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(scene_run, "CLUSTER_TIMEOUT_S", 2.0)
+        with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp://",
+                                      dashboard_address=None) as cluster:
+            address = cluster.scheduler_address
+            one_line(run_cli("scene", path, "--cache", cache, "--scheduler", address,
+                             exit_code=None), 1,
+                     f"plantlod scene: error: the scheduler at {address} has no workers (waited "
+                     "2 s)")
