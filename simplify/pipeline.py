@@ -522,7 +522,9 @@ def simplify_explicit(system: LSystem, options: Options,
     original = shared.original
     if progress:
         progress("fitting the explicit form", 0.0)
-    settle_level_one(system, options, shared)   # level 1's groups (the chain's too)
+    settle_level_one(system, options, shared, progress)   # level 1's groups (the chain's too)
+    if progress:
+        progress("fitting the explicit form", 0.4)
     index = options.level if grouping is None else min(grouping, shared.last)
     if index == options.level == 1 and shared.level_one is not None:
         text, tree = shared.level_one
@@ -558,7 +560,8 @@ def _level_fitter(system: LSystem, options: Options,
     return fit
 
 
-def settle_level_one(system: LSystem, options: Options, shared: ChainShare) -> None:
+def settle_level_one(system: LSystem, options: Options, shared: ChainShare,
+                     progress: Callable[[str, float], None] | None = None) -> None:
     """Level 1's groups chosen by its fitted level (`regroup.regrouped`), once per chain:
     ``shared.groupings`` then hold every level's final groups (the coarser levels grouped on
     level 1's) and ``shared.level_one`` level 1's (text, tree) where it was fitted here.
@@ -569,8 +572,14 @@ def settle_level_one(system: LSystem, options: Options, shared: ChainShare) -> N
     if shared.regrouped:
         return
     fit = _level_fitter(system, options, shared)
+    def fitted(k: int, most: int) -> None:       # (the fits take the first half of the bar)
+        if progress is not None:
+            progress(f"fitting the explicit form (level 1's grouping, fit {k})",
+                     0.4 * k / most)
+
     shared.groupings, shared.level_one = regrouped(shared.original, shared.groupings,
-                                                   lambda g: fit(g, 1), shared.runs_for(options))
+                                                   lambda g: fit(g, 1), shared.runs_for(options),
+                                                   fitted)
     shared.regrouped = True
 
 

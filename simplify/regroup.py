@@ -105,7 +105,9 @@ def missing_paths(tree: Tree, runs: Runs, stalk: bool) -> tuple[tuple, set[int]]
 
 
 def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping], LevelText],
-              runs_for: Callable[[Tree], Runs]) -> tuple[list[Grouping], LevelText | None]:
+              runs_for: Callable[[Tree], Runs],
+              fitted: Callable[[int, int], None] | None = None
+              ) -> tuple[list[Grouping], LevelText | None]:
     """Every level's grouping with level 1's chosen by its fitted level (module docstring),
     and level 1's (text, tree) for it; (``groupings``, None) where nothing was fitted here
     (a tree of one level or of more than REGROUP_MAX_BRANCHES branches).
@@ -115,6 +117,8 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
     (text, tree); runs_for(tree): the original's `Runs` in the measurement winds read with
     ``tree``'s groups (`motion_fit.shared_runs`). InputError from the first fit is raised;
     a later attempt that fails (a level that diverges) ends the attempts.
+    fitted(k, most): called after the k-th fit of at most ``most`` (a progress display;
+    simplify stood at 0 % for 10 s while they ran, a newcomer's first hour).
     """
     from .explicit import is_stalk                # (explicit imports grouping)
 
@@ -126,6 +130,7 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
     tried: set[bytes] = set()                     # level-1 groupings fitted
     pricings = ((MODE_MISFIT_WEIGHT, REGROUP_ATTEMPTS),) + tuple(
         ((w, w), attempts) for w, attempts in REGROUP_MISFIT_PRICINGS)
+    most = sum(attempts for _, attempts in pricings)
     for pricing, (weight, attempts) in enumerate(pricings):
         if best is not None and best[0][0] == 0:  # it holds in every wind: nothing to try
             break
@@ -144,6 +149,8 @@ def regrouped(original: Tree, groupings: list[Grouping], fit: Callable[[Grouping
                 if best is None:
                     raise
                 break
+            if fitted is not None:
+                fitted(len(tried), most)
             if best is None or rank < best[0]:
                 best = (rank, groupings, level)
             if not missing - kept_apart:          # nothing missing, or nothing new to keep apart
