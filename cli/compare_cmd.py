@@ -184,10 +184,13 @@ def compare(ctx, original, simplified, original_angles, simplified_angles, degre
 
     # a side kept every K-th step (simulate --every K): every side at its samples, so that
     # the comparisons and the pictures pose each tree at one time
-    runs = on_common_samples([_run_side(path, csv, n, degrees, settings)
-                              for path, csv, n in sides])
-    others = {path: _level_of_another(path, original) for path in simplified}
-    for path, said in others.items():
+    from plantlod.formats.level_header import made_from_another
+
+    read = [_run_side(path, csv, n, degrees, settings) for path, csv, n in sides]
+    runs = on_common_samples([run for run, _ in read])
+    others = {path: made_from_another(source, display_name(path), display_name(original))
+              for path, (_, source) in zip(simplified, read[1:])}
+    for said in others.values():
         if said is not None:
             warn_once_running(said)
 
@@ -291,32 +294,20 @@ def _read_csv(path: str, degrees: bool):
     return read_angles_file(path, degrees)
 
 
-def _level_of_another(path: str, original: str) -> str | None:
-    """The warning where ``path`` is a level whose simplify header names another file than
-    ``original`` as its source (by file name: a level compared with a tree it was not made
-    from gave figures of 100 % or an error about addresses; a newcomer's first hour); None
-    where it names the same, no file, or ``path`` cannot be read again (stdin)."""
-    from plantlod.formats.kinds import SNIFF_CHARS
-    from plantlod.formats.level_header import comment_source, leading_comment
-
-    if path == "-" or original == "-":
-        return None
-    try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            source = comment_source(leading_comment(f.read(SNIFF_CHARS)))
-    except OSError:
-        return None
-    if source is None or os.path.basename(source) == os.path.basename(original):
-        return None
-    return (f"{display_name(path)}: its header says it is a level of {source}, and it is "
-            f"compared here with {display_name(original)}")
-
-
 def _run_side(path: str, csv: str | None, n: int | None, degrees: bool, settings):
-    """A `Run` of one side: its tree, with angles from its CSV or simulated here."""
+    """A `Run` of one side: its tree, with angles from its CSV or simulated here; and the
+    file its simplify header says it was made from (`level_header.comment_source`), if any."""
+    from plantlod.formats.level_header import comment_source
+
+    tree, system = load_tree(path, n, run=None if csv is not None else settings)
+    return _run_of(tree, path, csv, n, degrees, settings), \
+        None if system is None else comment_source(system.comment)
+
+
+def _run_of(tree, path: str, csv: str | None, n: int | None, degrees: bool, settings):
+    """A `Run` of ``tree`` (read from ``path``), with angles from its CSV or simulated here."""
     from plantlod.compare.runs import Run, angles_in_tree_order
 
-    tree, _system = load_tree(path, n, run=None if csv is not None else settings)
     name = display_name(path) if n is None else f"{display_name(path)} (n={n})"
     if csv is not None:
         times, addresses, bend, rot = _read_csv(csv, degrees)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from plantlod.formats.kinds import looks_like_tree_file
 from plantlod.lsys.errors import InputError
 
@@ -45,9 +47,13 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     from plantlod.lsys.build import build
     from plantlod.lsys.constants import DEFAULT_MAX_MODULES
 
-    system = parse_lsys_text(text, name)
+    from plantlod.formats.level_header import leading_comment
+
+    # (the header simplify wrote, kept as an `LSystem` from `plantlod.simplify` keeps it: its
+    # fit conditions and source are read from it, the file read once)
+    system = dataclasses.replace(parse_lsys_text(text, name), comment=leading_comment(text))
     if run is not None:
-        _warn_fitted_otherwise(text, name, run)
+        _warn_fitted_otherwise(system.comment, name, run)
     built = build(system, steps, max_modules=max_modules or DEFAULT_MAX_MODULES)
     from .io import warn_once_running
 
@@ -56,13 +62,13 @@ def load_tree(path: str, steps: int | None = None, max_modules: int | None = Non
     return built.tree, system
 
 
-def _warn_fitted_otherwise(text: str, name: str, run) -> None:
-    """A warning where a level's header (`formats.level_header`) names another dt or damping
-    ratio than ``run``'s: a level holds under the conditions it was fitted at (its periods
-    move with dt, model.md 4), and the file's parameters cannot say them."""
-    from plantlod.formats.level_header import CLI_SPELLING, fitted_conditions
+def _warn_fitted_otherwise(comment: str, name: str, run) -> None:
+    """A warning where a level's header ``comment`` (`formats.level_header`) names another dt
+    or damping ratio than ``run``'s: a level holds under the conditions it was fitted at
+    (its periods move with dt, model.md 4), and the file's parameters cannot say them."""
+    from plantlod.formats.level_header import CLI_SPELLING, comment_conditions
 
-    fitted = fitted_conditions(text)
+    fitted = comment_conditions(comment)
     if fitted is None:
         return
     message = fitted.said(name, run.dt, float(getattr(run.damping, "c", 0.0)),

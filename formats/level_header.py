@@ -19,6 +19,7 @@ first lines are no longer simplify's) gives None: nothing is assumed.
 from __future__ import annotations
 
 import io
+import os
 import re
 from dataclasses import dataclass
 
@@ -120,6 +121,20 @@ def comment_source(comment: str) -> str | None:
     first = next((line.strip() for line in comment.splitlines() if line.strip()), "")
     m = _LEVEL_OF.match(first)
     return m.group(2) if m and m.group(2) != "<input>" else None
+
+
+def made_from_another(source: str | None, level: str, original: str) -> str | None:
+    """The warning where a level (named ``level``) whose header names ``source`` as the file
+    it was made from is compared with ``original``, another file by name; None where they
+    agree, or either is unknown (no header, stdin, the text itself). A level compared with a
+    tree it was not made from gave 100 % figures, or an error about addresses alone (a
+    newcomer's first hour); the CLI and the API say the same."""
+    if source is None or original in ("", "-", "<stdin>", "<text>"):
+        return None
+    if os.path.basename(source) == os.path.basename(original):
+        return None
+    return f"{level}: its header says it is a level of {source}, and it is compared here " \
+           f"with {original}"
 
 
 def _float(text: str) -> float | None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import steps_past_limit
-from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR, MODULE_LIMIT_SAID
+from .constants import DEFAULT_MAX_MODULES, DERIVATION_HISTORY_FACTOR
 from .cut import CUT_SYMBOL, cut_keep_mask, keep_modules
 from .derived import DerivedString
 from .errors import InputError

@@ -16,7 +16,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import io
-import math
 import os
 from dataclasses import dataclass, replace
 from typing import IO, Any, Union
@@ -451,12 +450,12 @@ def compare(original: Tree | LSystem | PathOrText, *simplified: Tree | LSystem |
     damped = _damping(damping, damping_ratio)
     for g in givens:
         g.warn_fitted_otherwise(float(dt), damped)
-    original = givens[0].name
+    from plantlod.formats.level_header import made_from_another
+
     for g in givens[1:]:                      # (as the CLI says it: a level of another file)
-        if g.level_of and original not in ("", "<text>") and \
-                os.path.basename(g.level_of) != os.path.basename(original):
-            warn_caller(f"{g.name}: its header says it is a level of {g.level_of}, and it is "
-                        f"compared here with {original}")
+        said = made_from_another(g.level_of, g.name, givens[0].name)
+        if said is not None:
+            warn_caller(said)
     for tree, label in zip(trees, _labels(items)):
         a = _simulated(tree, [w], False, real("dt", dt), n, 1, damped, None)   # (warned once)
         runs.append(Run(tree, a.time, a.bend, a.rotation, label))

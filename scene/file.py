@@ -80,6 +80,15 @@ def sources(trees: list[Placed]) -> list[Source]:
     return sorted({t.source for t in trees}, key=lambda s: (str(s[0]), -1 if s[1] is None else s[1]))
 
 
+def members_by_source(trees: list[Placed]) -> dict[Source, list[int]]:
+    """Each (file, seed) of ``trees`` -> the indices of its trees, in scene order (one pass:
+    a scan per source, trees x sources, was 62 s at 2,000)."""
+    members: dict[Source, list[int]] = {}
+    for k, t in enumerate(trees):
+        members.setdefault(t.source, []).append(k)
+    return members
+
+
 def source_name(source: Source, full: bool = False) -> str:
     """A source for messages and reports: the file's name (``full``: its path), and its seed
     where one is given."""

@@ -36,9 +36,9 @@ from .constants import (
     CLUSTER_TIMEOUT_S, FRAME_RATE, MAX_SCENE_BRANCH_STEPS, MAX_SCENE_TREE_STEPS, STORE_BATCH_TREES,
     VERIFY_LANES,
 )
-from .file import Scene, Source, seed_named, source_name, sources
+from .file import Scene, Source, members_by_source, seed_named, source_name, sources
 from .levels import Chain, Gusts, chain_from_texts, level_chains
-from .schedule import distances, frame_ends, frame_times, schedules
+from .schedule import distances, frame_bounds, frame_ends, frame_times, schedules
 from .switch import Transfer, switch_errors
 
 
@@ -209,9 +209,7 @@ def make_batches(scene: Scene, chains: dict, every: int, budget: float, transfer
     levels = np.zeros((len(scene.trees), len(times)), dtype=np.int16)
     bound = np.zeros_like(levels)
     batches, files = [], []
-    members_of: dict[Source, list[int]] = {}
-    for k, t in enumerate(scene.trees):           # (once: trees x sources was 62 s at 2,000)
-        members_of.setdefault(t.source, []).append(k)
+    members_of = members_by_source(scene.trees)
     for fi, source in enumerate(sources(scene.trees)):
         members = members_of[source]
         chain: Chain = chains[source]
@@ -241,10 +239,9 @@ def verify_sample(scene: Scene, levels: np.ndarray, every: int, count: int) -> n
     if count >= n:
         return np.ones(n, dtype=bool)
     times = frame_times(scene, every)
-    nearest = np.minimum(distances(scene, list(range(n)), times)[0].min(axis=1),
-                         distances(scene, list(range(n)), frame_ends(scene, times))[0].min(axis=1))
-    band = np.floor(np.log2(np.maximum(nearest, 1e-3))).astype(np.int64)   # (both ends, as
-    # the schedule judges frames)
+    # (at both ends of each frame, as the schedule judges frames)
+    nearest = distances(scene, list(range(n)), frame_bounds(scene, times))[0].min(axis=1)
+    band = np.floor(np.log2(np.maximum(nearest, 1e-3))).astype(np.int64)
     finest = levels.min(axis=1).astype(np.int64)
     key = finest * 4096 + (band + 2048)
     strata, inverse = np.unique(key, return_inverse=True)
@@ -416,9 +413,7 @@ def _chain_levels(scene: Scene, chains: dict, levels: np.ndarray) -> list[dict]:
     """The report's ``chain_levels``: for each chain (`file.sources` order) its file
     (relative to the scene's folder) and seed, its trees, and per level its branches, tip
     error (max, m) and share of the chain's tree-frames."""
-    members: dict[Source, list[int]] = {}
-    for k, t in enumerate(scene.trees):
-        members.setdefault(t.source, []).append(k)
+    members = members_by_source(scene.trees)
     # a file as the scene names it, relative to the scene's folder (the working folder for
     # stdin): its base name alone told a/s.lsys from b/s.lsys not (a review)
     folder = os.getcwd() if scene.source == "<stdin>" else os.path.dirname(

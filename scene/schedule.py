@@ -43,11 +43,17 @@ def frame_times(scene: Scene, every: int) -> np.ndarray:
     return np.arange(frames) * every * scene.dt
 
 
+def frame_bounds(scene: Scene, times: np.ndarray) -> np.ndarray:
+    """(F + 1,) s: the starts of the frames that start at ``times`` (`frame_times`) and the
+    scene's end: frame f runs from bound f to bound f + 1."""
+    return np.append(np.asarray(times, dtype=np.float64), scene.steps * scene.dt)
+
+
 def frame_ends(scene: Scene, times: np.ndarray) -> np.ndarray:
     """(F,) s: the end of each frame that starts at ``times`` (`frame_times`), the time of
     the pose it shows (a store's row, a verified tip): the next frame's start, the scene's
     end for the last."""
-    return np.append(np.asarray(times, dtype=np.float64)[1:], scene.steps * scene.dt)
+    return frame_bounds(scene, times)[1:]
 
 
 def distances(scene: Scene, members: list[int], times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -84,11 +90,9 @@ def seen_scale(scene: Scene, members: list[int], times: np.ndarray, look_ahead: 
     scene fuzzing round: 4.6 px against a 1 px budget, verified as 0.51 px at the start's
     distance)."""
     scale = np.array([scene.trees[k].scale for k in members])[:, None]
-    seen = None
-    for at in (times, frame_ends(scene, times)):
-        d, ahead = distances(scene, members, at)
-        here = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0) * scale
-        seen = here if seen is None else np.maximum(seen, here)
+    d, ahead = distances(scene, members, frame_bounds(scene, times))     # (n, F + 1)
+    at = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0) * scale
+    seen = np.maximum(at[:, :-1], at[:, 1:])                              # each frame's nearer end
     if look_ahead:
         seen = np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1]        # nearest from f on
     return seen

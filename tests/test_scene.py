@@ -1068,7 +1068,7 @@ def test_verify_measures_each_row_at_its_frame_s_end(tmp_path, monkeypatch):
     scene = read_scene(_scene(tmp_path, body, "jump.toml"))
     cache = tmp_path / "cache"
     assert run_scene(scene, cache=cache, verify=True)["max_error_px"] <= 1.0
-    monkeypatch.setattr(schedule, "frame_ends", lambda scene, times: times)
+    monkeypatch.setattr(schedule, "seen_scale", _seen_at_starts)
     assert run_scene(scene, cache=cache, verify=True)["max_error_px"] > 2.0
 
 
@@ -1096,3 +1096,15 @@ def test_a_scene_far_below_its_bound_says_why(tmp_path, chains):
     report = json.loads(plain.stdout)
     assert report["speedup"] >= HELD_NOTE_RATIO * report["speedup_bound"]
     assert "if switching were free" not in plain.stderr
+
+
+
+def _seen_at_starts(scene, members, times, look_ahead=False):
+    """`schedule.seen_scale` under the rule before session 43: each frame judged at its start
+    alone (model.md 7's pixels per metre at that distance, 0 behind the camera)."""
+    from plantlod.scene.schedule import distances
+
+    d, ahead = distances(scene, members, times)
+    scale = np.array([scene.trees[k].scale for k in members])[:, None]
+    seen = np.where(ahead | (d == 0.0), scene.camera.pixels_per_metre(d), 0.0) * scale
+    return np.maximum.accumulate(seen[:, ::-1], axis=1)[:, ::-1] if look_ahead else seen
